@@ -1,0 +1,130 @@
+"""``lensrt lens show|convert|list``: look at and convert prescriptions."""
+from __future__ import annotations
+
+import argparse
+import math
+
+from ._common import add_lens_argument, emit, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("lens", help="show, convert and list lens prescriptions")
+    lsub = p.add_subparsers(dest="lens_command", metavar="ACTION")
+    lsub.required = True
+
+    s = lsub.add_parser("show", help="surface table with materials and indices")
+    add_lens_argument(s)
+    s.add_argument("--format", choices=["native", "zemax", "codev", "pbrt"], help="file format (default: by extension)")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_show)
+
+    c = lsub.add_parser("convert", help="convert any supported file to the native TOML format")
+    c.add_argument("input", metavar="IN")
+    c.add_argument("output", metavar="OUT.toml")
+    c.add_argument("--format", choices=["native", "zemax", "codev", "pbrt"], help="input format")
+    c.set_defaults(func=cmd_convert)
+
+    l_ = lsub.add_parser("list", help="the lens library with focal length, f-number and field")
+    l_.add_argument("--json", action="store_true")
+    l_.set_defaults(func=cmd_list)
+
+
+def _describe_aperture(lens) -> str:
+    ap = lens.aperture
+    return {"epd": f"entrance pupil diameter {ap.value:g} mm", "image_fno": f"image-space f/{ap.value:g}",
+            "object_na": f"object NA {ap.value:g}", "float_by_stop": "float by stop size"}[ap.kind]
+
+
+def _describe_fields(lens) -> str:
+    f = lens.fields
+    if f.kind == "angle":
+        vals = ", ".join(f"{math.degrees(v):g}" for v in f.y)
+        return f"angles {vals} deg"
+    return f"{f.kind.replace('_', ' ')}s {', '.join(f'{v:g}' for v in f.y)} mm"
+
+
+def lens_table(lens) -> tuple[list[list], list[str]]:
+    """Rows and headers of the surface table at the primary wavelength."""
+    wl = lens.wavelengths.primary_nm
+    n = lens.indices(wl)
+    rows = []
+    for i, s in enumerate(lens.surfaces):
+        sd = s.semi_diameter_mm
+        sd_text = "-" if sd is None else (f"{sd:.4f}" + ("*" if s.semi_diameter_auto else ""))
+        kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
+        rows.append(["STO" if s.is_stop else str(i + 1), s.radius_mm, s.thickness_mm,
+                     s.material.describe() if not s.material.is_air else "air", float(n[i + 1]), sd_text,
+                     s.conic, kind])
+    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type"]
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from ..io.table import format_table
+    from ..loading import load_lens
+    opts = {"format": args.format} if args.format else {}
+    lens = load_lens(args.file, **opts)
+    rows, headers = lens_table(lens)
+    if args.json:
+        print_json({"name": lens.name, "source": lens.source, "path": lens.path,
+                    "aperture": {"type": lens.aperture.kind, "value": lens.aperture.value},
+                    "object_distance_mm": lens.object_distance_mm,
+                    "wavelengths_nm": list(lens.wavelengths.nm), "primary_nm": lens.wavelengths.primary_nm,
+                    "fields": {"type": lens.fields.kind, "y": list(lens.fields.y), "x": list(lens.fields.x)},
+                    "iris": {"blades": lens.iris.blades, "rotation_rad": lens.iris.rotation_rad},
+                    "notes": lens.meta,
+                    "surfaces": [dict(zip(headers, r)) for r in rows]})
+        return 0
+    emit(f"{lens.name or lens.path}")
+    if lens.source:
+        emit(f"source: {lens.source}")
+    obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
+    emit(f"aperture: {_describe_aperture(lens)}; object at {obj}; fields: {_describe_fields(lens)}")
+    emit("wavelengths: " + ", ".join(f"{w:g}" + ("*" if i == lens.wavelengths.primary else "")
+                                     for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
+    if lens.iris.blades:
+        emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
+    emit(format_table(rows, headers))
+    emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
+    if any(s.semi_diameter_auto for s in lens.surfaces):
+        emit(f"* semi-diameter computed ({lens.meta.get('clear_apertures', 'automatic')})")
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    from pathlib import Path
+    from ..errors import LensrtError
+    from ..prescription.formats import read_lens
+    from ..prescription.formats.native import write_native
+    from ..loading import complete_lens
+    out = Path(args.output)
+    if out.suffix.lower() != ".toml":
+        raise LensrtError(f"output {out} must be a .toml file (the native format)")
+    lens = read_lens(args.input, format=args.format)
+    complete_lens(lens)  # fail on impossible geometry before writing anything
+    write_native(lens, out)
+    emit(f"wrote {out} ({lens.n_surfaces} surfaces)")
+    return 0
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    from ..io.table import format_table
+    from ..library import library_lenses
+    from ..loading import load_lens
+    from ..paraxial import first_order
+    rows = []
+    for path in library_lenses():
+        lens = load_lens(path)
+        fo = first_order(lens)
+        f = lens.fields
+        if f.kind == "angle":
+            field = f"{2 * math.degrees(f.max_radial):.1f} deg"
+        else:
+            field = f"{2 * f.max_radial:.1f} mm"
+        rows.append([path.stem, fo.efl_mm, fo.f_number, field, lens.n_surfaces, lens.name])
+    if args.json:
+        print_json([dict(zip(["name", "efl_mm", "f_number", "full_field", "surfaces", "title"], r)) for r in rows])
+        return 0
+    emit(format_table(rows, ["name", "efl_mm", "f/#", "full field", "surfaces", "title"], digits=2))
+    return 0

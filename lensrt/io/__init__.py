@@ -1,0 +1,1 @@
+"""Stage 7 outputs: tables, JSON, EXR, PNG, plots and reports."""

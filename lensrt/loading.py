@@ -1,0 +1,38 @@
+"""Load a lens ready for use: read the file, compute missing clear apertures, check geometry."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .prescription.formats import read_lens
+from .prescription.model import Lens
+from .prescription.validate import check_geometry
+from .library import resolve_lens_path
+
+__all__ = ["load_lens", "complete_lens"]
+
+
+def complete_lens(lens: Lens) -> Lens:
+    """Fill clear semi-diameters the file did not give, then check the geometry.
+
+    Missing semi-diameters are computed as OpticStudio's automatic mode does
+    (the largest height at which the rays of the aperture and field
+    specification cross each surface); the method used is recorded in
+    ``lens.meta["clear_apertures"]``.
+    """
+    if any(s.semi_diameter_mm is None for s in lens.surfaces):
+        from .paraxial.apertures import compute_clear_apertures
+        lens = compute_clear_apertures(lens)
+    check_geometry(lens)
+    return lens
+
+
+def load_lens(source: str | Path | Lens | None = None, **options: Any) -> Lens:
+    """A complete :class:`Lens` from a file path, a library name, or ``None`` (the default lens).
+
+    ``options`` go to the format reader (see :func:`lensrt.prescription.formats.read_lens`).
+    """
+    if isinstance(source, Lens):
+        return complete_lens(source)
+    path = resolve_lens_path(source)
+    return complete_lens(read_lens(path, **options))

@@ -1,0 +1,49 @@
+"""Physical checks on a complete lens: surfaces that cross, impossible image positions.
+
+These run once clear semi-diameters are known (given, or computed by the
+loader), so they live apart from the per-field checks in :mod:`.model`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import PrescriptionError
+from .model import Lens
+
+__all__ = ["check_geometry"]
+
+#: sags may touch (cemented surfaces, a stop on a vertex) within this tolerance
+CROSSING_TOL_MM = 1e-6
+
+
+def check_geometry(lens: Lens, samples: int = 65) -> None:
+    """Raise :class:`PrescriptionError` if adjacent surfaces cross inside their clear apertures.
+
+    For surfaces i and i+1 with known semi-diameters, the later surface must
+    never lie in front of the earlier one over the common aperture:
+    ``z_i(r) <= t_i + z_{i+1}(r)`` for ``0 <= r <= min(sd_i, sd_{i+1})``. A
+    negative thickness is thus allowed only where the sags make room for it.
+    The image surface must lie behind the last vertex.
+    """
+    surfaces = lens.surfaces
+    for i in range(len(surfaces) - 1):
+        a, b = surfaces[i], surfaces[i + 1]
+        if a.semi_diameter_mm is None or b.semi_diameter_mm is None:
+            if a.thickness_mm < 0.0 and not a.material.is_air:
+                raise PrescriptionError(f"negative thickness {a.thickness_mm:g} mm inside glass "
+                                        f"{a.material.describe()}", surface=i, line=a.line)
+            continue
+        r = np.linspace(0.0, min(a.semi_diameter_mm, b.semi_diameter_mm), samples)
+        gap = a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r))
+        worst = int(np.argmin(gap))
+        if gap[worst] < -CROSSING_TOL_MM:
+            raise PrescriptionError(
+                f"surfaces {i + 1} and {i + 2} cross: at height {r[worst]:.4g} mm surface {i + 2} lies "
+                f"{-gap[worst]:.4g} mm in front of surface {i + 1} (thickness {a.thickness_mm:g} mm)",
+                surface=i, line=a.line,
+                hint="check the thickness, the radii and the semi-diameters")
+    last = surfaces[-1]
+    if last.thickness_mm < 0.0:
+        raise PrescriptionError(f"the image surface lies {-last.thickness_mm:g} mm in front of the last surface",
+                                surface=len(surfaces) - 1, line=last.line,
+                                hint="the last thickness runs to the image and must not be negative")
