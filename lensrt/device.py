@@ -22,7 +22,10 @@ def warp() -> Any:
     global _WP
     if _WP is None:
         import warp as wp
-        wp.config.quiet = os.environ.get("LENSRT_WARP_VERBOSE", "") == ""
+        if os.environ.get("LENSRT_WARP_VERBOSE", "") == "":
+            # Warp >= 1.10 logs through config.log_level (config.quiet is gone)
+            wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
+            wp.config.quiet = True
         wp.init()
         _WP = wp
     return _WP

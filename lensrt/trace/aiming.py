@@ -1,0 +1,368 @@
+"""Rays named by field and pupil coordinates, and ray aiming (host, float64).
+
+Field (Hx, Hy) and pupil (Px, Py) are normalised coordinates in [-1, 1], as
+in Zemax and optiland. The field is *polar*: the radial field value is
+``|H| * lens.fields.max_radial`` along the azimuth ``atan2(Hy, Hx)`` -- linear
+in angle for angle fields, in object height for height fields, in image height
+for image-height fields. (For a field on one axis this is Zemax's convention;
+the polar form also holds beyond 90 degrees, where fisheyes work.) A positive
+field angle gives a ray rising toward +y (CODE V and Zemax: the object point
+lies at -y); a positive object height puts the object point at +y.
+
+Three ways to aim a ray at the pupil (``aim``):
+
+``"paraxial"``
+    through the point (Px, Py) * r_EP of the paraxial entrance pupil plane
+    (primary wavelength), Zemax's "ray aiming off";
+``"chief"``
+    the chief ray is aimed at the centre of the real stop; the pupil offset
+    (Px, Py) * r_EP is then added in the paraxial entrance-pupil plane. This is
+    CODE V's default (its ``ssp`` listings), good for moderate fields;
+``"real"``
+    iterated (Newton's method) until the ray meets the real stop at
+    (Px, Py) * R_stop -- Zemax's "real ray aiming"; needed for wide-angle
+    lenses and fisheyes, whose real pupil is far from the paraxial one.
+
+The stop radius R_stop is the stop's clear semi-diameter when the aperture
+floats by stop size, and otherwise the height at the stop of the real axial
+marginal ray entering at the specified entrance-pupil radius (CODE V's
+choice: the specified EPD holds exactly on axis).
+
+Ray origins lie on the object-space wavefront through the first vertex (the
+plane perpendicular to the beam for an object at infinity, the sphere centred
+on the object point otherwise), so optical path lengths of one field point
+share a reference and stay small numbers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Callable
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.model import Lens
+from .reference import trace_reference
+from .status import OK
+
+__all__ = ["AIM_MODES", "FieldPoint", "PupilGeometry", "field_point", "pupil_geometry", "beam_basis",
+           "ray_through_point", "aim_rays", "reference_to_stop", "ToStop"]
+
+AIM_MODES = ("paraxial", "chief", "real")
+
+#: to_stop(origins (n, 3), directions (n, 3), wavelength_nm (n,)) -> (x (n,), y (n,), ok (n,) bool):
+#: where each ray meets the stop surface (stop frame), traced without clipping
+ToStop = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class FieldPoint:
+    """An object-space field point: a beam direction (object at infinity) or an object point."""
+
+    infinite: bool
+    #: unit direction of the collimated beam (infinite) -- else None
+    direction: tuple[float, float, float] | None
+    #: object point in the lens frame, mm (finite) -- else None
+    point_mm: tuple[float, float, float] | None
+
+
+@dataclass(frozen=True)
+class PupilGeometry:
+    """Paraxial entrance pupil (primary wavelength) and the real stop radius."""
+
+    ep_z_mm: float
+    ep_radius_mm: float
+    stop_index: int
+    stop_radius_mm: float
+    wavelength_nm: float
+
+
+def _radial_to_object(lens: Lens, value: float) -> float:
+    """Convert a radial field value in the lens's unit to object space (angle rad or height mm)."""
+    kind = lens.fields.kind
+    if kind in ("angle", "object_height"):
+        return value
+    from ..paraxial import first_order, paraxial_system
+    from ..paraxial.first_order import field_slope_and_height
+    fo = first_order(lens)
+    sysm = paraxial_system(lens)
+    u0, y1 = field_slope_and_height(lens, 1.0, lens.object_distance_mm, fo.entrance_pupil_z_mm, sysm,
+                                    fo.entrance_pupil_diameter_mm)
+    infinite = math.isinf(lens.object_distance_mm)
+    per_unit = u0 if infinite else y1 - u0 * lens.object_distance_mm  # object slope/height per mm of image
+    if kind == "paraxial_image_height":
+        return math.atan(value * per_unit) if infinite else value * per_unit
+    return _real_image_height_to_object(lens, value, per_unit)
+
+
+def _real_image_height_to_object(lens: Lens, value: float, per_unit: float) -> float:
+    """Object-space field whose real chief ray reaches image height ``value`` (secant iteration)."""
+    if value == 0.0:
+        return 0.0
+    infinite = math.isinf(lens.object_distance_mm)
+    geom = pupil_geometry(lens)
+
+    def height(obj: float) -> float:
+        fp = _field_point_object(lens, obj, math.pi / 2)
+        o, d = aim_rays(lens, fp, np.zeros(1), np.zeros(1), geom.wavelength_nm, "real")[:2]
+        r = trace_reference(lens, o[0], d[0], geom.wavelength_nm, clip=False)
+        if r.status != OK:
+            raise LensrtError(f"no real chief ray reaches image height {value:g} mm")
+        return r.y_mm
+
+    def obj_of(v: float) -> float:
+        return math.atan(v * per_unit) if infinite else v * per_unit
+
+    x0, x1 = obj_of(0.9 * value), obj_of(value)
+    f0, f1 = height(x0) - value, height(x1) - value
+    for _ in range(30):
+        if abs(f1) < 1e-10 or f1 == f0:
+            break
+        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
+        f1 = height(x1) - value
+    if abs(f1) > 1e-6:
+        raise LensrtError(f"cannot find the field of real image height {value:g} mm")
+    return x1
+
+
+def _field_point_object(lens: Lens, radial: float, azimuth: float) -> FieldPoint:
+    ca, sa = math.cos(azimuth), math.sin(azimuth)
+    if math.isinf(lens.object_distance_mm):
+        s, c = math.sin(radial), math.cos(radial)
+        return FieldPoint(True, (s * ca, s * sa, c), None)
+    return FieldPoint(False, None, (radial * ca, radial * sa, -lens.object_distance_mm))
+
+
+def field_point(lens: Lens, hx: float, hy: float) -> FieldPoint:
+    """The field point named by normalised field coordinates (module docstring)."""
+    h = math.hypot(hx, hy)
+    azimuth = math.atan2(hy, hx) if h > 0.0 else math.pi / 2
+    radial = _radial_to_object(lens, h * lens.fields.max_radial)
+    return _field_point_object(lens, radial, azimuth)
+
+
+@lru_cache(maxsize=64)
+def pupil_geometry(lens: Lens) -> PupilGeometry:
+    """Entrance pupil and real stop radius of ``lens`` (see the module docstring)."""
+    from ..paraxial import first_order
+    fo = first_order(lens)
+    wl = lens.wavelengths.primary_nm
+    stop = lens.stop_index
+    r_ep = 0.5 * fo.entrance_pupil_diameter_mm
+    sd = lens.surfaces[stop].semi_diameter_mm
+    if lens.aperture.kind == "float_by_stop" and sd is not None:
+        radius = sd
+    else:
+        fp = field_point(lens, 0.0, 0.0)
+        o, d = ray_through_point(fp, np.array([[0.0, r_ep, fo.entrance_pupil_z_mm]]))
+        r = trace_reference(lens, o[0], d[0], wl, clip=False, end=stop)
+        radius = abs(r.y_mm) if r.status == OK else fo.stop_semi_diameter_mm
+    return PupilGeometry(fo.entrance_pupil_z_mm, r_ep, stop, float(radius), wl)
+
+
+def beam_basis(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal e1, e2 perpendicular to unit ``w`` (..., 3): x and y rotated minimally onto w.
+
+    Smooth for every direction but exactly -z; on axis e1 = x, e2 = y.
+    """
+    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
+    f = 1.0 / (1.0 + wz)
+    e1 = np.stack([1.0 - wx * wx * f, -wx * wy * f, -wx], axis=-1)
+    e2 = np.stack([-wx * wy * f, 1.0 - wy * wy * f, -wy], axis=-1)
+    return e1, e2
+
+
+def ray_through_point(fp: FieldPoint, points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from field point ``fp`` through ``points_mm`` (n, 3): (origins, directions).
+
+    Origins lie on the object-space wavefront through the first vertex (module docstring).
+    """
+    a = np.atleast_2d(np.asarray(points_mm, dtype=np.float64))
+    if fp.infinite:
+        d = np.broadcast_to(np.asarray(fp.direction, dtype=np.float64), a.shape).copy()
+        origin = a - np.sum(a * d, axis=1, keepdims=True) * d  # foot on the plane through 0, normal d
+        return origin, d
+    o = np.asarray(fp.point_mm, dtype=np.float64)
+    v = a - o
+    dist = np.linalg.norm(v, axis=1, keepdims=True)
+    d = v / dist
+    r0 = float(np.linalg.norm(o))
+    # step back from the aim point to the sphere |p - o| = |o|, without cancellation
+    back = (np.sum(a * a, axis=1, keepdims=True) - 2.0 * (a @ o)[:, None]) / (dist + r0)
+    return a - back * d, d
+
+
+def reference_to_stop(lens: Lens) -> ToStop:
+    """A :data:`ToStop` built on the float64 reference tracer (one ray at a time)."""
+    stop = lens.stop_index
+
+    def to_stop(origins: np.ndarray, directions: np.ndarray, wavelength_nm: np.ndarray):
+        n = len(origins)
+        x, y, ok = np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool)
+        for i in range(n):
+            r = trace_reference(lens, origins[i], directions[i], float(wavelength_nm[i]), clip=False, end=stop)
+            x[i], y[i], ok[i] = r.x_mm, r.y_mm, r.status == OK
+        return x, y, ok
+
+    return to_stop
+
+
+def _aim_frame(fp: FieldPoint, geom: PupilGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre C (on axis at the paraxial EP) and basis e1, e2 of the plane that parametrises aim points."""
+    c = np.array([0.0, 0.0, geom.ep_z_mm])
+    if fp.infinite:
+        w = np.asarray(fp.direction, dtype=np.float64)
+    else:
+        v = c - np.asarray(fp.point_mm, dtype=np.float64)
+        w = v / np.linalg.norm(v)
+    e1, e2 = beam_basis(w)
+    return c, e1, e2
+
+
+def _newton(residual: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], ab: np.ndarray, scale: float,
+            tol_mm: float = 1e-10, max_iter: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """Solve residual(ab) = 0 for each row of ab (n, 2); finite-difference Jacobian, backtracking.
+
+    residual returns (r (n, 2), ok (n,)). Returns (ab, converged).
+    """
+    ab = ab.copy()
+    r, ok = residual(ab)
+    done = ok & (np.hypot(r[:, 0], r[:, 1]) <= tol_mm)
+    h = 1e-7 * max(scale, 1e-3)
+    for _ in range(max_iter):
+        act = ~done & ok
+        if not act.any():
+            break
+        idx = np.nonzero(act)[0]
+        a0 = ab[idx]
+        ra, oka = residual(a0 + np.array([h, 0.0]))
+        rb, okb = residual(a0 + np.array([0.0, h]))
+        j = np.empty((len(idx), 2, 2))
+        j[:, :, 0] = (ra - r[idx]) / h
+        j[:, :, 1] = (rb - r[idx]) / h
+        det = j[:, 0, 0] * j[:, 1, 1] - j[:, 0, 1] * j[:, 1, 0]
+        good = oka & okb & (det != 0.0)
+        safe = np.where(good, det, 1.0)
+        step = np.stack([(j[:, 1, 1] * r[idx, 0] - j[:, 0, 1] * r[idx, 1]) / safe,
+                         (-j[:, 1, 0] * r[idx, 0] + j[:, 0, 0] * r[idx, 1]) / safe], axis=1)
+        step[~good] = 0.0
+        norm0 = np.hypot(r[idx, 0], r[idx, 1])
+        lam = np.ones(len(idx))
+        new_ab, new_r, new_ok = a0.copy(), r[idx].copy(), np.zeros(len(idx), dtype=bool)
+        pending = good.copy()
+        for _ in range(12):  # backtracking: accept the first step that lowers the residual
+            if not pending.any():
+                break
+            p = np.nonzero(pending)[0]
+            trial = a0[p] - lam[p, None] * step[p]
+            rt, okt = residual(trial)
+            better = okt & (np.hypot(rt[:, 0], rt[:, 1]) < np.maximum(norm0[p], 1e-300))
+            acc = p[better]
+            new_ab[acc], new_r[acc], new_ok[acc] = trial[better], rt[better], True
+            pending[acc] = False
+            lam[p[~better]] *= 0.5
+        stalled = ~new_ok
+        ab[idx[new_ok]] = new_ab[new_ok]
+        r[idx[new_ok]] = new_r[new_ok]
+        done[idx] = new_ok & (np.hypot(new_r[:, 0], new_r[:, 1]) <= tol_mm)
+        ok[idx[stalled]] = False  # no step lowers the residual: give up on this ray
+    converged = done.copy()
+    return ab, converged
+
+
+def aim_rays(lens: Lens, fp: FieldPoint, px: np.ndarray, py: np.ndarray, wavelength_nm: float | np.ndarray,
+             aim: str = "paraxial", to_stop: ToStop | None = None,
+             geometry: PupilGeometry | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rays of field point ``fp`` at pupil coordinates (px, py): (origins, directions, aimed).
+
+    ``aimed`` is False where iterated aiming did not converge (those rays keep the
+    paraxial aim). ``to_stop`` traces to the stop (default: the reference tracer).
+    """
+    if aim not in AIM_MODES:
+        raise LensrtError(f"unknown ray aiming {aim!r}", hint=f"use one of {', '.join(AIM_MODES)}")
+    geom = pupil_geometry(lens) if geometry is None else geometry
+    px = np.atleast_1d(np.asarray(px, dtype=np.float64))
+    py = np.atleast_1d(np.asarray(py, dtype=np.float64))
+    n = max(len(px), len(py))
+    px, py = np.broadcast_to(px, (n,)), np.broadcast_to(py, (n,))
+    wl = np.broadcast_to(np.asarray(wavelength_nm, dtype=np.float64), (n,)).copy()
+    par = np.stack([px * geom.ep_radius_mm, py * geom.ep_radius_mm, np.full(n, geom.ep_z_mm)], axis=1)
+    if aim == "paraxial":
+        o, d = ray_through_point(fp, par)
+        return o, d, np.ones(n, dtype=bool)
+    to_stop = reference_to_stop(lens) if to_stop is None else to_stop
+    c, e1, e2 = _aim_frame(fp, geom)
+
+    def points(ab: np.ndarray) -> np.ndarray:
+        return c + ab[:, :1] * e1 + ab[:, 1:2] * e2
+
+    if aim == "chief":
+        # one real chief ray (per wavelength), then paraxial offsets in the EP plane
+        uw, inv = np.unique(wl, return_inverse=True)
+        ch_ab, ch_ok = _solve(lens, fp, np.zeros((len(uw), 2)), uw, points, to_stop, geom)
+        chief = points(ch_ab)
+        # move each chief ray's aim point along its ray into the plane z = z_EP
+        _, dch = ray_through_point(fp, chief)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(dch[:, 2] != 0.0, (geom.ep_z_mm - chief[:, 2]) / dch[:, 2], 0.0)
+        chief = chief + s[:, None] * dch
+        pts = chief[inv] + par - np.array([0.0, 0.0, geom.ep_z_mm])
+        o, d = ray_through_point(fp, pts)
+        return o, d, ch_ok[inv]
+    target = np.stack([px, py], axis=1) * geom.stop_radius_mm
+    ab0 = np.stack([np.sum((par - c) * e1, axis=1), np.sum((par - c) * e2, axis=1)], axis=1)
+    ab, ok = _solve(lens, fp, ab0, wl, points, to_stop, geom, target)
+    o, d = ray_through_point(fp, points(ab))
+    if not ok.all():  # keep the paraxial aim where aiming failed
+        op, dp = ray_through_point(fp, par)
+        o[~ok], d[~ok] = op[~ok], dp[~ok]
+    return o, d, ok
+
+
+def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: Callable, to_stop: ToStop,
+           geom: PupilGeometry, target: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Newton-solve aim coordinates so rays meet the stop at ``target`` (default: the centre)."""
+    target = np.zeros_like(ab0) if target is None else target
+
+    def residual_for(tgt: np.ndarray, w: np.ndarray, f: FieldPoint):
+        def residual(ab: np.ndarray):
+            o, d = ray_through_point(f, points(ab))
+            x, y, ok = to_stop(o, d, w)
+            r = np.stack([x, y], axis=1) - tgt
+            r[~ok] = 0.0
+            return r, ok
+        return residual
+
+    scale = max(geom.ep_radius_mm, geom.stop_radius_mm)
+    ab, ok = _newton(residual_for(target, wl, fp), ab0, scale)
+    if ok.all():
+        return ab, ok
+    # continuation: walk the field (and pupil) up from the axis for the rays that failed
+    bad = np.nonzero(~ok)[0]
+    cur = np.zeros((len(bad), 2))
+    good = np.ones(len(bad), dtype=bool)
+    steps = 16
+    for k in range(1, steps + 1):
+        f = k / steps
+        fk = _scaled_field(fp, f)
+        res = residual_for(target[bad] * f, wl[bad], fk)
+        cur_new, ok_k = _newton(res, cur, scale)
+        good &= ok_k
+        cur = np.where(ok_k[:, None], cur_new, cur)
+    ab[bad[good]] = cur[good]
+    ok[bad[good]] = True
+    return ab, ok
+
+
+def _scaled_field(fp: FieldPoint, f: float) -> FieldPoint:
+    """The field point at fraction ``f`` of its field (angle or height) along the same azimuth."""
+    if fp.infinite:
+        dx, dy, dz = fp.direction
+        theta = math.atan2(math.hypot(dx, dy), dz) * f
+        az = math.atan2(dy, dx) if (dx or dy) else 0.0
+        return FieldPoint(True, (math.sin(theta) * math.cos(az), math.sin(theta) * math.sin(az),
+                                 math.cos(theta)), None)
+    x, y, z = fp.point_mm
+    return FieldPoint(False, None, (x * f, y * f, z))

@@ -1,0 +1,145 @@
+"""A :class:`~lensrt.prescription.model.Lens` packed into flat arrays for the Warp kernels.
+
+One row per surface plus one for the image surface (a plane)::
+
+    surf[i] = [c, 1 + k, sd^2 (-1: no clip), thickness to the next vertex, kind (0 plane,
+               1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
+
+``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
+``media[m]`` holds medium m (0 = object space, m = i + 1 after surface i):
+``[0, n]`` for a constant index (air included) or ``[1, p_0 .. p_14]`` with the 15
+coefficients of :func:`lensrt.prescription.materials.index_from_packed`.
+``iris`` is ``[stop index, radius (-1: no clip), blades, rotation rad, roundness,
+obstruction radius, cos(pi / N), pi / N]``. Apertures are stored with
+:data:`~lensrt.trace.status.APERTURE_TOLERANCE` applied.
+
+Packing happens once per (lens, precision, device, iris, stop radius):
+:func:`pack_lens` caches its result.
+"""
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.materials import DISPERSION_WIDTH
+from ..prescription.model import Iris, Lens
+from .status import APERTURE_TOLERANCE
+
+__all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
+           "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
+           "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
+           "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
+
+S_C, S_KP1, S_SD2, S_THICK, S_KIND, S_NASPH, S_ASPH = range(7)
+MAX_ASPHERE = 10
+SURF_COLS = S_ASPH + MAX_ASPHERE
+MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
+MEDIA_COLS = 1 + DISPERSION_WIDTH
+(IRIS_STOP, IRIS_RADIUS, IRIS_BLADES, IRIS_ROTATION, IRIS_ROUNDNESS, IRIS_OBSTRUCTION, IRIS_COS_HALF,
+ IRIS_HALF) = range(8)
+IRIS_COLS = 8
+
+_CACHE: "OrderedDict[tuple, PackedLens]" = OrderedDict()
+_CACHE_SIZE = 32
+
+
+def pack_arrays(lens: Lens, iris: Iris | None = None,
+                stop_radius_mm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(surf, media, iris) float64 host arrays of ``lens`` (module docstring)."""
+    n = lens.n_surfaces
+    surf = np.zeros((n + 1, SURF_COLS))
+    for i, s in enumerate(lens.surfaces):
+        if len(s.asphere) > MAX_ASPHERE:
+            raise LensrtError(f"surface {i + 1} has {len(s.asphere)} aspheric terms; the tracer takes "
+                              f"at most {MAX_ASPHERE} (r^2 .. r^{2 * MAX_ASPHERE})")
+        surf[i, S_C] = s.curvature_per_mm
+        surf[i, S_KP1] = 1.0 + s.conic
+        sd = s.semi_diameter_mm
+        surf[i, S_SD2] = -1.0 if sd is None else (sd * (1.0 + APERTURE_TOLERANCE)) ** 2
+        surf[i, S_THICK] = s.thickness_mm
+        surf[i, S_KIND] = 2.0 if s.asphere else (1.0 if s.curvature_per_mm != 0.0 else 0.0)
+        surf[i, S_NASPH] = len(s.asphere)
+        surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
+    surf[n, S_KP1] = 1.0
+    surf[n, S_SD2] = -1.0
+    media = np.zeros((n + 1, MEDIA_COLS))
+    for m, mat in enumerate(lens.media()):
+        p = np.asarray(mat.packed(), dtype=np.float64)
+        if np.all(p[1:] == 0.0):
+            media[m, 0], media[m, 1] = MEDIUM_CONSTANT, math.sqrt(p[0])
+        else:
+            media[m, 0], media[m, 1:] = MEDIUM_FORMULA, p
+    ir = lens.iris if iris is None else iris
+    stop = lens.stop_index
+    radius = lens.surfaces[stop].semi_diameter_mm if stop_radius_mm is None else stop_radius_mm
+    iris_row = np.zeros(IRIS_COLS)
+    iris_row[IRIS_STOP] = stop
+    iris_row[IRIS_RADIUS] = -1.0 if radius is None else radius * (1.0 + APERTURE_TOLERANCE)
+    iris_row[IRIS_BLADES] = ir.blades
+    iris_row[IRIS_ROTATION] = ir.rotation_rad
+    iris_row[IRIS_ROUNDNESS] = ir.roundness
+    iris_row[IRIS_OBSTRUCTION] = 0.0 if radius is None else ir.obstruction_ratio * radius
+    half = math.pi / ir.blades if ir.blades else 0.0
+    iris_row[IRIS_COS_HALF] = math.cos(half)
+    iris_row[IRIS_HALF] = half
+    return surf, media, iris_row
+
+
+def index_table(lens: Lens, wavelength_nm: np.ndarray) -> np.ndarray:
+    """Indices of every medium at each wavelength: (K, n_surfaces + 1), float64 reference values."""
+    return np.atleast_2d(lens.indices(np.asarray(wavelength_nm, dtype=np.float64)))
+
+
+def real_dtype(wp: Any, precision: str) -> Any:
+    return wp.float64 if precision == "float64" else wp.float32
+
+
+@dataclass(frozen=True)
+class PackedLens:
+    """Kernel arrays of one lens on one device in one precision."""
+
+    lens: Lens
+    precision: str
+    device: str
+    surf: Any
+    media: Any
+    iris: Any
+    host_surf: np.ndarray
+    host_media: np.ndarray
+    host_iris: np.ndarray
+
+    @property
+    def n_surfaces(self) -> int:
+        return self.lens.n_surfaces
+
+    @property
+    def vertex_z_mm(self) -> np.ndarray:
+        return self.lens.vertex_z_mm()
+
+
+def pack_lens(lens: Lens, precision: str = "float64", device: str | None = None, iris: Iris | None = None,
+              stop_radius_mm: float | None = None) -> PackedLens:
+    """Pack ``lens`` for kernels on ``device`` (resolved; None = auto) in ``precision`` (cached)."""
+    from ..device import check_precision, resolve_device, warp
+    wp = warp()
+    check_precision(precision)
+    dev = resolve_device(device)
+    key = (lens, precision, dev, iris, stop_radius_mm)
+    hit = _CACHE.get(key)
+    if hit is not None:
+        _CACHE.move_to_end(key)
+        return hit
+    surf, media, iris_row = pack_arrays(lens, iris, stop_radius_mm)
+    real = real_dtype(wp, precision)
+    packed = PackedLens(lens, precision, dev,
+                        wp.array(surf, dtype=real, device=dev), wp.array(media, dtype=real, device=dev),
+                        wp.array(iris_row, dtype=real, device=dev), surf, media, iris_row)
+    _CACHE[key] = packed
+    if len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return packed

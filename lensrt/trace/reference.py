@@ -1,0 +1,284 @@
+"""The reference real-ray tracer: one ray at a time, float64, plain Python ``math``.
+
+This is the oracle the Warp kernels are tested against, written to be read
+beside the Field Guide (p. 1-4) rather than to be fast. Each surface is met in
+its own vertex frame (x, y as in the lens frame, z measured from the vertex),
+which keeps every coordinate small.
+
+Intersection with the conic ``c r^2 + c (1 + k) z^2 - 2 z = 0`` (the implicit
+form of the sag ``z = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2))``): a ray
+``P + t d`` gives ``A t^2 - 2 B t + F = 0`` with
+
+    F = c (x^2 + y^2) + c (1 + k) z^2 - 2 z
+    B = N - c (x L + y M + (1 + k) z N)
+    A = c (L^2 + M^2 + (1 + k) N^2)
+
+and the root on the vertex branch, in the form that does not cancel as c -> 0
+(a plane: t = -z / N) or for long transfers (Spencer & Murty, JOSA 52, 672,
+1962; Welford, *Aberrations of Optical Systems*, 4.3):
+
+    t = F / (B + sqrt(B^2 - A F)).
+
+An even asphere is met by Newton's method on the sag, started from the base
+conic's intersection; no convergence within :data:`NEWTON_MAX_ITER` steps is
+the status ``NO_CONVERGE``. Refraction is the vector form of Snell's law
+n' sin I' = n sin I (p. 1):
+
+    d' = mu d + (cos I' - mu cos I) n_hat,   mu = n / n',
+    cos I' = sqrt(1 - mu^2 (1 - cos^2 I)),
+
+and a negative radicand is total internal reflection (``TIR``).
+
+A ray's optical path length is counted from its origin; :mod:`.aiming`
+places origins on the object-space wavefront through the first vertex.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..prescription.model import Iris, Lens
+from .status import APERTURE_TOLERANCE, INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
+
+__all__ = ["NEWTON_MAX_ITER", "NEWTON_TOL_MM", "SurfaceHit", "ReferenceRay", "trace_reference",
+           "intersect", "refract", "inside_iris", "sag_and_slope"]
+
+#: Newton iterations allowed on an aspheric sag, and the step (mm) that ends them
+NEWTON_MAX_ITER = 32
+NEWTON_TOL_MM = 1e-12
+
+
+@dataclass(frozen=True)
+class SurfaceHit:
+    """Where a ray met a surface (vertex frame: ``z_mm`` is the sag there) and where it went on."""
+
+    x_mm: float
+    y_mm: float
+    z_mm: float
+    #: direction cosines after refraction
+    L: float
+    M: float
+    N: float
+    #: angles of incidence and refraction (rad, >= 0)
+    incidence_rad: float
+    refraction_rad: float
+    #: distance from the previous point along the ray (mm)
+    length_mm: float
+
+
+@dataclass
+class ReferenceRay:
+    """End state of one traced ray (lens frame: z from the first vertex)."""
+
+    status: int
+    surface: int
+    x_mm: float
+    y_mm: float
+    z_mm: float
+    L: float
+    M: float
+    N: float
+    opl_mm: float
+    hits: list[SurfaceHit] = field(default_factory=list)
+
+
+def sag_and_slope(c: float, kp1: float, asphere: tuple[float, ...], r2: float) -> tuple[float, float] | None:
+    """Sag z(r) and its derivative dz/d(r^2) at r^2 = ``r2``; None beyond the conic's extent."""
+    q = 1.0 - kp1 * c * c * r2
+    if q <= 0.0:
+        return None
+    root = math.sqrt(q)
+    z = c * r2 / (1.0 + root)
+    dz = c / (2.0 * root)
+    # even asphere terms a_j r^(2j+2), j = 0.. (asphere[0] is the r^2 term), by Horner's rule
+    poly, dpoly = 0.0, 0.0
+    for j in range(len(asphere) - 1, -1, -1):
+        poly = poly * r2 + asphere[j]
+        dpoly = dpoly * r2 + (j + 1) * asphere[j]
+    return z + poly * r2, dz + dpoly
+
+
+def _conic_t(c: float, kp1: float, x: float, y: float, z: float, L: float, M: float, N: float) -> float | None:
+    """Ray parameter t of the vertex-branch intersection with the base conic, or None."""
+    F = c * (x * x + y * y) + c * kp1 * z * z - 2.0 * z
+    B = N - c * (x * L + y * M + kp1 * z * N)
+    A = c * (L * L + M * M + kp1 * N * N)
+    disc = B * B - A * F
+    if disc < 0.0:
+        return None
+    den = B + math.sqrt(disc)
+    if den <= 0.0:
+        return None
+    t = F / den
+    if c * kp1 * (z + t * N) >= 1.0:  # the far branch of an ellipsoid or sphere
+        return None
+    return t
+
+
+def intersect(c: float, kp1: float, asphere: tuple[float, ...], x: float, y: float, z: float,
+              L: float, M: float, N: float) -> tuple[int, float, tuple[float, float, float]]:
+    """Intersect the ray (x, y, z) + t (L, M, N) (vertex frame) with a surface.
+
+    Returns ``(status, t, unit_normal)``; the normal points to +z on the vertex
+    branch.
+    """
+    if not asphere:
+        t = _conic_t(c, kp1, x, y, z, L, M, N)
+        if t is None:
+            return MISSED, 0.0, (0.0, 0.0, 1.0)
+        px, py, pz = x + t * L, y + t * M, z + t * N
+        nx, ny, nz = -c * px, -c * py, 1.0 - c * kp1 * pz
+        inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
+        return OK, t, (nx * inv, ny * inv, nz * inv)
+    # asphere: Newton on f(t) = z(t) - sag(r(t)), from the base conic (or the vertex plane)
+    t = _conic_t(c, kp1, x, y, z, L, M, N)
+    if t is None:
+        if N == 0.0:
+            return MISSED, 0.0, (0.0, 0.0, 1.0)
+        t = -z / N
+    for _ in range(NEWTON_MAX_ITER):
+        px, py, pz = x + t * L, y + t * M, z + t * N
+        s = sag_and_slope(c, kp1, asphere, px * px + py * py)
+        if s is None:
+            return MISSED, 0.0, (0.0, 0.0, 1.0)
+        sag, slope = s
+        df = N - 2.0 * slope * (px * L + py * M)
+        if df == 0.0:
+            return NO_CONVERGE, 0.0, (0.0, 0.0, 1.0)
+        dt = (pz - sag) / df
+        t -= dt
+        if abs(dt) <= NEWTON_TOL_MM:
+            px, py = x + t * L, y + t * M
+            s = sag_and_slope(c, kp1, asphere, px * px + py * py)
+            if s is None:
+                return MISSED, 0.0, (0.0, 0.0, 1.0)
+            nx, ny, nz = -2.0 * s[1] * px, -2.0 * s[1] * py, 1.0
+            inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
+            return OK, t, (nx * inv, ny * inv, nz * inv)
+    return NO_CONVERGE, 0.0, (0.0, 0.0, 1.0)
+
+
+def refract(L: float, M: float, N: float, normal: tuple[float, float, float], n1: float,
+            n2: float) -> tuple[int, float, float, float, float, float]:
+    """Vector Snell's law. Returns ``(status, L', M', N', I, I')`` with angles in rad."""
+    nx, ny, nz = normal
+    cos_i = L * nx + M * ny + N * nz
+    if cos_i < 0.0:  # the ray meets the surface from its +z side: turn the normal toward the ray
+        nx, ny, nz, cos_i = -nx, -ny, -nz, -cos_i
+    mu = n1 / n2
+    k = 1.0 - mu * mu * (1.0 - cos_i * cos_i)
+    # |d x n| is sin I without the cancellation of sqrt(1 - cos^2) near normal incidence
+    cx, cy, cz = M * nz - N * ny, N * nx - L * nz, L * ny - M * nx
+    sin_i = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if k < 0.0:
+        return TIR, L, M, N, math.atan2(sin_i, cos_i), 0.0
+    cos_r = math.sqrt(k)
+    g = cos_r - mu * cos_i
+    L2, M2, N2 = mu * L + g * nx, mu * M + g * ny, mu * N + g * nz
+    inv = 1.0 / math.sqrt(L2 * L2 + M2 * M2 + N2 * N2)
+    return OK, L2 * inv, M2 * inv, N2 * inv, math.atan2(sin_i, cos_i), math.atan2(mu * sin_i, cos_r)
+
+
+def inside_iris(x: float, y: float, radius_mm: float, iris: Iris) -> bool:
+    """True when (x, y) (stop frame) passes a stop of ``radius_mm`` shaped by ``iris``.
+
+    A regular N-gon inscribed in the circle with a vertex at ``iris.rotation_rad``;
+    ``roundness`` blends its boundary radius toward the circle; a central
+    obstruction of ``obstruction_ratio * radius_mm`` blocks the middle.
+    """
+    r = math.hypot(x, y)
+    limit = radius_mm * (1.0 + APERTURE_TOLERANCE)
+    if r < iris.obstruction_ratio * radius_mm:
+        return False
+    if iris.blades == 0:
+        return r <= limit
+    half = math.pi / iris.blades
+    phi = math.atan2(y, x) - iris.rotation_rad
+    phi = phi - 2.0 * half * math.floor(phi / (2.0 * half))  # angle from the last vertex, [0, 2 half)
+    # the edge between two vertices is at distance R cos(half) from the centre
+    rho = limit * math.cos(half) / math.cos(phi - half)
+    rho = rho + iris.roundness * (limit - rho)
+    return r <= rho
+
+
+def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction: tuple[float, float, float],
+                    wavelength_nm: float, *, clip: bool = True, end: int | None = None,
+                    iris: Iris | None = None, stop_radius_mm: float | None = None) -> ReferenceRay:
+    """Trace one ray through ``lens``.
+
+    Parameters
+    ----------
+    lens : Lens
+        A complete lens (semi-diameters known where ``clip`` is wanted).
+    origin_mm : (x, y, z)
+        A point of the ray in object space (lens frame, mm). The ray is a line:
+        the origin may lie behind the first surface.
+    direction : (L, M, N)
+        Direction cosines (normalised here).
+    wavelength_nm : float
+        Wavelength in air, nm.
+    clip : bool
+        Apply clear semi-diameters and the iris (False: trace the bare surfaces).
+    end : int, optional
+        Refract at surfaces ``0 .. end-1`` and stop at the intersection with
+        surface ``end`` (default: the image surface, index ``n_surfaces``).
+    iris, stop_radius_mm : optional
+        Override the lens's iris and the stop's clear radius.
+
+    Returns
+    -------
+    ReferenceRay
+        ``hits`` has one entry per surface met (the image surface last).
+    """
+    n_surf = lens.n_surfaces
+    end = n_surf if end is None else int(end)
+    iris = lens.iris if iris is None else iris
+    stop = lens.stop_index
+    if stop_radius_mm is None:
+        stop_radius_mm = lens.surfaces[stop].semi_diameter_mm
+    index = [float(v) for v in lens.indices(float(wavelength_nm))]
+    vertex_z = lens.vertex_z_mm()
+    x, y, z = (float(v) for v in origin_mm)
+    L, M, N = (float(v) for v in direction)
+    norm = math.sqrt(L * L + M * M + N * N)
+    ray = ReferenceRay(OK, -1, x, y, z, L, M, N, 0.0)
+    if not (math.isfinite(norm) and norm > 0.0 and all(math.isfinite(v) for v in (x, y, z))) \
+            or not all(math.isfinite(n) and n > 0.0 for n in index):
+        ray.status, ray.surface = INVALID, 0
+        return ray
+    L, M, N = L / norm, M / norm, N / norm
+    opl = 0.0
+    for i in range(end + 1):
+        if i < n_surf:
+            s = lens.surfaces[i]
+            c, kp1, asph = s.curvature_per_mm, 1.0 + s.conic, s.asphere
+        else:  # the image surface: a plane
+            c, kp1, asph = 0.0, 1.0, ()
+        status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
+        if status != OK:
+            ray.status, ray.surface = status, i
+            break
+        x, y, z = x + t * L, y + t * M, z + t * N
+        opl += index[i] * t
+        ray.x_mm, ray.y_mm, ray.z_mm, ray.opl_mm = x, y, z + vertex_z[i], opl
+        if i == end:  # the last surface: met, not refracted
+            ray.hits.append(SurfaceHit(x, y, z, L, M, N, 0.0, 0.0, t))
+            break
+        if clip:
+            if i == stop and stop_radius_mm is not None:
+                passed = inside_iris(x, y, stop_radius_mm, iris)
+            else:
+                sd = s.semi_diameter_mm
+                passed = sd is None or x * x + y * y <= (sd * (1.0 + APERTURE_TOLERANCE)) ** 2
+            if not passed:
+                ray.status, ray.surface = VIGNETTED, i
+                ray.hits.append(SurfaceHit(x, y, z, L, M, N, 0.0, 0.0, t))
+                break
+        status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
+        ray.hits.append(SurfaceHit(x, y, z, L, M, N, ang_i, ang_r, t))
+        ray.L, ray.M, ray.N = L, M, N
+        if status != OK:
+            ray.status, ray.surface = status, i
+            break
+        z -= lens.surfaces[i].thickness_mm  # into the next vertex frame
+    return ray
