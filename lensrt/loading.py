@@ -15,13 +15,16 @@ __all__ = ["load_lens", "complete_lens"]
 def complete_lens(lens: Lens) -> Lens:
     """Fill clear semi-diameters the file did not give, then check the geometry.
 
-    Missing semi-diameters are computed as OpticStudio's automatic mode does
-    (the largest height at which the rays of the aperture and field
-    specification cross each surface); the method used is recorded in
+    Missing semi-diameters are computed as OpticStudio's automatic mode does:
+    the largest height at which the real chief and marginal rays of the
+    aperture and field specification cross each surface
+    (:func:`lensrt.trace.apertures.compute_clear_apertures`, float64 reference
+    tracer on the host -- no kernel is compiled), with the paraxial estimate as
+    the fallback where real rays fail; the method used is recorded in
     ``lens.meta["clear_apertures"]``.
     """
     if any(s.semi_diameter_mm is None for s in lens.surfaces):
-        from .paraxial.apertures import compute_clear_apertures
+        from .trace.apertures import compute_clear_apertures
         lens = compute_clear_apertures(lens)
     check_geometry(lens)
     return lens

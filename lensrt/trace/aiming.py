@@ -105,7 +105,7 @@ def _real_image_height_to_object(lens: Lens, value: float, per_unit: float) -> f
     geom = pupil_geometry(lens)
 
     def height(obj: float) -> float:
-        fp = _field_point_object(lens, obj, math.pi / 2)
+        fp = _field_point_object(lens, obj, 0.0, 1.0)
         o, d = aim_rays(lens, fp, np.zeros(1), np.zeros(1), geom.wavelength_nm, "real")[:2]
         r = trace_reference(lens, o[0], d[0], geom.wavelength_nm, clip=False)
         if r.status != OK:
@@ -127,8 +127,8 @@ def _real_image_height_to_object(lens: Lens, value: float, per_unit: float) -> f
     return x1
 
 
-def _field_point_object(lens: Lens, radial: float, azimuth: float) -> FieldPoint:
-    ca, sa = math.cos(azimuth), math.sin(azimuth)
+def _field_point_object(lens: Lens, radial: float, ca: float, sa: float) -> FieldPoint:
+    """Field point at object-space radial value ``radial`` along the unit azimuth (ca, sa)."""
     if math.isinf(lens.object_distance_mm):
         s, c = math.sin(radial), math.cos(radial)
         return FieldPoint(True, (s * ca, s * sa, c), None)
@@ -138,9 +138,9 @@ def _field_point_object(lens: Lens, radial: float, azimuth: float) -> FieldPoint
 def field_point(lens: Lens, hx: float, hy: float) -> FieldPoint:
     """The field point named by normalised field coordinates (module docstring)."""
     h = math.hypot(hx, hy)
-    azimuth = math.atan2(hy, hx) if h > 0.0 else math.pi / 2
+    ca, sa = (hx / h, hy / h) if h > 0.0 else (0.0, 1.0)  # exact zeros on the axes
     radial = _radial_to_object(lens, h * lens.fields.max_radial)
-    return _field_point_object(lens, radial, azimuth)
+    return _field_point_object(lens, radial, ca, sa)
 
 
 @lru_cache(maxsize=64)
@@ -221,55 +221,52 @@ def _aim_frame(fp: FieldPoint, geom: PupilGeometry) -> tuple[np.ndarray, np.ndar
     return c, e1, e2
 
 
-def _newton(residual: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], ab: np.ndarray, scale: float,
-            tol_mm: float = 1e-10, max_iter: int = 40) -> tuple[np.ndarray, np.ndarray]:
-    """Solve residual(ab) = 0 for each row of ab (n, 2); finite-difference Jacobian, backtracking.
+def _newton(residual: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]], ab: np.ndarray,
+            scale: float, tol_mm: float = 1e-10, max_iter: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """Solve residual(ab, rows) = 0 for each row of ab (n, 2): Newton, finite-difference Jacobian.
 
-    residual returns (r (n, 2), ok (n,)). Returns (ab, converged).
+    ``residual(ab_rows, rows)`` returns (r (m, 2), ok (m,)) for the given rows.
+    Each step is halved until the residual drops (backtracking). Returns (ab, converged).
     """
     ab = ab.copy()
-    r, ok = residual(ab)
+    n = len(ab)
+    every = np.arange(n)
+    r, ok = residual(ab, every)
     done = ok & (np.hypot(r[:, 0], r[:, 1]) <= tol_mm)
     h = 1e-7 * max(scale, 1e-3)
     for _ in range(max_iter):
-        act = ~done & ok
-        if not act.any():
+        idx = np.nonzero(~done & ok)[0]
+        if len(idx) == 0:
             break
-        idx = np.nonzero(act)[0]
-        a0 = ab[idx]
-        ra, oka = residual(a0 + np.array([h, 0.0]))
-        rb, okb = residual(a0 + np.array([0.0, h]))
-        j = np.empty((len(idx), 2, 2))
-        j[:, :, 0] = (ra - r[idx]) / h
-        j[:, :, 1] = (rb - r[idx]) / h
-        det = j[:, 0, 0] * j[:, 1, 1] - j[:, 0, 1] * j[:, 1, 0]
-        good = oka & okb & (det != 0.0)
+        a0, r0 = ab[idx], r[idx]
+        ra, oka = residual(a0 + np.array([h, 0.0]), idx)
+        rb, okb = residual(a0 + np.array([0.0, h]), idx)
+        j00, j10 = (ra[:, 0] - r0[:, 0]) / h, (ra[:, 1] - r0[:, 1]) / h
+        j01, j11 = (rb[:, 0] - r0[:, 0]) / h, (rb[:, 1] - r0[:, 1]) / h
+        det = j00 * j11 - j01 * j10
+        good = oka & okb & (det != 0.0) & np.isfinite(det)
         safe = np.where(good, det, 1.0)
-        step = np.stack([(j[:, 1, 1] * r[idx, 0] - j[:, 0, 1] * r[idx, 1]) / safe,
-                         (-j[:, 1, 0] * r[idx, 0] + j[:, 0, 0] * r[idx, 1]) / safe], axis=1)
-        step[~good] = 0.0
-        norm0 = np.hypot(r[idx, 0], r[idx, 1])
+        step = np.stack([(j11 * r0[:, 0] - j01 * r0[:, 1]) / safe,
+                         (-j10 * r0[:, 0] + j00 * r0[:, 1]) / safe], axis=1)
+        norm0 = np.hypot(r0[:, 0], r0[:, 1])
         lam = np.ones(len(idx))
-        new_ab, new_r, new_ok = a0.copy(), r[idx].copy(), np.zeros(len(idx), dtype=bool)
+        accepted = np.zeros(len(idx), dtype=bool)
         pending = good.copy()
-        for _ in range(12):  # backtracking: accept the first step that lowers the residual
-            if not pending.any():
-                break
+        for _ in range(20):  # backtracking: take the first step length that lowers the residual
             p = np.nonzero(pending)[0]
+            if len(p) == 0:
+                break
             trial = a0[p] - lam[p, None] * step[p]
-            rt, okt = residual(trial)
-            better = okt & (np.hypot(rt[:, 0], rt[:, 1]) < np.maximum(norm0[p], 1e-300))
+            rt, okt = residual(trial, idx[p])
+            better = okt & (np.hypot(rt[:, 0], rt[:, 1]) < norm0[p])
             acc = p[better]
-            new_ab[acc], new_r[acc], new_ok[acc] = trial[better], rt[better], True
+            ab[idx[acc]], r[idx[acc]] = trial[better], rt[better]
+            accepted[acc] = True
             pending[acc] = False
             lam[p[~better]] *= 0.5
-        stalled = ~new_ok
-        ab[idx[new_ok]] = new_ab[new_ok]
-        r[idx[new_ok]] = new_r[new_ok]
-        done[idx] = new_ok & (np.hypot(new_r[:, 0], new_r[:, 1]) <= tol_mm)
-        ok[idx[stalled]] = False  # no step lowers the residual: give up on this ray
-    converged = done.copy()
-    return ab, converged
+        ok[idx[~accepted]] = False  # no step lowers the residual: give up on this ray
+        done[idx[accepted]] = np.hypot(r[idx[accepted], 0], r[idx[accepted], 1]) <= tol_mm
+    return ab, done
 
 
 def aim_rays(lens: Lens, fp: FieldPoint, px: np.ndarray, py: np.ndarray, wavelength_nm: float | np.ndarray,
@@ -327,10 +324,10 @@ def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: 
     target = np.zeros_like(ab0) if target is None else target
 
     def residual_for(tgt: np.ndarray, w: np.ndarray, f: FieldPoint):
-        def residual(ab: np.ndarray):
+        def residual(ab: np.ndarray, rows: np.ndarray):
             o, d = ray_through_point(f, points(ab))
-            x, y, ok = to_stop(o, d, w)
-            r = np.stack([x, y], axis=1) - tgt
+            x, y, ok = to_stop(o, d, w[rows])
+            r = np.stack([x, y], axis=1) - tgt[rows]
             r[~ok] = 0.0
             return r, ok
         return residual
@@ -346,8 +343,7 @@ def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: 
     steps = 16
     for k in range(1, steps + 1):
         f = k / steps
-        fk = _scaled_field(fp, f)
-        res = residual_for(target[bad] * f, wl[bad], fk)
+        res = residual_for(target[bad] * f, wl[bad], _scaled_field(fp, f))
         cur_new, ok_k = _newton(res, cur, scale)
         good &= ok_k
         cur = np.where(ok_k[:, None], cur_new, cur)

@@ -13,11 +13,14 @@ form of the sag ``z = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2))``): a ray
     B = N - c (x L + y M + (1 + k) z N)
     A = c (L^2 + M^2 + (1 + k) N^2)
 
-and the root on the vertex branch, in the form that does not cancel as c -> 0
-(a plane: t = -z / N) or for long transfers (Spencer & Murty, JOSA 52, 672,
-1962; Welford, *Aberrations of Optical Systems*, 4.3):
+and its roots in the form that does not cancel as c -> 0 (a plane: t = -z / N)
+or for long transfers (Spencer & Murty, JOSA 52, 672, 1962; Welford,
+*Aberrations of Optical Systems*, 4.3; Press et al., *Numerical Recipes* 5.6):
 
-    t = F / (B + sqrt(B^2 - A F)).
+    q = B + sign(B) sqrt(B^2 - A F),   t1 = F / q,   t2 = q / A,
+
+keeping the one on the vertex branch (1 - c (1 + k) z > 0: the half of a sphere
+or ellipsoid that holds the vertex; the root nearer the axis when both qualify).
 
 An even asphere is met by Newton's method on the sag, started from the base
 conic's intersection; no convergence within :data:`NEWTON_MAX_ITER` steps is
@@ -99,20 +102,30 @@ def sag_and_slope(c: float, kp1: float, asphere: tuple[float, ...], r2: float) -
 
 
 def _conic_t(c: float, kp1: float, x: float, y: float, z: float, L: float, M: float, N: float) -> float | None:
-    """Ray parameter t of the vertex-branch intersection with the base conic, or None."""
+    """Ray parameter t of the intersection with the base conic's vertex branch, or None.
+
+    Both roots in the form that does not cancel: q = B + sign(B) sqrt(B^2 - A F),
+    t1 = F / q, t2 = q / A. A root lies on the vertex branch when
+    1 - c (1 + k) z > 0 there (the half of a sphere or ellipsoid that holds the
+    vertex); when both do (paraboloids, hyperboloids), the one nearer the axis.
+    """
     F = c * (x * x + y * y) + c * kp1 * z * z - 2.0 * z
     B = N - c * (x * L + y * M + kp1 * z * N)
     A = c * (L * L + M * M + kp1 * N * N)
     disc = B * B - A * F
     if disc < 0.0:
         return None
-    den = B + math.sqrt(disc)
-    if den <= 0.0:
-        return None
-    t = F / den
-    if c * kp1 * (z + t * N) >= 1.0:  # the far branch of an ellipsoid or sphere
-        return None
-    return t
+    root = math.sqrt(disc)
+    q = B + root if B >= 0.0 else B - root
+    best, best_r2 = None, math.inf
+    for t in ((F / q) if q != 0.0 else None, (q / A) if A != 0.0 else None):
+        if t is None or c * kp1 * (z + t * N) >= 1.0:
+            continue
+        px, py = x + t * L, y + t * M
+        r2 = px * px + py * py
+        if r2 < best_r2:
+            best, best_r2 = t, r2
+    return best
 
 
 def intersect(c: float, kp1: float, asphere: tuple[float, ...], x: float, y: float, z: float,

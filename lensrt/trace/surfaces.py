@@ -59,7 +59,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
 
     @func
     def conic_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # vertex-branch root t = F / (B + sqrt(B^2 - A F)); ok = 0 when there is none
+        # roots t1 = F / q, t2 = q / A with q = B + sign(B) sqrt(B^2 - A F); the vertex-branch one
+        # (1 - c (1 + k) z > 0), nearer the axis when both are; ok = 0 when there is none
         F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
         B = N - c * (x * L + y * M + kp1 * z * N)
         A = c * (L * L + M * M + kp1 * N * N)
@@ -67,11 +68,28 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         t = real(0.0)
         ok = int(0)
         if disc >= real(0.0):
-            den = B + wp.sqrt(disc)
-            if den > real(0.0):
-                t = F / den
-                if c * kp1 * (z + t * N) < real(1.0):
+            root = wp.sqrt(disc)
+            q = B + root
+            if B < real(0.0):
+                q = B - root
+            best_r2 = real(0.0)
+            if q != real(0.0):
+                t1 = F / q
+                if c * kp1 * (z + t1 * N) < real(1.0):
+                    px = x + t1 * L
+                    py = y + t1 * M
+                    t = t1
+                    best_r2 = px * px + py * py
                     ok = int(1)
+            if A != real(0.0):
+                t2 = q / A
+                if c * kp1 * (z + t2 * N) < real(1.0):
+                    px = x + t2 * L
+                    py = y + t2 * M
+                    r2 = px * px + py * py
+                    if ok == 0 or r2 < best_r2:
+                        t = t2
+                        ok = int(1)
         return ok, t
 
     @func
