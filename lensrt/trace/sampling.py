@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import LensrtError
 
-__all__ = ["SAMPLERS", "sampler_code", "sampling_funcs", "Spectrum", "spectrum_discrete",
+__all__ = ["SAMPLERS", "sampler_code", "sampling_funcs", "sample_unit_square", "Spectrum", "spectrum_discrete",
            "spectrum_continuous", "R2_ALPHA_U32"]
 
 SAMPLERS = ("random", "stratified", "sobol", "r2")
@@ -267,3 +267,17 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
                          unit_square=unit_square, box=box, concentric_disk=concentric_disk, sample_cdf=sample_cdf)
     return ns
+
+
+def sample_unit_square(sampler: str, n: int, seed: int = 0, precision: str = "float64",
+                       device: str | None = None) -> np.ndarray:
+    """The first ``n`` points (n, 2) of ``sampler`` with ``seed``, computed by the kernel code (for tests)."""
+    from ..device import resolve_device, warp
+    from .kernels import get_kernels
+    wp = warp()
+    dev = resolve_device(device)
+    k = get_kernels(precision)
+    out = wp.zeros((n, 2), dtype=k.real, device=dev)
+    wp.launch(k.sample_square, dim=n, device=dev,
+              inputs=[sampler_code(sampler), int(np.sqrt(n)), int(seed) & 0x7FFFFFFF, out])
+    return out.numpy().astype(np.float64)
