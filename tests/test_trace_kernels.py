@@ -146,3 +146,14 @@ def test_never_nan(precision, device):
         assert np.all(np.isfinite(arr[~np.isnan(o).any(axis=1)]))
     assert np.all(res.status[:10] != OK)
     assert sum(res.counts.values()) == n
+
+
+def test_large_batch_split_across_cpu_workers(device):
+    # >= 4096 rays run as one slice per core on the CPU: every slice must land in its own rows
+    lens = library_lens("codev_dblgauss_100mm_f2")
+    rays = _random_rays(lens, 5000, seed=8)
+    res = trace(lens, rays, "float64", device)
+    for i in np.linspace(0, 4999, 25).astype(int):
+        ref = trace_reference(lens, rays.origin_mm[i], rays.direction[i], rays.wavelength_nm[i])
+        assert (ref.status, ref.surface) == (res.status[i], res.surface[i])
+        assert abs(ref.y_mm - res.position_mm[i, 1]) <= 1e-10

@@ -15,7 +15,9 @@ lens packing is cached per (lens, precision, device).
 """
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -93,6 +95,13 @@ class RayResult:
         return len(self.status)
 
 
+def _cpu_count() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
 def _check_wavelengths(wavelength_nm: np.ndarray) -> None:
     if not np.all(np.isfinite(wavelength_nm)) or np.any(wavelength_nm < 200.0) or np.any(wavelength_nm > 20000.0):
         raise LensrtError("ray wavelengths must lie within 200..20000 nm")
@@ -147,10 +156,21 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     surface = wp.empty(n, dtype=wp.int32, device=dev)
     rec = wp.zeros((n, end + 1, N_RECORD) if record else (1, 1, N_RECORD), dtype=real, device=dev)
     table = wp.zeros((1, 1), dtype=real, device=dev)
-    if n:
-        wp.launch(k.trace_store, dim=n, device=dev,
-                  inputs=[packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz),
-                          int(record), table, out, status, surface, rec])
+    common = [packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz), int(record), table]
+    # on the CPU, large batches run as slices on the cores this process may use (no shared writes)
+    workers = 1 if dev.startswith("cuda") or n < 4096 else _cpu_count()
+    bounds = [n * w // workers for w in range(workers + 1)]
+
+    def run(w: int) -> None:
+        if bounds[w + 1] > bounds[w]:
+            wp.launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
+                      inputs=common + [bounds[w], out, status, surface, rec])
+
+    if workers == 1:
+        run(0)
+    else:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run, range(workers)))
     o = out.numpy().astype(np.float64)
     st = status.numpy().astype(np.int32)
     sf = surface.numpy().astype(np.int32)

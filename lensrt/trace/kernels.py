@@ -20,6 +20,10 @@ Stream accumulation is deterministic: histogram bins are int64 fixed point
 depend on the order of the additions; moments and status counts are summed per
 thread in a fixed order and written to per-thread slots, which the host reduces
 in a fixed order. Same seed, same device, same inputs -> bit-identical results.
+Histogram replicas (``rep = rep_base + tid % n_rep``) spread atomic traffic on
+GPUs; on the CPU, where Warp's atomics are plain adds, each worker thread of
+:func:`lensrt.trace.stream.stream` owns its replica (``tid_base``/``rep_base``
+select its slice of threads), and the replicas are summed as integers.
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations of the
 # functions built below as objects (the scalar type ``real`` is a closure variable).
@@ -77,10 +81,10 @@ def get_kernels(precision: str) -> SimpleNamespace:
     @wp.kernel(module=mod, enable_backward=False)
     def trace_store(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
                     n_surfaces: int, rays: wp.array2d(dtype=real), end: int, clip: int, plane_dz: real,
-                    record: int, index_table: wp.array2d(dtype=real),
+                    record: int, index_table: wp.array2d(dtype=real), ray_base: int,
                     out: wp.array2d(dtype=real), status: wp.array(dtype=wp.int32),
                     surface: wp.array(dtype=wp.int32), rec: wp.array3d(dtype=real)):
-        r = wp.tid()
+        r = wp.tid() + ray_base
         w_um = rays[r, 6] * real(1.0e-3)
         st, where, x, y, z, L, M, N, opl = trace_ray(
             surf, media, iris, n_surfaces, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4],
@@ -105,14 +109,15 @@ def get_kernels(precision: str) -> SimpleNamespace:
                      n_layers: int, n_rep: int,
                      sampler: int, seed: int, epoch: int, n_batches: int, threads_per_batch: int,
                      start: int, count: int, n_strata: int,
+                     tid_base: int, rep_base: int,
                      stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64),
                      rec: wp.array3d(dtype=real)):
-        tid = wp.tid()
+        tid = wp.tid() + tid_base
         T = threads_per_batch
         src = tid // (n_batches * T)
         batch = (tid // T) % n_batches
         lane = tid % T
-        rep = tid % n_rep
+        rep = rep_base + tid % n_rep
         kind = int(sources[src, _KIND])
         ox = sources[src, _OX]
         oy = sources[src, _OY]

@@ -203,9 +203,11 @@ def inside_iris(x: float, y: float, radius_mm: float, iris: Iris) -> bool:
     limit = radius_mm * (1.0 + APERTURE_TOLERANCE)
     if r < iris.obstruction_ratio * radius_mm:
         return False
-    if iris.blades == 0:
+    if iris.blades == 0 or r > limit:
         return r <= limit
     half = math.pi / iris.blades
+    if r <= limit * math.cos(half):  # inside the inscribed circle
+        return True
     phi = math.atan2(y, x) - iris.rotation_rad
     phi = phi - 2.0 * half * math.floor(phi / (2.0 * half))  # angle from the last vertex, [0, 2 half)
     # the edge between two vertices is at distance R cos(half) from the centre

@@ -29,7 +29,9 @@ response (e.g. CIE x-bar, y-bar, z-bar for bokeh colour).
 from __future__ import annotations
 
 import math
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -190,6 +192,13 @@ class StreamResult:
         return self.histogram[layer, channel]
 
 
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
 def _surface1_box(lens: Lens, fp: FieldPoint, c: np.ndarray, e1: np.ndarray, e2: np.ndarray,
                   w: np.ndarray) -> tuple[float, float, float, float]:
     """A box in the aim plane that holds every ray passing surface 1's clear aperture."""
@@ -333,7 +342,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
            seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
            iris: Iris | None = None, stop_radius_mm: float | None = None, clip: bool = True,
            rays_per_launch: int | None = None, threads_per_batch: int | None = None,
-           replicas: int | None = None) -> StreamResult:
+           replicas: int | None = None, cpu_workers: int | None = None) -> StreamResult:
     """Trace ``rays_per_source`` Monte Carlo rays from each source and bin them (module docstring).
 
     Parameters
@@ -359,6 +368,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     rays_per_launch, threads_per_batch, replicas : optional
         Work split (chunks bound the time per launch; memory does not grow with rays),
         threads looping over rays, and histogram copies against atomic contention.
+    cpu_workers : int, optional
+        On the CPU, host threads running slices of each launch concurrently (default: the
+        CPU cores this process may use); results do not depend on it.
     """
     from ..device import warp
     wp = warp()
@@ -390,18 +402,23 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     plane = grid.nx * grid.ny
     if grid.nx < 1 or grid.ny < 1 or grid.pixel_mm <= 0 or grid.dy_mm <= 0:
         raise LensrtError("the histogram grid needs positive sizes")
-    if replicas is None:
-        replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan, 1))) if is_gpu else 1
-    hist_len = replicas * layers * n_chan * plane
-    if hist_len >= 2**31:
-        raise LensrtError(f"histogram of {hist_len} bins is too large (limit 2^31)")
     if threads_per_batch is None:
         threads_per_batch = max(1, min((1 << 18) // (S * B), n_b // 64)) if is_gpu else 1
     T = int(threads_per_batch)
+    n_threads = S * B * T
+    if is_gpu:
+        workers = 1
+        if replicas is None:
+            replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan, 1)))
+    else:  # Warp's CPU atomics are plain adds: one histogram replica per worker thread
+        workers = max(1, min(int(cpu_workers or _cpu_count()), n_threads))
+        replicas = workers
+    hist_len = replicas * layers * n_chan * plane
+    if hist_len >= 2**31:
+        raise LensrtError(f"histogram of {hist_len} bins is too large (limit 2^31)")
     if rays_per_launch is None:
         rays_per_launch = (1 << 30) if is_gpu else (1 << 22)
     chunk = max(1, min(int(rays_per_launch) // (S * B), _EPOCH))
-    n_threads = S * B * T
     # device arrays
     src = wp.array(_source_rows(lens, sources, grid), dtype=real, device=dev)
     nm = np.asarray(spectrum.wavelength_nm, dtype=np.float64)
@@ -419,21 +436,34 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     launches = 0
     t0 = time.perf_counter()
     start = 0
-    while start < n_b:
-        epoch, local = divmod(start, _EPOCH)
-        count = min(chunk, n_b - start, _EPOCH - local)
-        wp.launch(k.trace_stream, dim=n_threads, device=dev,
-                  inputs=[packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src,
-                          int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
-                          chan_mode, n_chan, chan_arr, real(nm0), real(dnm),
-                          hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
-                          layers, int(replicas),
-                          code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata,
-                          stats, counts, rec])
-        launches += 1
-        tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
-        tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
-        start += count
+    bounds = [n_threads * w // workers for w in range(workers + 1)]
+    pool = ThreadPoolExecutor(workers) if workers > 1 else None
+    try:
+        while start < n_b:
+            epoch, local = divmod(start, _EPOCH)
+            count = min(chunk, n_b - start, _EPOCH - local)
+            common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src,
+                      int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
+                      chan_mode, n_chan, chan_arr, real(nm0), real(dnm),
+                      hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
+                      layers, 1 if workers > 1 else int(replicas),
+                      code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
+
+            def run(w: int) -> None:
+                wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev,
+                          inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts, rec])
+
+            if pool is None:
+                run(0)
+            else:
+                list(pool.map(run, range(workers)))
+            launches += 1
+            tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
+            tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
+            start += count
+    finally:
+        if pool is not None:
+            pool.shutdown()
     h = hist.numpy().reshape(replicas, layers, n_chan, grid.ny, grid.nx).sum(axis=0)
     seconds = time.perf_counter() - t0
     histogram = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
@@ -441,4 +471,5 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                         np.array([s.box.area_mm2 for s in sources]), spectrum.total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid, seconds, precision, dev,
                         sampler, int(seed), launches,
-                        {"threads_per_batch": T, "replicas": int(replicas), "stat_names": STAT_NAMES})
+                        {"threads_per_batch": T, "replicas": int(replicas), "cpu_workers": workers,
+                         "stat_names": STAT_NAMES})

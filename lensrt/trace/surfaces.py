@@ -180,8 +180,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         return status, t, nx * inv, ny * inv, nz * inv
 
     @func
-    def refract(L: real, M: real, N: real, nx: real, ny: real, nz: real, n1: real, n2: real):
-        # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I'
+    def refract(L: real, M: real, N: real, nx: real, ny: real, nz: real, n1: real, n2: real, angles: int):
+        # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when asked)
         cos_i = L * nx + M * ny + N * nz
         sx = nx
         sy = ny
@@ -193,15 +193,19 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             cos_i = -cos_i
         mu = n1 / n2
         k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        cx = M * sz - N * sy
-        cy = N * sx - L * sz
-        cz = L * sy - M * sx
-        sin_i = wp.sqrt(cx * cx + cy * cy + cz * cz)
         status = int(OK)
         L2 = L
         M2 = M
         N2 = N
+        ang_i = real(0.0)
         ang_r = real(0.0)
+        sin_i = real(0.0)
+        if angles != 0:
+            cx = M * sz - N * sy
+            cy = N * sx - L * sz
+            cz = L * sy - M * sx
+            sin_i = wp.sqrt(cx * cx + cy * cy + cz * cz)
+            ang_i = wp.atan2(sin_i, cos_i)
         if k < real(0.0):
             status = int(TIR)
         else:
@@ -214,8 +218,9 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             L2 = L2 * inv
             M2 = M2 * inv
             N2 = N2 * inv
-            ang_r = wp.atan2(mu * sin_i, cos_r)
-        return status, L2, M2, N2, wp.atan2(sin_i, cos_i), ang_r
+            if angles != 0:
+                ang_r = wp.atan2(mu * sin_i, cos_r)
+        return status, L2, M2, N2, ang_i, ang_r
 
     @func
     def inside_iris(iris: wp.array(dtype=real), x: real, y: real) -> int:
@@ -229,7 +234,9 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         if blades == real(0.0):
             if r > limit:
                 inside = int(0)
-        else:
+        elif r > limit:
+            inside = int(0)
+        elif r > limit * iris[IRIS_COS_HALF]:  # only the ring between the in- and circumcircle needs the angle
             half = iris[IRIS_HALF]
             phi = wp.atan2(y, x) - iris[IRIS_ROTATION]
             phi = phi - real(2.0) * half * wp.floor(phi / (real(2.0) * half))
@@ -313,7 +320,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                             status = int(INVALID)
                             where = i
                         else:
-                            st, L, M, N, ang_i, ang_r = refract(L, M, N, nx, ny, nz, n1, n2)
+                            st, L, M, N, ang_i, ang_r = refract(L, M, N, nx, ny, nz, n1, n2, record)
                             if st != int(OK):
                                 status = st
                                 where = i
