@@ -180,3 +180,15 @@ def test_point_source_solid_angle(emitter, device):
     alpha = math.atan(a / D)
     exact = 2 * math.pi * (1 - math.cos(alpha)) if emitter == "isotropic" else math.pi * math.sin(alpha) ** 2
     assert abs(est - exact) < 4 * se + 1e-4 * exact
+
+
+def test_device_reduction_equals_host_reduction(device):
+    """The GPU path sums per-thread slots with a kernel; run it here too (threads > 1 per batch)."""
+    lens = library_lens(DG)
+    src = stream_source(lens, 0.0, 0.3, device=device)
+    kw = dict(sampler="random", seed=3, batches=4, precision="float32", device=device, threads_per_batch=8)
+    a = stream(lens, [src], Grid(16, 16, 0.01), 1 << 12, device_reduce=False, **kw)
+    b = stream(lens, [src], Grid(16, 16, 0.01), 1 << 12, device_reduce=True, **kw)
+    assert np.array_equal(a.batch_counts, b.batch_counts)
+    np.testing.assert_allclose(a.batch_stats, b.batch_stats, rtol=1e-12, atol=0)
+    assert np.array_equal(a.histogram, b.histogram)

@@ -75,6 +75,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
     trace_ray = sf.trace_ray
     u32 = wp.uint32
     fixed_one = float(2**FIXED_POINT_BITS)
+    N_STATS_C, N_COUNTS_C = N_STATS, N_COUNTS
     (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
      _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY) = (SRC[k] for k in SRC)
 
@@ -268,6 +269,22 @@ def get_kernels(precision: str) -> SimpleNamespace:
         counts[tid, 6] = c_out
 
     @wp.kernel(module=mod, enable_backward=False)
+    def reduce_threads(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), T: int,
+                       out_stats: wp.array2d(dtype=wp.float64), out_counts: wp.array2d(dtype=wp.int64)):
+        # one thread per (source, batch): sum its T threads' slots in a fixed order (deterministic)
+        g = wp.tid()
+        for j in range(N_STATS_C):
+            acc = wp.float64(0.0)
+            for t in range(T):
+                acc = acc + stats[g * T + t, j]
+            out_stats[g, j] = out_stats[g, j] + acc
+        for j in range(N_COUNTS_C):
+            c = wp.int64(0)
+            for t in range(T):
+                c = c + counts[g * T + t, j]
+            out_counts[g, j] = out_counts[g, j] + c
+
+    @wp.kernel(module=mod, enable_backward=False)
     def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=real)):
         i = wp.tid()
         bseed = sm.hash_u32(u32(seed))
@@ -276,5 +293,6 @@ def get_kernels(precision: str) -> SimpleNamespace:
         out[i, 0] = u0
         out[i, 1] = u1
 
-    return SimpleNamespace(trace_store=trace_store, trace_stream=trace_stream, sample_square=sample_square,
+    return SimpleNamespace(trace_store=trace_store, trace_stream=trace_stream, reduce_threads=reduce_threads,
+                           sample_square=sample_square,
                            real=real, module=mod, surfaces=sf, sampling=sm)

@@ -342,7 +342,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
            seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
            iris: Iris | None = None, stop_radius_mm: float | None = None, clip: bool = True,
            rays_per_launch: int | None = None, threads_per_batch: int | None = None,
-           replicas: int | None = None, cpu_workers: int | None = None) -> StreamResult:
+           replicas: int | None = None, cpu_workers: int | None = None,
+           device_reduce: bool | None = None) -> StreamResult:
     """Trace ``rays_per_source`` Monte Carlo rays from each source and bin them (module docstring).
 
     Parameters
@@ -371,6 +372,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     cpu_workers : int, optional
         On the CPU, host threads running slices of each launch concurrently (default: the
         CPU cores this process may use); results do not depend on it.
+    device_reduce : bool, optional
+        Sum the per-thread slots with a kernel on the device (default: on GPUs only).
     """
     from ..device import warp
     wp = warp()
@@ -430,6 +433,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     stats = wp.zeros((n_threads, N_STATS), dtype=wp.float64, device=dev)
     counts = wp.zeros((n_threads, N_COUNTS), dtype=wp.int64, device=dev)
     rec = wp.zeros((1, 1, N_RECORD), dtype=real, device=dev)
+    device_reduce = is_gpu if device_reduce is None else bool(device_reduce)
+    dev_stats = wp.zeros((S * B, N_STATS), dtype=wp.float64, device=dev) if device_reduce else None
+    dev_counts = wp.zeros((S * B, N_COUNTS), dtype=wp.int64, device=dev) if device_reduce else None
     n_strata = int(math.isqrt(n_b))
     tot_stats = np.zeros((S, B, N_STATS))
     tot_counts = np.zeros((S, B, N_COUNTS), dtype=np.int64)
@@ -458,12 +464,18 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
             else:
                 list(pool.map(run, range(workers)))
             launches += 1
-            tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
-            tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
+            if device_reduce:  # sum the threads' slots on the device, in a fixed order
+                wp.launch(k.reduce_threads, dim=S * B, device=dev, inputs=[stats, counts, T, dev_stats, dev_counts])
+            else:
+                tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
+                tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
             start += count
     finally:
         if pool is not None:
             pool.shutdown()
+    if device_reduce:
+        tot_stats = dev_stats.numpy().reshape(S, B, N_STATS)
+        tot_counts = dev_counts.numpy().reshape(S, B, N_COUNTS)
     h = hist.numpy().reshape(replicas, layers, n_chan, grid.ny, grid.nx).sum(axis=0)
     seconds = time.perf_counter() - t0
     histogram = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
