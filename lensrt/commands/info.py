@@ -128,7 +128,9 @@ def cmd_info(args: argparse.Namespace) -> int:
                       ["quantity", "value", "unit"]))
     seidel = d["seidel"]
     per = seidel["per_surface_mm"]
-    srows = [[("STO" if i == lens.stop_index else str(i + 1))] + [per[k][i] for k in SEIDEL_NAMES]
+    scale = max(abs(v) for k in SEIDEL_NAMES for v in per[k]) or 1.0
+    srows = [[("STO" if i == lens.stop_index else str(i + 1))]
+             + [per[k][i] if abs(per[k][i]) > 1e-12 * scale else 0.0 for k in SEIDEL_NAMES]
              for i in range(lens.n_surfaces)]
     srows.append(["SUM"] + [seidel[f"{k}_mm"] for k in SEIDEL_NAMES])
     emit("")
