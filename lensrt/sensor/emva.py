@@ -16,7 +16,7 @@ Analysis, per step: mu_y = mean of (A + B) / 2, sigma_y^2 = var(A - B) / 2 (temp
 * temporal dark noise sigma_d = sqrt(sigma_y.dark^2 - 1/12) / K (e-; 1/12 DN^2 quantisation);
 * absolute sensitivity threshold mu_p.min = (sigma_y.dark / K + 1/2) / eta;
   dynamic range DR = mu_p.sat / mu_p.min;
-* SNR = (mu_y - mu_y.dark) / sigma_y;
+* SNR = (mu_y - mu_y.dark) / sigma_y; its maximum is taken at saturation;
 * DSNU = s_y.dark / K (e-), PRNU = sqrt(s_y.50^2 - s_y.dark^2) / (mu_y.50 - mu_y.dark), with the
   spatial variances s^2 of the L-frame averages corrected for their residual temporal
   variance sigma^2 / L.
@@ -228,7 +228,7 @@ def analyse_emva(d: EmvaData) -> EmvaResult:
         system_gain_dn_per_e=K, system_gain_stderr=K_se, g_e_per_dn=1.0 / K, quantum_efficiency=eta,
         temporal_dark_noise_e=sigma_d, saturation_capacity_e=eta * mu_p_sat, saturation_photons=mu_p_sat,
         sensitivity_threshold_photons=mu_p_min, dynamic_range_db=20 * math.log10(mu_p_sat / mu_p_min),
-        dynamic_range_stops=math.log2(mu_p_sat / mu_p_min), snr_max_db=20 * math.log10(float(np.nanmax(snr))),
+        dynamic_range_stops=math.log2(mu_p_sat / mu_p_min), snr_max_db=20 * math.log10(float(snr[i_sat])),
         dsnu_e=math.sqrt(s2_dark) / K, prnu_percent=100.0 * prnu, two_frame_g_e_per_dn=g2, two_frame_read_noise_dn=rn2,
         linearity_error_percent=float(lin_err),
         # EMVA: below 0.24 DN^2 of dark variance the camera is quantisation limited and sigma_d an upper bound
