@@ -150,3 +150,19 @@ def test_tiff16_exact(tmp_path):
 
 def test_preset_is_not_mutated_by_io():
     assert get_preset("apsc_16mp").cfa.name == "RGGB"
+
+
+@pytest.mark.parametrize("cfa", ["GRBG", "XTRANS"])
+def test_dng_round_trips_through_rawpy(tmp_path, cfa):
+    pytest.importorskip("pidng")
+    rawpy = pytest.importorskip("rawpy")
+    from lensrt.io.dng import write_dng
+    sensor = sensor_from_spec({"cfa": cfa})
+    raw = electrons_to_raw(sensor, np.random.default_rng(0).uniform(100, 60000, (36, 48)).astype(np.float32), 0.01,
+                           rng=np.random.default_rng(1))
+    path = write_dng(tmp_path / "x.dng", raw)
+    with rawpy.imread(str(path)) as d:
+        assert np.array_equal(d.raw_image_visible, raw.dn)
+        assert np.array_equal(np.asarray(d.raw_pattern) % 3 if cfa == "XTRANS" else d.raw_pattern,
+                              raw.cfa.tile_array() if cfa == "XTRANS" else [[1, 0], [2, 3]])
+        assert d.black_level_per_channel[0] == raw.black_level_dn and d.white_level == raw.white_level_dn

@@ -65,7 +65,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     ex.add_argument("--tone", default="srgb", help="srgb, linear or scurve[:CONTRAST]")
     ex.add_argument("--gain", default="auto", help="digital exposure gain: a number, sos (SOS = ISO), or auto "
                     "(chart: perfect white -> 1; otherwise sos)")
-    ex.add_argument("--raw", metavar="OUT.exr", help="write the raw mosaic (UINT channel + metadata)")
+    ex.add_argument("--raw", metavar="OUT.exr|dng", help="write the raw mosaic: .exr (UINT channel + metadata) or "
+                    ".dng (needs the optional pidng package)")
     ex.add_argument("--out", metavar="OUT.png", help="write 8-bit sRGB PNG")
     ex.add_argument("--out16", metavar="OUT.tif|png", help="write 16-bit sRGB TIFF or PNG")
     ex.add_argument("--linear", metavar="OUT.exr", help="write linear sRGB (float) EXR")
@@ -350,10 +351,22 @@ def _read_irradiance(path_text: str):
     raise LensrtError(f"irradiance file {path} must be .exr or .npz")
 
 
+def _calibration_for_dng(sensor):
+    from ..isp import calibrate
+    return calibrate(sensor, "D65")  # DNG ColorMatrix1 is given for CalibrationIlluminant1 = D65
+
+
 def _write_outputs(args, sensor, raw, result) -> list[str]:
     files = []
     meta = {"lensrt:sensor": sensor.name, "lensrt:iso": raw.iso, "lensrt:exposure_s": raw.exposure_s}
-    if args.raw:
+    if args.raw and Path(args.raw).suffix.lower() == ".dng":
+        import numpy as np
+        from ..io.dng import write_dng
+        wb = np.asarray(result.wb_multipliers, float)
+        cal = _calibration_for_dng(sensor)
+        xyz_to_cam = np.diag(1.0 / wb) @ np.linalg.inv(cal.camera_to_xyz)
+        files.append(str(write_dng(args.raw, raw, xyz_to_cam / xyz_to_cam.max(), 1.0 / wb)))
+    elif args.raw:
         from ..io.raw import write_raw_exr
         files.append(str(write_raw_exr(args.raw, raw)))
     if args.out:

@@ -6,7 +6,7 @@ of R/G/B letters separated by ``/``, from the top-left photosite), ``lensrt:blac
 ``lensrt:white_level_dn``, ``lensrt:exposure_s``, ``lensrt:iso``, ``lensrt:g_e_per_dn``,
 ``lensrt:n_frames`` and ``lensrt:meta`` (JSON).
 
-DNG is not written: the one pip-installable writer (pidng) was not adopted, see the README.
+DNG (optional, through pidng) is in :mod:`lensrt.io.dng`.
 """
 from __future__ import annotations
 
