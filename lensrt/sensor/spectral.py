@@ -30,7 +30,7 @@ __all__ = ["SpectralResponse", "camera_response", "load_response", "ir_cut_trans
 CAMERA_DATASETS = {"nikon_d5100": "Nikon 5100 (NPL)", "sigma_sd_merrill": "Sigma SDMerill (NPL)"}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SpectralResponse:
     """Relative spectral response of the R, G, B channels.
 
@@ -46,6 +46,8 @@ class SpectralResponse:
         Where the data come from.
     absolute : bool
         Whether ``relative`` is an absolute QE (then the sensor's peak QE is not applied).
+
+    Compared by identity (it holds arrays), so two sensors are equal only if they share it.
     """
 
     wavelength_nm: np.ndarray
