@@ -295,7 +295,8 @@ def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass
     catalog; then names are compared ignoring case, spaces, hyphens, dots and
     underscores (``NBK7`` = ``N-BK7``); then ignoring a vendor prefix (``SK16``
     finds Hikari's ``J-SK16`` when the lens names the Hikari catalog first),
-    taking the first catalog with exactly one such glass.
+    taking the first catalog with exactly one such glass (where a classic Schott
+    name fits both an ``N-`` and a ``P-`` glass, ``BK7``, the ``N-`` glass wins).
 
     Raises
     ------
@@ -321,6 +322,10 @@ def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass
     stripped = _strip_vendor_prefix(base)
     for cat in search:
         hits = [g for g in glass_names(cat) if _strip_vendor_prefix(g) == stripped]
+        if len(hits) > 1:
+            # Schott's classic names (BK7, SK16) map to the lead-free "N-" glass, not to the
+            # precision-moulding "P-" variant of the same type
+            hits = [g for g in hits if g.upper().startswith("N-")] or hits
         if len(hits) == 1:
             return _make_catalog_glass(cat, hits[0])
     pool = {g: cat for cat in search for g in glass_names(cat)}
