@@ -48,9 +48,13 @@ def test_name_matching(spelling: str, expected: tuple[str, str]) -> None:
     assert (g.name, g.catalog) == expected
 
 
-def test_catalog_order_decides_prefixless_names() -> None:
-    assert find_glass("SK16", ["Hikari", "Schott"]).name == "J-SK16"
+def test_prefixless_names() -> None:
+    # an old Schott name goes to Schott's lead-free successor when Schott is searched ...
+    assert find_glass("SK16", ["Hikari", "Schott"]).name == "N-SK16"
     assert find_glass("SK16", ["Schott"]).name == "N-SK16"
+    # ... else to the first named catalog's equivalent
+    assert find_glass("SK16", ["Hikari"]).name == "J-SK16"
+    assert find_glass("SK16", ["Sumita", "Hikari"]).name == "K-SK16"
 
 
 def test_unknown_glass_suggests_names() -> None:

@@ -293,10 +293,11 @@ def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass
     Matching, in order, within ``catalogs`` (default :data:`CATALOGS`): a catalog
     suffix (``N-BK7_SCHOTT``, ``NSK16_SCHOTT``) restricts the search to that
     catalog; then names are compared ignoring case, spaces, hyphens, dots and
-    underscores (``NBK7`` = ``N-BK7``); then ignoring a vendor prefix (``SK16``
-    finds Hikari's ``J-SK16`` when the lens names the Hikari catalog first),
-    taking the first catalog with exactly one such glass (where a classic Schott
-    name fits both an ``N-`` and a ``P-`` glass, ``BK7``, the ``N-`` glass wins).
+    underscores (``NBK7`` = ``N-BK7``); then a bare old Schott name (``SK16``)
+    finds Schott's lead-free successor ``N-SK16`` when Schott is searched; then
+    ignoring a vendor prefix (``SK16`` finds Hikari's ``J-SK16`` when only Hikari is
+    searched), taking the first catalog with exactly one such glass. Callers that
+    care should record ``name -> glass.name`` substitutions (the file readers do).
 
     Raises
     ------
@@ -319,13 +320,16 @@ def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass
         for gname in glass_names(cat):
             if _normalise(gname) == key:
                 return _make_catalog_glass(cat, gname)
+    # A bare name such as SK16 or BK7 is an old Schott name: if Schott is searched, its
+    # lead-free successor (N-SK16, same nd/Vd) is the direct match; then other vendors'
+    # equivalents (Hikari J-SK16, Sumita K-SK16) in the catalogs' order.
     stripped = _strip_vendor_prefix(base)
+    if "Schott" in search and _PREFIX.match(base) is None:
+        hits = [g for g in glass_names("Schott") if g.upper().startswith("N-") and _normalise(g[2:]) == key]
+        if len(hits) == 1:
+            return _make_catalog_glass("Schott", hits[0])
     for cat in search:
         hits = [g for g in glass_names(cat) if _strip_vendor_prefix(g) == stripped]
-        if len(hits) > 1:
-            # Schott's classic names (BK7, SK16) map to the lead-free "N-" glass, not to the
-            # precision-moulding "P-" variant of the same type
-            hits = [g for g in hits if g.upper().startswith("N-")] or hits
         if len(hits) == 1:
             return _make_catalog_glass(cat, hits[0])
     pool = {g: cat for cat in search for g in glass_names(cat)}

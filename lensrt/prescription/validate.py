@@ -19,7 +19,7 @@ CROSSING_TOL_MM = 1e-6
 def check_geometry(lens: Lens, samples: int = 65) -> None:
     """Raise :class:`PrescriptionError` if adjacent surfaces cross inside their clear apertures.
 
-    For surfaces i and i+1 with known semi-diameters, the later surface must
+    For surfaces i and i+1 with semi-diameters given by the file, the later surface must
     never lie in front of the earlier one over the common aperture:
     ``z_i(r) <= t_i + z_{i+1}(r)`` for ``0 <= r <= min(sd_i, sd_{i+1})``. A
     negative thickness is thus allowed only where the sags make room for it.
@@ -28,7 +28,9 @@ def check_geometry(lens: Lens, samples: int = 65) -> None:
     surfaces = lens.surfaces
     for i in range(len(surfaces) - 1):
         a, b = surfaces[i], surfaces[i + 1]
-        if a.semi_diameter_mm is None or b.semi_diameter_mm is None:
+        if a.semi_diameter_mm is None or b.semi_diameter_mm is None or a.semi_diameter_auto or b.semi_diameter_auto:
+            # computed apertures are estimates (paraxial ones overshoot on wide lenses): only
+            # the file's own semi-diameters can prove a crossing
             if a.thickness_mm < 0.0 and not a.material.is_air:
                 raise PrescriptionError(f"negative thickness {a.thickness_mm:g} mm inside glass "
                                         f"{a.material.describe()}", surface=i, line=a.line)

@@ -1,0 +1,121 @@
+"""The ynu paraxial trace (Field Guide p. 3-4), float64 on the host.
+
+At each surface ``n'u' = n u - y Phi`` with surface power ``Phi = c (n' - n)``,
+then the transfer ``y_next = y + t u'``. u > 0 for a rising ray. The paraxial
+curvature of an even asphere includes its r^2 term: c_par = c + 2 A2.
+
+Everything here also works with 2x2 reduced matrices on (y, n u): refraction
+``[[1, 0], [-Phi, 1]]`` and transfer ``[[1, t / n], [0, 1]]`` (det = 1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..prescription.model import Lens
+
+__all__ = ["ParaxialSystem", "ParaxialRay", "paraxial_system", "trace_ynu"]
+
+
+@dataclass(frozen=True)
+class ParaxialSystem:
+    """A lens reduced to paraxial data at one wavelength.
+
+    Attributes
+    ----------
+    curvature_per_mm : ndarray (N,)
+        Paraxial curvature of each surface (c + 2 A2).
+    thickness_mm : ndarray (N,)
+        Thickness after each surface (the last runs to the image surface).
+    index : ndarray (N + 1,)
+        Object-space index, then the index after each surface.
+    power_per_mm : ndarray (N,)
+        Surface powers Phi = c (n' - n).
+    stop_index : int
+        0-based index of the stop surface.
+    wavelength_nm : float
+    """
+
+    curvature_per_mm: np.ndarray
+    thickness_mm: np.ndarray
+    index: np.ndarray
+    power_per_mm: np.ndarray
+    stop_index: int
+    wavelength_nm: float
+
+    @property
+    def n_surfaces(self) -> int:
+        return len(self.curvature_per_mm)
+
+    @property
+    def vertex_z_mm(self) -> np.ndarray:
+        """z of each vertex (first = 0), then of the image surface."""
+        return np.concatenate([[0.0], np.cumsum(self.thickness_mm)])
+
+    def refraction(self, i: int) -> np.ndarray:
+        return np.array([[1.0, 0.0], [-self.power_per_mm[i], 1.0]])
+
+    def transfer(self, i: int) -> np.ndarray:
+        return np.array([[1.0, self.thickness_mm[i] / self.index[i + 1]], [0.0, 1.0]])
+
+    def matrix(self, first: int, last: int, include_last_transfer: bool = False) -> np.ndarray:
+        """Reduced matrix from just before surface ``first`` to just after surface ``last``.
+
+        Transfers between the surfaces are included; the transfer after
+        ``last`` only if ``include_last_transfer``.
+        """
+        m = np.eye(2)
+        for i in range(first, last + 1):
+            m = self.refraction(i) @ m
+            if i < last or include_last_transfer:
+                m = self.transfer(i) @ m
+        return m
+
+
+def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialSystem:
+    """Reduce ``lens`` to paraxial data at ``wavelength_nm`` (default: the primary)."""
+    w = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    c = np.array([s.curvature_per_mm + (2.0 * s.asphere[0] if s.asphere else 0.0) for s in lens.surfaces])
+    t = np.array([s.thickness_mm for s in lens.surfaces], dtype=np.float64)
+    n = np.asarray(lens.indices(w), dtype=np.float64)
+    phi = c * (n[1:] - n[:-1])
+    return ParaxialSystem(c, t, n, phi, lens.stop_index, w)
+
+
+@dataclass(frozen=True)
+class ParaxialRay:
+    """A traced paraxial ray.
+
+    ``y[i]`` is the height at surface i (i = N: the image surface); ``u[0]``
+    the object-space slope and ``u[i + 1]`` the slope after surface i.
+    ``i_angle[i]`` is the paraxial angle of incidence at surface i
+    (i = y c + u), so ``n[i] * i_angle[i]`` is CODE V's N*I column.
+    """
+
+    y: np.ndarray
+    u: np.ndarray
+    n: np.ndarray
+    i_angle: np.ndarray
+
+    @property
+    def nu(self) -> np.ndarray:
+        return self.n * self.u
+
+
+def trace_ynu(system: ParaxialSystem, y1_mm: float, u0: float) -> ParaxialRay:
+    """Trace a paraxial ray that meets surface 1 at height ``y1_mm`` with object-space slope ``u0``.
+
+    Returns heights at every surface and at the image surface, and slopes.
+    """
+    N = system.n_surfaces
+    y = np.empty(N + 1)
+    u = np.empty(N + 1)
+    inc = np.empty(N)
+    n = system.index
+    y[0], u[0] = y1_mm, u0
+    for i in range(N):
+        inc[i] = y[i] * system.curvature_per_mm[i] + u[i]
+        u[i + 1] = (n[i] * u[i] - y[i] * system.power_per_mm[i]) / n[i + 1]
+        y[i + 1] = y[i] + system.thickness_mm[i] * u[i + 1]
+    return ParaxialRay(y, u, n.copy(), inc)
