@@ -9,10 +9,12 @@ import math
 import re
 from typing import Sequence
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, UnknownGlassError
+from ..materials import CatalogGlass, find_glass
 from ..model import Lens
 
-__all__ = ["parse_number", "sniff_format", "reject_other_format", "fmt_list", "FORMAT_HINTS", "make_lens"]
+__all__ = ["parse_number", "sniff_format", "reject_other_format", "fmt_list", "FORMAT_HINTS", "make_lens",
+           "lookup_glass", "substitution_note"]
 
 #: what to tell a user whose file holds another format than its extension says
 FORMAT_HINTS = {
@@ -96,3 +98,45 @@ def make_lens(path: str | None, **fields: object) -> Lens:
         if err.line is None and err.surface is not None and 0 <= err.surface < len(surfaces):  # type: ignore[arg-type]
             err.line = surfaces[err.surface].line  # type: ignore[index]
         raise
+
+
+def _norm(name: str) -> str:
+    return re.sub(r"[\s\-_.]", "", name).upper()
+
+
+def lookup_glass(name: str, catalogs: Sequence[str]) -> CatalogGlass:
+    """Look ``name`` up catalog by catalog, in the order the file gives them.
+
+    A catalog holding exactly that name (ignoring case, spaces, hyphens, dots)
+    wins; otherwise the first catalog, in order, where
+    :func:`~lensrt.prescription.materials.find_glass` matches it another way
+    (``SK16`` -> Hikari's ``J-SK16`` when the file lists HIKARI before SCHOTT,
+    as OpticStudio searches). Raises :class:`UnknownGlassError` when none has it.
+    """
+    key = _norm(name)
+    found: list[CatalogGlass] = []
+    errors: list[UnknownGlassError] = []
+    for cat in catalogs:
+        try:
+            glass = find_glass(name, [cat])
+        except UnknownGlassError as err:
+            errors.append(err)
+            continue
+        if _norm(glass.name) == key:
+            return glass
+        found.append(glass)
+    if found:
+        return found[0]
+    if len(catalogs) != 1:
+        try:
+            find_glass(name, list(catalogs))
+        except UnknownGlassError as err:
+            raise err from None
+    raise errors[0] if errors else UnknownGlassError(f"glass {name!r} is in no catalog")
+
+
+def substitution_note(subs: dict[str, str]) -> tuple[str, str] | None:
+    """A ``lens.notes`` entry listing glass names the file wrote that matched other catalog names."""
+    if not subs:
+        return None
+    return ("glass_substitutions", "; ".join(f"{k} -> {v}" for k, v in sorted(subs.items())))

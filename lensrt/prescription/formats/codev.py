@@ -37,7 +37,7 @@ from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, deg_to_rad
 from ..materials import AIR, Material, ModelGlass, find_glass
 from ..model import Aperture, Fields, Lens, Surface, Wavelengths
-from ._common import fmt_list, make_lens, parse_number, reject_other_format
+from ._common import fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 
 __all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
 
@@ -142,6 +142,7 @@ class _Seq:
         self.spec: dict[str, tuple[list[str], int]] = {}
         self.title = ""
         self.notes: list[tuple[str, str]] = []
+        self.subs: dict[str, str] = {}
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -265,8 +266,13 @@ class _Seq:
             vd = float("0." + m.group(2)) * 100.0
             with located(self.path, line):
                 return ModelGlass(nd, vd, name=glass)
+        name = glass.strip("'\"")
         with located(self.path, line):
-            return find_glass(glass.strip("'\""))
+            found = find_glass(name)
+        base = re.sub(r"[_:][A-Za-z]+$", "", name) if "_" in name or ":" in name else name
+        if found.name.replace("-", "").upper() != base.replace("-", "").upper():
+            self.subs[name] = found.describe()
+        return found
 
     def build(self) -> Lens:
         f = MM_PER_UNIT[self.dim]
@@ -373,11 +379,15 @@ class _Seq:
                 self.notes.append(("environment", msg))
         dist = obj["thick"]
         dist = math.inf if dist >= INFINITE_THICKNESS else dist * f
+        obj_mat = self.material(obj["glass"], obj["line"])
+        sub = substitution_note(self.subs)
+        if sub:
+            self.notes.append(sub)
         if dist <= 0.0:
             raise self.err(f"object distance {dist:g} must be positive", obj["line"],
                            "SO's thickness is the distance from the object to surface 1")
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
-                         object_distance_mm=dist, object_material=self.material(obj["glass"], obj["line"]),
+                         object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
                          notes=tuple(self.notes))
 

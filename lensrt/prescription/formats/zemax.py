@@ -34,9 +34,9 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, UnknownGlassError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
-from ..materials import AIR, CATALOGS, Material, ModelGlass, find_glass
+from ..materials import AIR, CATALOGS, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
-from ._common import fmt_list, make_lens, parse_number, reject_other_format
+from ._common import fmt_list, lookup_glass, make_lens, parse_number, reject_other_format, substitution_note
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
@@ -130,6 +130,7 @@ class _Reader:
         self.name = ""
         self.notes: list[tuple[str, str]] = []
         self.note_text: list[str] = []
+        self.subs: dict[str, str] = {}
 
     # -- helpers -------------------------------------------------------------
     def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
@@ -371,9 +372,13 @@ class _Reader:
         others = [c for c in (self.gcat or []) if c not in _CATALOG_NAMES]
         if ours:
             try:
-                return find_glass(name, ours)
+                glass = lookup_glass(name, ours)
             except UnknownGlassError:
                 pass
+            else:
+                if glass.name.replace("-", "").upper() != name.replace("-", "").upper():
+                    self.subs[name] = glass.describe()
+                return glass
         glass = model("not in the GCAT catalogs")
         where = ", ".join(ours) if ours else "none"
         extra = f"; lensrt does not ship {', '.join(others)}" if others else ""
@@ -477,11 +482,14 @@ class _Reader:
             raise self.err("the object surface (SURF 0) has no DISZ", obj.line, "give 'DISZ INFINITY' or a distance")
         if self.note_text:
             notes.append(("zemax_note", " ".join(self.note_text)[:500]))
+        with located(path, obj.line):
+            obj_mat = self.material(obj)
+        sub = substitution_note(self.subs)
+        if sub:
+            notes.append(sub)
         if obj.disz <= 0.0:
             raise self.err(f"object distance DISZ {obj.disz:g} must be positive", obj.line,
                            "SURF 0's DISZ is the distance from the object to surface 1 (or INFINITY)")
-        with located(path, obj.line):
-            obj_mat = self.material(obj)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
                          source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes))
