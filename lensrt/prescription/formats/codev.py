@@ -20,7 +20,7 @@ A thickness on ``SI`` is a defocus of the image surface from where the last
 thickness puts it; it is added to the last surface's thickness. An object
 thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
 a catalog suffix (``NSK16_SCHOTT``); a number ``nnn.vvv`` is CODE V's
-fictitious glass (n_d = 1.nnn, V_d = vv.v).
+fictitious glass code (n_d = 1.nnn, V_d = vv.v; ``517.642`` is 1.517/64.2).
 
 Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
 decentred apertures, special surface types, zooms and private catalogs are
@@ -263,7 +263,7 @@ class _Seq:
         m = _FICTITIOUS.match(glass)
         if m:
             nd = 1.0 + int(m.group(1)) / 10 ** len(m.group(1))
-            vd = float("0." + m.group(2)) * 100.0
+            vd = int(m.group(2)) / 10.0 ** (len(m.group(2)) - 2)
             with located(self.path, line):
                 return ModelGlass(nd, vd, name=glass)
         name = glass.strip("'\"")
