@@ -79,3 +79,17 @@ def test_pbrt_options(data_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixt
 def test_list(capsys: pytest.CaptureFixture) -> None:
     rc, out, _ = run(["lens", "list"], capsys)
     assert rc == 0 and "dgauss_50mm_f2" in out and "155.9 deg" in out
+
+
+def test_warnings_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import warnings
+    text = (Path(__file__).parent / "data" / "cooke_triplet.zmx").read_text().replace("GLAS F2 ", "GLAS MYFLINT ")
+    p = tmp_path / "odd.zmx"
+    p.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        rc, out, err = run(["lens", "show", str(p)], capsys)
+    assert rc == 0
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert lines and all(ln.startswith("lensrt: warning: ") for ln in lines)
+    assert "MYFLINT" in lines[0] and "Traceback" not in err
