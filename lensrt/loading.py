@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from .errors import located
 from .prescription.formats import read_lens
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
@@ -20,10 +21,11 @@ def complete_lens(lens: Lens) -> Lens:
     specification cross each surface); the method used is recorded in
     ``lens.meta["clear_apertures"]``.
     """
-    if any(s.semi_diameter_mm is None for s in lens.surfaces):
-        from .paraxial.apertures import compute_clear_apertures
-        lens = compute_clear_apertures(lens)
-    check_geometry(lens)
+    with located(lens.path):
+        if any(s.semi_diameter_mm is None for s in lens.surfaces):
+            from .paraxial.apertures import compute_clear_apertures
+            lens = compute_clear_apertures(lens)
+        check_geometry(lens)
     return lens
 
 
