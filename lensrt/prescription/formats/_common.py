@@ -105,34 +105,27 @@ def _norm(name: str) -> str:
 
 
 def lookup_glass(name: str, catalogs: Sequence[str]) -> CatalogGlass:
-    """Look ``name`` up catalog by catalog, in the order the file gives them.
+    """Look ``name`` up the way OpticStudio does: catalog by catalog, in the file's order.
 
     A catalog holding exactly that name (ignoring case, spaces, hyphens, dots)
-    wins; otherwise the first catalog, in order, where
-    :func:`~lensrt.prescription.materials.find_glass` matches it another way
-    (``SK16`` -> Hikari's ``J-SK16`` when the file lists HIKARI before SCHOTT,
-    as OpticStudio searches). Raises :class:`UnknownGlassError` when none has it.
+    wins, the first such catalog in order. A name that no catalog holds
+    exactly (OpticStudio's obsolete glasses, e.g. ``SK16``, which
+    ``opticalglass``'s current catalogs no longer list) is then matched by
+    :func:`~lensrt.prescription.materials.find_glass` over all the file's
+    catalogs: a bare old Schott name goes to Schott's lead-free successor
+    (``SK16`` -> ``N-SK16``) when SCHOTT is among them, else to the first
+    catalog's equivalent (``J-SK16`` in Hikari). Raises
+    :class:`UnknownGlassError` when none has it.
     """
     key = _norm(name)
-    found: list[CatalogGlass] = []
-    errors: list[UnknownGlassError] = []
     for cat in catalogs:
         try:
             glass = find_glass(name, [cat])
-        except UnknownGlassError as err:
-            errors.append(err)
+        except UnknownGlassError:
             continue
         if _norm(glass.name) == key:
             return glass
-        found.append(glass)
-    if found:
-        return found[0]
-    if len(catalogs) != 1:
-        try:
-            find_glass(name, list(catalogs))
-        except UnknownGlassError as err:
-            raise err from None
-    raise errors[0] if errors else UnknownGlassError(f"glass {name!r} is in no catalog")
+    return find_glass(name, list(catalogs))
 
 
 def substitution_note(subs: dict[str, str]) -> tuple[str, str] | None:
