@@ -163,6 +163,22 @@ def test_reference_accumulation_matches_direct_sums():
                               (w * dx * dy)[m].sum(), (w * dy * dy)[m].sum()])
 
 
+def test_ensquared_and_encircled_energy_of_a_gaussian():
+    from scipy.special import erf
+
+    from lensrt.analysis.energy import encircled_energy, ensquared_energy
+
+    grid = ImageGrid.centred(81, 0.5, (1.0, 1.0))
+    gx, gy = grid.mesh_mm()
+    s = 3e-3
+    psf = np.exp(-((gx - 1.0) ** 2 + (gy - 1.0) ** 2) / (2 * s * s)) / (2 * math.pi * s * s)
+    half = np.array([1.0, 2.0, 4.0, 8.0]) * 1e-3
+    assert np.allclose(ensquared_energy(psf, grid, half), erf(half / (s * math.sqrt(2))) ** 2, atol=2e-3)
+    assert np.allclose(encircled_energy(psf, grid, half, points=True), 1 - np.exp(-half ** 2 / (2 * s * s)),
+                       atol=1e-4)
+    assert np.allclose(encircled_energy(psf, grid, half), 1 - np.exp(-half ** 2 / (2 * s * s)), atol=3e-3)
+
+
 def test_result_container_checks_and_serialises(disc):
     d = json.loads(dumps_json(disc.to_dict()))
     assert d["kind"] == "geometric" and d["samples"] == 400_000 and d["batches"] == 32

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lensrt.analysis.diffraction import PupilFunction, psf_fft
-from lensrt.analysis.pupil import (aperture_from_iris, circular_aperture, defocus_opd_mm, fit_zernike,
+from lensrt.analysis.pupil import (aperture_from_iris, circular_aperture, defocus_opd_mm, enclosing_na, fit_zernike,
                                    iris_aperture, noll_to_nm, pupil_coordinates,
                                    pupil_coordinates_from_directions, pupil_from_rays, vignetted_aperture,
                                    zernike, zernike_surface)
@@ -87,6 +87,11 @@ def test_directions_to_pupil_coordinates_sign_and_scale():
     px, py = pupil_coordinates_from_directions(d, (0.0, 0.0, 1.0), na)
     assert px[0] == pytest.approx(1.0) and py[0] == pytest.approx(0.0)  # +x side of the pupil -> px = +1
     assert py[1] == pytest.approx(-1.0) and px[2] == 0.0
+    # a pupil larger than the nominal NA is caught, and enclosing_na sizes the grid to hold it
+    with pytest.raises(LensrtError, match="outside the pupil grid"):
+        pupil_from_rays(*pupil_coordinates_from_directions(d, (0, 0, 1), 0.9 * na), np.zeros(3), np.ones(3, bool), 8)
+    na2 = enclosing_na(d, (0.0, 0.0, 1.0), margin=0.0)
+    assert na2 == pytest.approx(na)
 
 
 def test_exact_defocus_matches_paraxial_for_small_na():

@@ -39,7 +39,8 @@ from ..prescription.model import Iris
 
 __all__ = ["pupil_coordinates", "aperture_mask", "circular_aperture", "iris_aperture",
            "aperture_from_iris", "vignetted_aperture", "noll_to_nm", "zernike", "fit_zernike",
-           "zernike_surface", "pupil_coordinates_from_directions", "defocus_opd_mm", "pupil_from_rays"]
+           "zernike_surface", "pupil_coordinates_from_directions", "enclosing_na", "defocus_opd_mm",
+           "pupil_from_rays"]
 
 
 def pupil_coordinates(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -185,6 +186,22 @@ def pupil_coordinates_from_directions(directions: np.ndarray, chief_direction: S
     return -(d[:, 0] - c[0]) / na, -(d[:, 1] - c[1]) / na
 
 
+def enclosing_na(directions: np.ndarray, chief_direction: Sequence[float], valid: np.ndarray | None = None,
+                 margin: float = 0.02) -> float:
+    """The smallest grid scale NA that keeps every valid ray inside |px|, |py| <= 1, plus ``margin``.
+
+    Use it when the real pupil is larger than the paraxial one (pupil
+    aberrations, off-axis pupil distortion); the PSF pitch then follows from
+    it (lambda / (2 Q NA)).
+    """
+    d = np.asarray(directions, dtype=np.float64)
+    ok = np.ones(len(d), dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
+    if not ok.any():
+        raise LensrtError("no valid rays: cannot size the pupil grid")
+    c = np.asarray(chief_direction, dtype=np.float64)
+    return float(np.max(np.abs(d[ok, :2] - c[:2])) * (1.0 + margin))
+
+
 def defocus_opd_mm(px: np.ndarray, py: np.ndarray, na: float, dz_mm: float,
                    chief_direction: Sequence[float] = (0.0, 0.0, 1.0)) -> np.ndarray:
     """Exact OPD (mm) that moves the observation plane by ``dz_mm`` along +z: dz (N(p) - N_chief).
@@ -270,6 +287,10 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
     if ok.sum() < 3:
         raise LensrtError(f"only {int(ok.sum())} valid rays reached the image: cannot build a pupil function",
                           hint="check the field point and the aperture; trace more pupil rays")
+    outside = int(np.sum(ok & ((np.abs(px) > 1) | (np.abs(py) > 1))))
+    if outside:
+        raise LensrtError(f"{outside} valid rays lie outside the pupil grid (|px| or |py| > 1)",
+                          hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
     pts = np.column_stack([px[ok], py[ok]])
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
