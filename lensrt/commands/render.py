@@ -1,0 +1,71 @@
+"""``lensrt render [SCENE]``: render a scene through its lens; ``--plan`` shows what a render would do."""
+from __future__ import annotations
+
+import argparse
+
+from ..errors import LensrtError
+from ._common import emit, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("render", help="render a scene through the lens (--plan: show the render plan)")
+    p.add_argument("scene", nargs="?", default=None, metavar="SCENE",
+                   help="scene file (.toml) or built-in scene name; default: the built-in default scene")
+    p.add_argument("--plan", action="store_true", help="print the scene and the render plan, render nothing")
+    p.add_argument("--list", action="store_true", help="list the built-in scenes")
+    p.add_argument("--lens", metavar="FILE", help="use this lens instead of the scene's")
+    p.add_argument("--json", action="store_true", help="with --plan or --list: one JSON object")
+    p.set_defaults(func=cmd_render)
+
+
+def _load_lens_or_note(scene, override: str | None):
+    """The scene's lens, or ``None`` and the reason when it cannot be loaded (the plan still prints)."""
+    from ..loading import load_lens
+    try:
+        return load_lens(override if override is not None else scene.camera.lens_source), None
+    except LensrtError as err:
+        return None, str(err)
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from ..render.scene import builtin_scenes, load_scene
+    if args.list:
+        rows = []
+        for path in builtin_scenes():
+            s = load_scene(path)
+            rows.append({"name": s.name, "file": str(path), "description": s.description})
+        if args.json:
+            print_json({"scenes": rows})
+        else:
+            width = max(len(r["name"]) for r in rows)
+            for r in rows:
+                emit(f"{r['name']:<{width}}  {r['description']}")
+        return 0
+    scene = load_scene(args.scene)
+    if args.plan:
+        from ..render.plan import plan_render
+        lens, note = _load_lens_or_note(scene, args.lens)
+        plan = plan_render(scene, lens)
+        if args.json:
+            print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": note})
+            return 0
+        emit(scene.summary())
+        emit("")
+        emit(plan.describe())
+        if note:
+            emit(f"  note         lens not loaded ({note}); lens-dependent choices use defaults")
+        return 0
+    from importlib import import_module
+    try:
+        integrator = import_module("lensrt.render.integrator")
+    except ModuleNotFoundError as err:
+        if err.name != "lensrt.render.integrator":
+            raise
+        raise LensrtError("this build of lensrt has no render integrator yet (lensrt/render/integrator.py)",
+                          hint="`lensrt render SCENE --plan` shows what a render would do") from None
+    lens, note = _load_lens_or_note(scene, args.lens)
+    if lens is None:
+        raise LensrtError(f"cannot load the scene's lens: {note}")
+    return int(integrator.run_cli(args, scene, lens) or 0)
