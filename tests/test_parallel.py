@@ -208,3 +208,19 @@ def test_parallel_arguments_build_the_executor() -> None:
         executor_from_args(p.parse_args(["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"]))
     with pytest.raises(LensrtError, match="must be 0"):
         executor_from_args(p.parse_args(["--workers", "-1"]))
+
+
+def test_lensrt_runs_without_dask(monkeypatch, capsys) -> None:
+    """distributed is optional: in-process jobs run, --workers says what to install."""
+    import sys
+
+    from conftest import LIBRARY
+    from lensrt.cli import main
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    from lensrt.parallel import cluster
+    assert not cluster.distributed_available()
+    lens = str(LIBRARY / "codev_dblgauss_100mm_f2.toml")
+    assert main(["sweep", lens, "--focus-distance-mm", "inf", "--f-number", "4"]) == 0
+    assert "1 item in" in capsys.readouterr().out
+    assert main(["sweep", lens, "--workers", "2"]) == 2
+    assert "pip install 'lensrt[dist]'" in capsys.readouterr().err

@@ -115,7 +115,7 @@ def workload(size: str, seed: int) -> Job:
     """Benchmark factory (``--workload mc-histogram``): sizes tiny / small / large or key=value."""
     p = parse_size(size, {"tiny": {"items": 8, "samples": 20000, "bins": 24},
                           "small": {"items": 32, "samples": 1 << 20, "bins": 64},
-                          "large": {"items": 256, "samples": 1 << 25, "bins": 128}})
+                          "large": {"items": 256, "samples": 1 << 26, "bins": 128}})
     return make_job(p["items"], seed, HistogramSetup(n_bins=p["bins"], samples_per_item=p["samples"]))
 
 

@@ -40,11 +40,15 @@ def add_parallel_arguments(parser: argparse.ArgumentParser) -> None:
                         "installed, and for GPU work `--resources GPU=1`")
 
 
-def executor_from_args(args: argparse.Namespace) -> Any:
-    """The executor the options ask for (a context manager: close it when done)."""
+def executor_from_args(args: argparse.Namespace, uses_device: bool = True) -> Any:
+    """The executor the options ask for (a context manager: close it when done).
+
+    ``uses_device=False`` (a host-only job, e.g. the paraxial sweep) ignores
+    ``--devices`` and never starts Warp.
+    """
     workers = getattr(args, "workers", 0) or 0
     scheduler = getattr(args, "scheduler", None)
-    devices = getattr(args, "devices", None)
+    devices = getattr(args, "devices", None) if uses_device else "cpu"
     if workers < 0:
         raise LensrtError(f"--workers {workers} must be 0 (this process) or a positive count")
     if scheduler and workers:
@@ -74,4 +78,5 @@ def progress_printer(args: argparse.Namespace | None = None, label: str = "items
 
 def run_summary_line(result: Any) -> str:
     """One line on how a job ran: items, seconds, executor."""
-    return f"{result.n_items} items in {result.seconds:.3g} s on {result.executor}"
+    n = result.n_items
+    return f"{n} item{'' if n == 1 else 's'} in {result.seconds:.3g} s on {result.executor}"

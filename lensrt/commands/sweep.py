@@ -134,7 +134,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         else _default_f_numbers(lens, args.wavelength_nm)
     setup = SweepSetup(lens, args.wavelength_nm, args.sensor, args.coc_mm)
     job = sweep_job(setup, focus, fnums, args.seed)
-    with executor_from_args(args) as ex:
+    with executor_from_args(args, uses_device=job.uses_device) as ex:
         result = ex.run(job, progress=progress_printer(args, "variants"))
     rows = result.value
     keys = ["focus_distance_mm", "f_number"] + [c for c in columns if c != "f_number"]

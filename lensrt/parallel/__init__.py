@@ -26,6 +26,16 @@ The contract a stage implements (see :mod:`lensrt.parallel.work`)::
     job = Job(items, run, reduce, context=lens_or_scene, prepare=prepare, name="psf-map")
     value = executor.run(job).value
 
+Rules for ``prepare`` and ``run``: they are module-level functions of an
+importable module (Dask pickles them by reference); they pass ``device=device``
+to every Warp allocation and launch (Warp's default device is process-wide, so
+threads must not rely on it); ``prepare``'s result is read-only (threads on the
+same device share it -- allocate per-item scratch inside ``run``); ``run``
+returns host data (NumPy arrays, numbers), never device arrays; its random
+numbers come from ``item.seed`` / ``item.rng()`` only. A Monte Carlo item
+returns its sample count (and per-batch sums where a standard error is wanted)
+so that the reduction can build a :class:`lensrt.stats.Estimate`.
+
 Determinism
 -----------
 Each item's random stream comes from (job seed, item index) only

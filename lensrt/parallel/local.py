@@ -48,13 +48,15 @@ def resolve_devices(spec: str | Sequence[str] | None = None) -> list[str]:
     list / sequence of those (repeats allowed: ``"cpu,cpu"`` is two CPU threads).
     Asking for a CUDA device that is not there is an error, never a silent switch.
     """
-    from ..device import resolve_device, warp
     if spec is None:
         spec = "auto"
     parts = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else [str(p).strip() for p in spec]
     parts = [p for p in parts if p]
     if not parts:
         raise LensrtError("empty device list", hint="use cpu, cuda, cuda:N, all, or a comma-separated list")
+    if all(p == "cpu" for p in parts):
+        return parts  # no need to start Warp to know that
+    from ..device import resolve_device, warp
     out: list[str] = []
     for p in parts:
         if p == "all":
