@@ -220,6 +220,12 @@ class DaskExecutor:
                 fold.add(outcome)
                 if progress:
                     progress(fold.received, n)
+        except RuntimeError as err:
+            if "deserializ" not in str(err):
+                raise
+            raise LensrtError(f"the scheduler of {self.address} cannot read job {job.name!r}: {err}".rstrip(),
+                              hint="the scheduler and every worker need the client's environment: lensrt (the "
+                                   "same version) and the modules of the job's functions importable") from None
         except distributed.KilledWorker as err:
             raise LensrtError(f"an item of job {job.name!r} killed {err.allowed_failures + 1} workers in a row "
                               f"({err.task})", hint="it crashes its worker (out of memory? a driver fault?); "
@@ -237,7 +243,12 @@ class DaskExecutor:
         if name in self._shipped:
             return
         from ._dask_plugins import ContextPlugin
-        self.client.register_plugin(ContextPlugin(ctx_hash, context), name=name)
+        try:
+            self.client.register_plugin(ContextPlugin(ctx_hash, context), name=name)
+        except Exception as err:  # noqa: BLE001 - the scheduler relays a worker's error as text
+            raise LensrtError(f"cannot ship the job context to the workers of {self.address}: {err}",
+                              hint="every worker needs lensrt (the same version) and the modules of the "
+                                   "job's functions and context importable") from None
         self._shipped.append(name)
         while len(self._shipped) > MAX_SHIPPED_CONTEXTS:
             self._unship(self._shipped.pop(0))
