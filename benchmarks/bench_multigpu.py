@@ -40,10 +40,11 @@ def _digest(value: object) -> str:
     return hashlib.sha256(pickle.dumps(value, protocol=5)).hexdigest()[:16]
 
 
-def _warm_job(job):
-    """The first few items of ``job`` (one per device is enough to prepare every device)."""
+def _warm_job(job, n_devices: int):
+    """The first 2 items per device of ``job``: enough that every device prepares the context and loads
+    its Warp module (items are handed out dynamically; ``--repeat`` absorbs a device that got none)."""
     from lensrt.parallel import Job
-    return Job(job.items[: max(1, min(len(job.items), 64))], job.run, job.reduce, context=job.context,
+    return Job(job.items[: max(1, min(len(job.items), 2 * n_devices))], job.run, job.reduce, context=job.context,
                prepare=job.prepare, name=job.name + "-warmup", uses_device=job.uses_device)
 
 
@@ -88,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         devs = devices[:n]
         ex = DaskExecutor.local(n, devs) if args.executor == "dask" else LocalExecutor(devs)
         with ex:
-            ex.run(_warm_job(job))
+            ex.run(_warm_job(job, n))
             times, digest = [], None
             for _ in range(max(1, args.repeat)):
                 t0 = time.perf_counter()

@@ -145,13 +145,15 @@ def sweep_job(setup: SweepSetup, focus_distances_mm: Sequence[float],
 
 
 def sweep_workload(size: str, seed: int) -> Job:
-    """Benchmark factory: a focus x f-number grid on the default lens (``n_focus``, ``n_fnumber``)."""
+    """Benchmark factory: a focus x f-number grid (``n_focus``, ``n_fnumber``) on a library ``lens``."""
     import numpy as np
 
     from .loading import load_lens
     from .parallel.workloads import parse_size
-    p = parse_size(size, {"tiny": {"n_focus": 8, "n_fnumber": 4}, "small": {"n_focus": 50, "n_fnumber": 20},
-                          "large": {"n_focus": 400, "n_fnumber": 50}})
+    lens = "codev_dblgauss_100mm_f2"
+    p = parse_size(size, {"tiny": {"n_focus": 8, "n_fnumber": 4, "lens": lens},
+                          "small": {"n_focus": 50, "n_fnumber": 20, "lens": lens},
+                          "large": {"n_focus": 400, "n_fnumber": 50, "lens": lens}})
     focus = list(np.geomspace(300.0, 1e5, p["n_focus"]))
     fnum = list(np.geomspace(2.0, 22.0, p["n_fnumber"]))
-    return sweep_job(SweepSetup(load_lens(None)), focus, fnum, seed)
+    return sweep_job(SweepSetup(load_lens(p["lens"])), focus, fnum, seed)

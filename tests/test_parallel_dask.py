@@ -42,6 +42,13 @@ def test_two_worker_processes_give_the_single_process_psf_map(cluster, reference
     assert "dask local cluster, 2 worker(s)" in res.executor
 
 
+def test_items_in_chunks_give_the_same_map(cluster, reference) -> None:
+    chunked = DaskExecutor(client=cluster.client, devices="cpu", chunk_size=3)
+    res = chunked.run(W.make_job(8))
+    assert np.array_equal(res.value["sum_of_unit_psfs"], reference.value["sum_of_unit_psfs"])
+    assert chunked._chunk(W.make_job(8)) == 3
+
+
 def test_context_is_shipped_and_prepared_once_per_worker(cluster) -> None:
     setup = W.HistogramSetup(n_bins=16)  # a context no other test ships
     res = cluster.run(W.make_job(10, setup=setup))

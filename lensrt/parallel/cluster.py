@@ -7,9 +7,9 @@ a ``LocalCluster`` of worker processes on loopback. For each job it
    registered under the context's content hash, so every worker -- and every
    worker that joins or is restarted later -- receives it exactly once and keeps
    it in a process-level store; tasks carry only the 64-character hash;
-2. submits one task per item (costly items first) with ``resources={"GPU": 1}``
-   when the job runs on CUDA, so a worker started with ``--resources GPU=1``
-   runs one GPU task at a time;
+2. submits one task per item (costly items first; host-only jobs of many cheap
+   items in chunks) with ``resources={"GPU": 1}`` when the job runs on CUDA,
+   so a worker started with ``--resources GPU=1`` runs one GPU task at a time;
 3. streams results back with ``as_completed`` and folds them in item-index
    order (:class:`~lensrt.parallel.work.OrderedFold`), so the value does not
    depend on which worker finished first.
@@ -78,15 +78,15 @@ def worker_device(spec: str | None) -> str:
     return resolve_devices(spec)[0]
 
 
-def _run_task(run: Any, prepare: Any, context_hash: str, item: WorkItem, device_spec: str | None,
-              uses_device: bool) -> ItemOutcome:
-    """The Dask task of one item: fetch the shipped context, pick the device, run the item."""
+def _run_task(items: tuple[WorkItem, ...], *, run: Any, prepare: Any, context_hash: str,
+              device_spec: str | None, uses_device: bool) -> list[ItemOutcome]:
+    """The Dask task of a chunk of items: fetch the shipped context, pick the device, run each item."""
     context = stored_context(context_hash)
     if not uses_device:
-        return execute_item(run, prepare, context, context_hash, item, "cpu")
+        return [execute_item(run, prepare, context, context_hash, it, "cpu") for it in items]
     device = worker_device(device_spec)
     with device_scope(device, own_stream=False):
-        return execute_item(run, prepare, context, context_hash, item, device)
+        return [execute_item(run, prepare, context, context_hash, it, device) for it in items]
 
 
 def _wants_cuda(spec: str | Sequence[str] | None) -> bool:
@@ -116,11 +116,14 @@ class DaskExecutor:
         Request ``resources={"GPU": 1}`` per task of a device job. Default:
         when the devices name CUDA, or (remote, ``"auto"``) when some worker
         advertises a GPU resource.
+    chunk_size : int, optional
+        Items per Dask task (see :meth:`_chunk` for the default). A chunk is
+        retried as a whole; the fold drops indices it already has.
     """
 
     def __init__(self, address: str | None = None, *, n_workers: int | None = None,
                  devices: str | Sequence[str] | None = None, client: Any = None,
-                 gpu_tasks: bool | None = None) -> None:
+                 gpu_tasks: bool | None = None, chunk_size: int | None = None) -> None:
         distributed = _import_distributed()
         self._own_client = client is None
         self._cluster = None
@@ -149,6 +152,7 @@ class DaskExecutor:
             from ._dask_plugins import DevicePlugin
             self.client.register_plugin(DevicePlugin(self._local_devices), name="lensrt-devices")
         self._gpu_tasks = gpu_tasks
+        self._chunk_size = chunk_size
         self._shipped: list[str] = []
 
     @classmethod
@@ -203,21 +207,25 @@ class DaskExecutor:
         token = uuid.uuid4().hex[:12]
         spec = None if self._local_devices is not None else (self._spec if isinstance(self._spec, str)
                                                               else ",".join(self._spec or ()) or None)
-        pending = {}
-        for i in job.schedule_order():
-            fut = self.client.submit(
-                _run_task, job.run, job.prepare, ctx_hash, job.items[i], spec, job.uses_device,
-                key=f"lensrt-{job.name}-{token}-{i}", resources=resources, pure=False)
-            pending[fut.key] = fut
+        order = job.schedule_order()
+        k = self._chunk(job)
+        chunks = [tuple(job.items[i] for i in order[j:j + k]) for j in range(0, len(order), k)]
+        futures = self.client.map(
+            _run_task, chunks, run=job.run, prepare=job.prepare, context_hash=ctx_hash, device_spec=spec,
+            uses_device=job.uses_device, key=[f"lensrt-{job.name}-{token}-{c[0].index}" for c in chunks],
+            resources=resources, pure=False)
+        pending = {f.key: f for f in futures}
+        del futures
         stream = distributed.as_completed(list(pending.values()), with_results=True)
         fold = OrderedFold(job.reduction, len(job.items))
         n = len(job.items)
         try:
-            for fut, outcome in stream:
+            for fut, outcomes in stream:
                 # drop our reference at once: a result already here is never recomputed when its
                 # worker dies later, and the fold ignores any second delivery of an index anyway
                 pending.pop(fut.key, None)
-                fold.add(outcome)
+                for outcome in outcomes:
+                    fold.add(outcome)
                 if progress:
                     progress(fold.received, n)
         except RuntimeError as err:
@@ -236,6 +244,15 @@ class DaskExecutor:
             pending.clear()
         return finish_result(fold, job, started, self.describe(), self.devices,
                              workers=sorted(set(fold.item_workers)))
+
+    def _chunk(self, job: Job) -> int:
+        """Items per task: as given, else 1 for device jobs (each item is heavy) and, for host-only
+        jobs, enough to make about 8 tasks per worker (Dask costs about a millisecond per task)."""
+        if self._chunk_size is not None:
+            return max(1, int(self._chunk_size))
+        if job.uses_device:
+            return 1
+        return max(1, len(job.items) // (8 * max(1, self.n_workers())))
 
     def _ship(self, ctx_hash: str, context: Any) -> None:
         """Register the context's worker plugin once per executor (kept until :meth:`close`)."""
@@ -260,8 +277,9 @@ class DaskExecutor:
             pass
 
     def close(self) -> None:
-        """Drop the shipped contexts; close the client and the local cluster if this executor started them."""
-        if self._cluster is None:
+        """Drop the shipped contexts from a remote cluster and close the client and the local cluster,
+        where this executor opened them (a client passed in is left as it is)."""
+        if self._own_client and self._cluster is None:
             for name in self._shipped:
                 self._unship(name)
         self._shipped = []
