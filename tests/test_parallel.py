@@ -224,3 +224,20 @@ def test_lensrt_runs_without_dask(monkeypatch, capsys) -> None:
     assert "1 item in" in capsys.readouterr().out
     assert main(["sweep", lens, "--workers", "2"]) == 2
     assert "pip install 'lensrt[dist]'" in capsys.readouterr().err
+
+
+@pytest.mark.gpu
+def test_every_gpu_gives_the_one_gpu_result() -> None:
+    """On a CUDA machine: all GPUs (one thread and stream each) against cuda:0 alone, bit for bit;
+    against the CPU within Monte Carlo agreement (different float math: a few ray bins may differ)."""
+    from lensrt.device import cuda_available
+    if not cuda_available():
+        pytest.skip("no CUDA device")
+    job = W.make_job(12)
+    one = LocalExecutor("cuda:0").run(job)
+    every = LocalExecutor("all").run(job)
+    assert np.array_equal(every.value["map"], one.value["map"])
+    assert np.array_equal(every.value["sum_of_unit_psfs"], one.value["sum_of_unit_psfs"])
+    cpu = LocalExecutor("cpu").run(job)
+    moved = np.abs(cpu.value["map"] - one.value["map"]).sum() / cpu.value["map"].sum()
+    assert moved < 1e-3
