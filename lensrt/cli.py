@@ -39,10 +39,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
+    """Warnings (a glass taken from a file's n_d/V_d, an extrapolated index) as one stderr line."""
+    print(f"lensrt: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status."""
+    import warnings
     parser = build_parser()
     args = parser.parse_args(argv)
+    shown = warnings.showwarning
+    warnings.showwarning = _show_warning
     try:
         return int(args.func(args) or 0)
     except LensrtError as err:
@@ -59,6 +67,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"lensrt: internal error: {type(err).__name__}: {err} "
               "(this is a bug in lensrt; rerun with LENSRT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 3
+    finally:
+        warnings.showwarning = shown
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -23,12 +23,43 @@ def warp() -> Any:
     if _WP is None:
         import warp as wp
         if os.environ.get("LENSRT_WARP_VERBOSE", "") == "":
-            # Warp >= 1.10 logs through config.log_level (config.quiet is gone)
-            wp.config.log_level = getattr(wp, "LOG_WARNING", 30)
-            wp.config.quiet = True
-        wp.init()
+            # Warp 1.19: messages below log_level (its init banner, "Module ... load" lines)
+            # are suppressed; warnings and errors still show
+            wp.config.log_level = wp.LOG_WARNING
+        _init_filtering_stderr(wp)
         _WP = wp
     return _WP
+
+
+_NO_DRIVER = "Could not find or load the NVIDIA CUDA driver"
+
+
+def _init_filtering_stderr(wp: Any) -> None:
+    """``wp.init()`` without the native "no CUDA driver" line on CPU-only machines.
+
+    Warp's C++ core prints it straight to file descriptor 2 when libcuda is
+    absent; lensrt says which device it uses itself, so that line is dropped and
+    anything else the native code prints is passed through.
+    """
+    import sys
+    import tempfile
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real stderr (embedded interpreters)
+        wp.init()
+        return
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        for line in tmp.read().decode("utf-8", "replace").splitlines():
+            if _NO_DRIVER not in line and line.strip():
+                print(line, file=sys.stderr)
 
 
 def cuda_available() -> bool:

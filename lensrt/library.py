@@ -42,11 +42,12 @@ def resolve_lens_path(name: str | Path | None) -> Path:
     p = Path(name)
     if p.exists():
         return p
-    if p.suffix == "" or p.suffix == ".toml":
-        cand = library_dir() / (p.stem + ".toml")
-        if cand.exists() and (p.parent == Path(".")):
-            return cand
-    if p.parent == Path(".") and p.suffix == "":
+    if p.parent == Path("."):
+        # a library name may contain dots (nikkor_50mm_f1.4): try NAME.toml, then NAME as NAME.toml
+        for cand in (library_dir() / (p.name + ".toml"), library_dir() / p.name):
+            if cand.suffix == ".toml" and cand.exists():
+                return cand
+    if p.parent == Path(".") and p.suffix.lower() not in (".toml", ".zmx", ".seq", ".dat"):
         names = ", ".join(q.stem for q in library_lenses())
         raise LensrtError(f"no lens file or library lens named {str(name)!r}",
                           hint=f"library lenses: {names}")

@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from .errors import located
 from .prescription.formats import read_lens
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
@@ -23,10 +24,11 @@ def complete_lens(lens: Lens) -> Lens:
     the fallback where real rays fail; the method used is recorded in
     ``lens.meta["clear_apertures"]``.
     """
-    if any(s.semi_diameter_mm is None for s in lens.surfaces):
-        from .trace.apertures import compute_clear_apertures
-        lens = compute_clear_apertures(lens)
-    check_geometry(lens)
+    with located(lens.path):
+        if any(s.semi_diameter_mm is None for s in lens.surfaces):
+            from .trace.apertures import compute_clear_apertures
+            lens = compute_clear_apertures(lens)
+        check_geometry(lens)
     return lens
 
 

@@ -11,7 +11,7 @@ import math
 __all__ = [
     "MM_PER_UNIT", "length_to_mm", "NM_PER_UM", "UM_PER_MM", "MM_PER_M", "NM_PER_MM",
     "deg_to_rad", "rad_to_deg", "PLANCK_J_S", "LIGHT_SPEED_M_S", "FRAUNHOFER_NM",
-    "PRIMARY_D_NM",
+    "PRIMARY_D_NM", "M_PER_NM", "M_PER_UM", "M2_PER_UM2", "LUMINOUS_EFFICACY_LM_PER_W",
 ]
 
 #: millimetres per unit of length, for the unit names that lens files use
@@ -27,6 +27,14 @@ NM_PER_UM = 1000.0
 UM_PER_MM = 1000.0
 MM_PER_M = 1000.0
 NM_PER_MM = 1.0e6
+
+#: metres per nanometre / micrometre, square metres per square micrometre (SI radiometry)
+M_PER_NM = 1.0e-9
+M_PER_UM = 1.0e-6
+M2_PER_UM2 = 1.0e-12
+
+#: maximum luminous efficacy K_m of photopic vision (lm/W), CIE; lux = K_m * int E_lambda V(lambda) dlambda
+LUMINOUS_EFFICACY_LM_PER_W = 683.002
 
 #: Planck constant (J s) and speed of light (m/s), CODATA exact values
 PLANCK_J_S = 6.62607015e-34

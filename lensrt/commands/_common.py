@@ -5,7 +5,7 @@ import argparse
 import sys
 from typing import Any
 
-__all__ = ["add_lens_argument", "print_json", "emit"]
+__all__ = ["add_lens_argument", "add_reader_options", "reader_options", "print_json", "emit"]
 
 
 def add_lens_argument(parser: argparse.ArgumentParser, optional: bool = True) -> None:
@@ -13,6 +13,26 @@ def add_lens_argument(parser: argparse.ArgumentParser, optional: bool = True) ->
     parser.add_argument("file", nargs="?" if optional else None, default=None, metavar="FILE",
                         help="lens file (.toml, .zmx, .seq, .dat) or library lens name; "
                              "default: the built-in 50 mm f/2 double Gauss")
+
+
+def add_reader_options(parser: argparse.ArgumentParser) -> None:
+    """``--format`` and the format-specific reader options (``--pbrt-thickness``, ``--pbrt-field-deg``)."""
+    parser.add_argument("--format", choices=["native", "zemax", "codev", "pbrt"],
+                        help="file format (default: from the extension)")
+    parser.add_argument("--pbrt-thickness", choices=["auto", "next", "previous"], default=None,
+                        help="pbrt tables: column 2 is the distance to the next surface (scaled *.NNmm.dat) or "
+                             "from the previous one (unscaled 'axpos' tables); default: detected")
+    parser.add_argument("--pbrt-field-deg", type=float, default=None, metavar="DEG",
+                        help="pbrt tables: largest field half-angle (default: the paraxial chief-ray limit)")
+
+
+def reader_options(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments for :func:`lensrt.loading.load_lens` from :func:`add_reader_options`' options."""
+    opts: dict[str, Any] = {"format": getattr(args, "format", None)}
+    for key in ("pbrt_thickness", "pbrt_field_deg"):
+        if getattr(args, key, None) is not None:
+            opts[key] = getattr(args, key)
+    return opts
 
 
 def print_json(value: Any) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
 
 __all__ = ["register"]
 
@@ -16,14 +16,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     s = lsub.add_parser("show", help="surface table with materials and indices")
     add_lens_argument(s)
-    s.add_argument("--format", choices=["native", "zemax", "codev", "pbrt"], help="file format (default: by extension)")
+    add_reader_options(s)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_show)
 
     c = lsub.add_parser("convert", help="convert any supported file to the native TOML format")
     c.add_argument("input", metavar="IN")
     c.add_argument("output", metavar="OUT.toml")
-    c.add_argument("--format", choices=["native", "zemax", "codev", "pbrt"], help="input format")
+    add_reader_options(c)
     c.set_defaults(func=cmd_convert)
 
     l_ = lsub.add_parser("list", help="the lens library with focal length, f-number and field")
@@ -63,8 +63,7 @@ def lens_table(lens) -> tuple[list[list], list[str]]:
 def cmd_show(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    opts = {"format": args.format} if args.format else {}
-    lens = load_lens(args.file, **opts)
+    lens = load_lens(args.file, **reader_options(args))
     rows, headers = lens_table(lens)
     if args.json:
         print_json({"name": lens.name, "source": lens.source, "path": lens.path,
@@ -101,7 +100,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".toml":
         raise LensrtError(f"output {out} must be a .toml file (the native format)")
-    lens = read_lens(args.input, format=args.format)
+    lens = read_lens(args.input, **reader_options(args))
     complete_lens(lens)  # fail on impossible geometry before writing anything
     write_native(lens, out)
     emit(f"wrote {out} ({lens.n_surfaces} surfaces)")
@@ -122,9 +121,15 @@ def cmd_list(args: argparse.Namespace) -> int:
             field = f"{2 * math.degrees(f.max_radial):.1f} deg"
         else:
             field = f"{2 * f.max_radial:.1f} mm"
-        rows.append([path.stem, fo.efl_mm, fo.f_number, field, lens.n_surfaces, lens.name])
+        if math.isinf(lens.object_distance_mm):
+            fno, obj = f"{fo.f_number:.2f}", "inf"
+        else:  # a lens stored at a finite conjugate (macro): its working f-number and magnification
+            fno, obj = f"{fo.working_f_number:.2f}w", f"{lens.object_distance_mm:.1f} mm (m {fo.magnification:.2f})"
+        rows.append([path.stem, fo.efl_mm, fno, field, obj, lens.n_surfaces, lens.name])
     if args.json:
-        print_json([dict(zip(["name", "efl_mm", "f_number", "full_field", "surfaces", "title"], r)) for r in rows])
+        print_json([dict(zip(["name", "efl_mm", "f_number", "full_field", "object", "surfaces", "title"], r))
+                    for r in rows])
         return 0
-    emit(format_table(rows, ["name", "efl_mm", "f/#", "full field", "surfaces", "title"], digits=2))
+    emit(format_table(rows, ["name", "efl_mm", "f/#", "full field", "object", "surfaces", "title"], digits=2))
+    emit("f/#: image-space f-number at infinity focus; 'w': working f-number at the stored object distance")
     return 0

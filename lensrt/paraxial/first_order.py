@@ -1,9 +1,20 @@
 """First-order (Gaussian) data of a lens at one wavelength and object distance.
 
-Field Guide p. 4-10, 30-31. Axial positions ``*_z_mm`` are measured from the
-first vertex, +z toward the image; ``bfl_mm`` runs from the last vertex to the
-rear focal point and ``ffl_mm`` is the z of the front focal point (negative
-when it lies in front of the lens, as CODE V prints FFL).
+Field Guide p. 2-10, 17, 30-31. Axial positions ``*_z_mm`` are measured from the
+first vertex, +z toward the image. ``bfl_mm`` runs from the last vertex to the
+rear focal point F'; ``ffl_mm`` is the z of the front focal point F (negative
+when F lies in front of the lens, as CODE V prints FFL).
+
+Focal lengths (p. 6): the effective focal length is f_E = 1/Phi, the front and
+rear effective focal lengths are f = n/Phi and f' = n'/Phi, with n the
+object-space and n' the image-space index (f = f' = f_E for a lens in air).
+The f-number is N = f/D (p. 30) with D the entrance-pupil diameter; with the
+front focal length in it the camera equation E = (pi/4) L T / N^2 holds in any
+media. The pupil distances of p. 10 use the Field Guide's signs: s_EP runs from
+the front principal plane P to the entrance pupil, positive toward the object;
+s'_XP from the rear principal plane P' to the exit pupil, positive toward the
+image. They equal (1 - 1/mp) f and (1 - mp) f', because the pupils are
+conjugate through the whole lens with magnification mp.
 """
 from __future__ import annotations
 
@@ -17,17 +28,29 @@ from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
 
 __all__ = ["FirstOrder", "first_order", "pupils", "Pupils", "entrance_pupil_diameter_mm",
-           "marginal_ray", "chief_ray", "field_slope_and_height"]
+           "marginal_ray", "chief_ray", "field_slope_and_height", "paraxial_rays"]
+
+#: a matrix element below this (relative) counts as zero: a pupil or image at infinity
+_TINY = 1e-15
 
 
 @dataclass(frozen=True)
 class Pupils:
-    """Paraxial pupils: images of the stop (p. 9). Positions are z from the first vertex."""
+    """Paraxial pupils: images of the stop (p. 9). Positions are z from the first vertex.
+
+    ``exit_z_mm`` and ``exit_magnification`` are ``inf`` for an image-space
+    telecentric lens (exit pupil at infinity).
+    """
 
     entrance_z_mm: float
-    entrance_magnification: float  # stop radius / entrance-pupil radius
+    entrance_magnification: float  # stop radius / entrance-pupil radius (signed)
     exit_z_mm: float
-    exit_magnification: float  # exit-pupil radius / stop radius
+    exit_magnification: float  # exit-pupil radius / stop radius (signed)
+
+    @property
+    def pupil_magnification_signed(self) -> float:
+        """Lateral magnification from the entrance to the exit pupil (signed)."""
+        return self.exit_magnification / self.entrance_magnification
 
 
 def pupils(system: ParaxialSystem) -> Pupils:
@@ -35,31 +58,42 @@ def pupils(system: ParaxialSystem) -> Pupils:
     s, N = system.stop_index, system.n_surfaces
     front = system.matrix(0, s - 1, include_last_transfer=True) if s > 0 else np.eye(2)
     a, b = front[0]
-    if abs(a) < 1e-15:
-        raise LensrtError("the entrance pupil is at infinity (the stop is at a focal point of the front group)")
+    if abs(a) < _TINY * max(1.0, abs(b)):
+        raise LensrtError("the entrance pupil is at infinity (the stop is at the rear focal point of the "
+                          "group in front of it: an object-space telecentric lens)",
+                          hint="lensrt's first-order data need a finite entrance pupil")
     z_ep = b * system.index[0] / a
     rear = system.matrix(s, N - 1)
     (ra, rb), (rc, rd) = rear
-    if abs(rd) < 1e-15:
-        raise LensrtError("the exit pupil is at infinity (image-space telecentric lens)")
-    d = -rb * system.index[-1] / rd
     z_last = float(system.vertex_z_mm[N - 1])
+    if abs(rd) < _TINY * max(1.0, abs(rb)):
+        return Pupils(float(z_ep), float(a), math.inf, math.inf)
+    d = -rb * system.index[-1] / rd
     return Pupils(float(z_ep), float(a), z_last + float(d), float(1.0 / rd))
 
 
-def entrance_pupil_diameter_mm(lens: Lens, system: ParaxialSystem, pup: Pupils, efl_mm: float) -> float:
-    """Entrance-pupil diameter implied by the lens's aperture specification."""
+def entrance_pupil_diameter_mm(lens: Lens, system: ParaxialSystem, pup: Pupils, efl_mm: float,
+                               object_distance_mm: float | None = None) -> float:
+    """Entrance-pupil diameter (mm) implied by the lens's aperture specification.
+
+    ``image_fno`` gives D = f/N with f = n/Phi the front focal length (so that
+    N = f/D holds, p. 30); ``object_na`` the pupil that the axial object point at
+    ``object_distance_mm`` (default: the lens's own) sees under that NA.
+    """
     ap = lens.aperture
     if ap.kind == "epd":
         return ap.value
     if ap.kind == "image_fno":
-        return abs(efl_mm) / ap.value
+        return abs(system.index[0] * efl_mm) / ap.value
     if ap.kind == "float_by_stop":
         sd = lens.surfaces[lens.stop_index].semi_diameter_mm
         return 2.0 * sd / abs(pup.entrance_magnification)  # type: ignore[operator]
-    # object-space NA: the marginal ray from the axial object point to the pupil edge
+    d = lens.object_distance_mm if object_distance_mm is None else object_distance_mm
+    if math.isinf(d):
+        raise LensrtError("the aperture is an object-space NA but the object is at infinity",
+                          hint="give a finite object distance, or an entrance-pupil diameter")
     n0 = system.index[0]
-    dist = pup.entrance_z_mm + lens.object_distance_mm
+    dist = pup.entrance_z_mm + d
     return 2.0 * dist * math.tan(math.asin(min(ap.value / n0, 0.999999)))
 
 
@@ -67,41 +101,49 @@ def field_slope_and_height(lens: Lens, value: float, object_distance_mm: float, 
                            system: ParaxialSystem | None = None, epd_mm: float | None = None) -> tuple[float, float]:
     """Object-space slope u0 and surface-1 height y1 of the chief ray for a radial field ``value``.
 
-    ``value`` is in the lens's field unit (rad or mm). Image-height fields
-    are converted with a unit chief ray through ``system``.
+    ``value`` is in the lens's field unit (rad for angles, mm for heights).
+    Angles give u0 = tan(angle) (CODE V's and OpticStudio's paraxial chief ray);
+    object heights a ray from the object point to the entrance-pupil centre;
+    image heights are reached by scaling a unit chief ray traced through
+    ``system`` to the paraxial image plane.
     """
     kind = lens.fields.kind
     if kind == "angle":
         u0 = math.tan(value)
         return u0, -u0 * ep_z_mm
     if kind == "object_height":
+        if math.isinf(object_distance_mm):
+            raise LensrtError("fields are object heights but the object is at infinity",
+                              hint="use field angles, or give a finite object distance")
         u0 = -value / (ep_z_mm + object_distance_mm)
         return u0, value + u0 * object_distance_mm
     # image heights: scale a unit chief ray to reach the requested paraxial image height
-    assert system is not None
+    if system is None:
+        system = paraxial_system(lens)
     if math.isinf(object_distance_mm):
         u_unit, y_unit = 1e-3, -1e-3 * ep_z_mm
     else:
         u_unit = -1.0 / (ep_z_mm + object_distance_mm)
         y_unit = 1.0 + u_unit * object_distance_mm
     ray = trace_ynu(system, y_unit, u_unit)
-    img_z = _image_plane_offset(lens, system, object_distance_mm, ep_z_mm, epd_mm)
-    h = ray.y[-2] + img_z * ray.u[-1]
-    scale = value / h if h != 0 else 0.0
+    m = marginal_ray(system, object_distance_mm, ep_z_mm, 1.0 if epd_mm is None else epd_mm)
+    img = m.axis_crossing_mm()
+    if math.isinf(img):
+        raise LensrtError("the image is at infinity (afocal at this object distance): image-height fields "
+                          "are undefined")
+    h = ray.height_at(img)
+    if h == 0.0:
+        raise LensrtError("the chief ray does not reach the image plane off axis: image-height fields "
+                          "are undefined for this lens")
+    scale = value / h
     return u_unit * scale, y_unit * scale
 
 
-def _image_plane_offset(lens: Lens, system: ParaxialSystem, object_distance_mm: float, ep_z_mm: float,
-                        epd_mm: float | None) -> float:
-    """Distance from the last vertex to the paraxial image plane."""
-    m = marginal_ray(system, object_distance_mm, ep_z_mm, 1.0 if epd_mm is None else epd_mm)
-    if m.u[-1] == 0.0:
-        raise LensrtError("the image is at infinity (afocal system at this object distance)")
-    return -m.y[-2] / m.u[-1]
-
-
 def marginal_ray(system: ParaxialSystem, object_distance_mm: float, ep_z_mm: float, epd_mm: float) -> ParaxialRay:
-    """Paraxial marginal ray: from the axial object point to the edge of the entrance pupil."""
+    """Paraxial marginal ray: from the axial object point to the top of the entrance pupil.
+
+    For an object at infinity: parallel to the axis at height D/2.
+    """
     r = 0.5 * epd_mm
     if math.isinf(object_distance_mm):
         return trace_ynu(system, r, 0.0)
@@ -116,17 +158,48 @@ def chief_ray(lens: Lens, system: ParaxialSystem, value: float, object_distance_
     return trace_ynu(system, y1, u0)
 
 
+def paraxial_rays(lens: Lens, wavelength_nm: float | None = None, object_distance_mm: float | None = None,
+                  field: float | None = None) -> tuple[ParaxialRay, ParaxialRay, ParaxialSystem]:
+    """Marginal and chief rays (full aperture, full field by default) and the system they went through.
+
+    ``field`` is a radial field value in the lens's field unit (default: the
+    largest field). These are the rays of CODE V's ``fio`` table.
+    """
+    sysm = paraxial_system(lens, wavelength_nm)
+    d_obj = lens.object_distance_mm if object_distance_mm is None else float(object_distance_mm)
+    pup = pupils(sysm)
+    phi = _power(sysm)
+    epd = entrance_pupil_diameter_mm(lens, sysm, pup, 1.0 / phi, d_obj)
+    m = marginal_ray(sysm, d_obj, pup.entrance_z_mm, epd)
+    fval = lens.fields.max_radial if field is None else float(field)
+    c = chief_ray(lens, sysm, fval, d_obj, pup.entrance_z_mm, epd)
+    return m, c, sysm
+
+
+def _power(system: ParaxialSystem) -> float:
+    phi = -float(system.matrix(0, system.n_surfaces - 1)[1, 0])
+    if abs(phi) < 1e-15:
+        raise LensrtError("the lens has no power (afocal): first-order data are undefined")
+    return phi
+
+
 @dataclass(frozen=True)
 class FirstOrder:
-    """Gaussian data of a lens; see the module docstring for positions and signs."""
+    """Gaussian data of a lens; see the module docstring for positions and signs.
+
+    Lengths in mm, ``*_z_mm`` from the first vertex; infinite quantities are
+    ``inf`` (``None`` for the object distance at infinity) and become ``null``
+    in JSON.
+    """
 
     wavelength_nm: float
-    object_distance_mm: float | None  # None = infinity
-    efl_mm: float
-    front_focal_length_mm: float
-    rear_focal_length_mm: float
-    bfl_mm: float
-    ffl_mm: float
+    object_distance_mm: float | None  # from the object to the first vertex; None = infinity
+    object_z_mm: float | None  # z of the object plane (= -object_distance_mm)
+    efl_mm: float  # f_E = 1/Phi
+    front_focal_length_mm: float  # f = n/Phi
+    rear_focal_length_mm: float  # f' = n'/Phi
+    bfl_mm: float  # last vertex -> F'
+    ffl_mm: float  # first vertex -> F (= front_focal_z_mm)
     front_focal_z_mm: float
     rear_focal_z_mm: float
     front_principal_z_mm: float
@@ -137,17 +210,25 @@ class FirstOrder:
     entrance_pupil_diameter_mm: float
     exit_pupil_z_mm: float
     exit_pupil_diameter_mm: float
-    stop_semi_diameter_mm: float
-    pupil_magnification: float
-    f_number: float
-    working_f_number: float
-    image_z_mm: float
-    magnification: float
-    lagrange_invariant: float
-    petzval_sum_per_mm: float
-    total_track_mm: float
-    half_field_deg: float
-    paraxial_image_height_mm: float
+    stop_semi_diameter_mm: float  # the stop radius the aperture specification implies
+    pupil_magnification: float  # mp = D_XP / D
+    entrance_pupil_distance_mm: float  # s_EP: P -> EP, + toward the object (p. 10)
+    exit_pupil_distance_mm: float  # s'_XP: P' -> XP, + toward the image (p. 10)
+    f_number: float  # N = f / D (p. 30)
+    bellows_factor: float  # b = 1 + |m| / mp (p. 31)
+    working_f_number: float  # Nw = b N
+    image_z_mm: float  # paraxial image of the object plane
+    image_distance_mm: float  # last vertex -> paraxial image
+    image_surface_distance_mm: float  # last vertex -> the lens's image surface (CODE V IMG DIS)
+    unit_focus_extension_mm: float  # paraxial image z - F' z: the extension e of a unit-focusing lens (p. 12)
+    magnification: float  # m = n u / (n' u') of the marginal ray; 0 at infinity
+    lagrange_invariant: float  # H = n (u_c y_m - u_m y_c), mm (full aperture and field)
+    petzval_sum_per_mm: float  # sum Phi_i / (n_i n'_i)
+    overall_length_mm: float  # first -> last vertex (CODE V OAL)
+    total_track_mm: float  # first vertex -> image surface
+    half_field_deg: float  # largest object-space half field angle (chief-ray slope for heights)
+    paraxial_image_height_mm: float  # at the largest field, in the paraxial image plane
+    field_image_heights_mm: tuple[float, ...]  # at each field point (radial), paraxial image plane
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -157,60 +238,84 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
                 object_distance_mm: float | None = None) -> FirstOrder:
     """First-order data of ``lens`` at ``wavelength_nm`` (default: primary) and object distance.
 
-    ``object_distance_mm`` (from the first vertex; ``inf`` allowed) defaults
-    to the lens's own. The entrance-pupil diameter follows the lens's
-    aperture specification at this wavelength.
+    Parameters
+    ----------
+    lens : Lens
+    wavelength_nm : float, optional
+        Wavelength (nm) for the indices; default the lens's primary wavelength.
+    object_distance_mm : float, optional
+        Distance from the object plane to the first vertex (mm; ``inf``
+        allowed); default the lens's own.
+
+    The entrance-pupil diameter follows the lens's aperture specification at
+    this wavelength and object distance; the image is the paraxial image of the
+    object plane (the lens's image surface is not moved: ``image_surface_distance_mm``
+    keeps the file's last thickness).
     """
     sysm = paraxial_system(lens, wavelength_nm)
     d_obj = lens.object_distance_mm if object_distance_mm is None else float(object_distance_mm)
+    if math.isnan(d_obj) or d_obj <= 0.0:
+        raise LensrtError(f"object distance {d_obj!r} mm must be positive (inf for an object at infinity)")
     N = sysm.n_surfaces
     n0, nk = float(sysm.index[0]), float(sysm.index[-1])
-    full = sysm.matrix(0, N - 1)
-    (A, B), (C, D) = full
-    phi = -C
-    if abs(phi) < 1e-15:
-        raise LensrtError("the lens has no power (afocal): first-order data are undefined")
+    (A, B), (C, D) = sysm.matrix(0, N - 1)
+    phi = _power(sysm)
     efl = 1.0 / phi
     f_front, f_rear = n0 / phi, nk / phi
-    z = sysm.vertex_z_mm
-    z_last = float(z[N - 1])
+    z_last = float(sysm.vertex_z_mm[N - 1])
+    # Cardinal points (p. 4-6): F' from a ray parallel in object space, F from one parallel in image space.
     bfl = A * nk / phi
     front_focal_z = -D * n0 / phi
     rear_focal_z = z_last + bfl
     front_principal_z = front_focal_z + f_front
     rear_principal_z = rear_focal_z - f_rear
+    # Pupils (p. 9-10): images of the stop; mp = D_XP / D.
     pup = pupils(sysm)
-    epd = entrance_pupil_diameter_mm(lens, sysm, pup, efl)
+    epd = entrance_pupil_diameter_mm(lens, sysm, pup, efl, d_obj)
     stop_sd = 0.5 * epd * abs(pup.entrance_magnification)
     xpd = 2.0 * stop_sd * abs(pup.exit_magnification)
     mp = xpd / epd
+    # Object at distance d_obj: marginal ray from the axial object point to the EP's edge.
     m_ray = marginal_ray(sysm, d_obj, pup.entrance_z_mm, epd)
-    if m_ray.u[-1] == 0.0:
-        raise LensrtError("the image is at infinity at this object distance")
-    image_offset = -m_ray.y[N - 1] / m_ray.u[-1]
+    image_offset = m_ray.axis_crossing_mm()
+    if math.isinf(image_offset):
+        raise LensrtError("the image is at infinity at this object distance (the object is at the front "
+                          "focal point)", hint="move the object farther from the lens")
     image_z = z_last + image_offset
-    if math.isinf(d_obj):
-        mag = 0.0
-    else:
-        mag = float(m_ray.nu[0] / m_ray.nu[-1])
-    f_number = efl / epd
+    mag = 0.0 if math.isinf(d_obj) else float(m_ray.nu[0] / m_ray.nu[-1])
+    f_number = abs(f_front) / epd
     bellows = 1.0 + abs(mag) / mp
+    # Chief rays of every field point; the largest gives the Lagrange invariant.
+    radial = [math.hypot(x, y) for x, y in zip(lens.fields.x, lens.fields.y)]
+    heights = []
+    for v in radial:
+        c = chief_ray(lens, sysm, v, d_obj, pup.entrance_z_mm, epd)
+        heights.append(c.height_at(image_offset))
     fmax = lens.fields.max_radial
     c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
-    h_img = float(c_ray.y[N - 1] + image_offset * c_ray.u[-1])
+    h_img = c_ray.height_at(image_offset)
     lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
     petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
-    half_field = math.degrees(math.atan(abs(c_ray.u[0]))) if lens.fields.kind != "angle" else math.degrees(fmax)
+    half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
     return FirstOrder(
         wavelength_nm=sysm.wavelength_nm,
         object_distance_mm=None if math.isinf(d_obj) else d_obj,
+        object_z_mm=None if math.isinf(d_obj) else -d_obj,
         efl_mm=efl, front_focal_length_mm=f_front, rear_focal_length_mm=f_rear,
         bfl_mm=bfl, ffl_mm=front_focal_z, front_focal_z_mm=front_focal_z, rear_focal_z_mm=rear_focal_z,
         front_principal_z_mm=front_principal_z, rear_principal_z_mm=rear_principal_z,
         front_nodal_z_mm=front_focal_z + f_rear, rear_nodal_z_mm=rear_focal_z - f_front,
         entrance_pupil_z_mm=pup.entrance_z_mm, entrance_pupil_diameter_mm=epd,
         exit_pupil_z_mm=pup.exit_z_mm, exit_pupil_diameter_mm=xpd, stop_semi_diameter_mm=stop_sd,
-        pupil_magnification=mp, f_number=f_number, working_f_number=bellows * f_number,
-        image_z_mm=image_z, magnification=mag, lagrange_invariant=lagrange, petzval_sum_per_mm=petzval,
-        total_track_mm=lens.image_z_mm, half_field_deg=half_field, paraxial_image_height_mm=h_img,
+        pupil_magnification=mp,
+        entrance_pupil_distance_mm=front_principal_z - pup.entrance_z_mm,
+        exit_pupil_distance_mm=pup.exit_z_mm - rear_principal_z,
+        f_number=f_number, bellows_factor=bellows, working_f_number=bellows * f_number,
+        image_z_mm=image_z, image_distance_mm=image_offset,
+        image_surface_distance_mm=float(lens.surfaces[-1].thickness_mm),
+        unit_focus_extension_mm=image_z - rear_focal_z,
+        magnification=mag, lagrange_invariant=lagrange, petzval_sum_per_mm=petzval,
+        overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm,
+        half_field_deg=half_field, paraxial_image_height_mm=h_img,
+        field_image_heights_mm=tuple(float(h) for h in heights),
     )

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..prescription.model import Lens
 
-__all__ = ["ParaxialSystem", "ParaxialRay", "paraxial_system", "trace_ynu"]
+__all__ = ["ParaxialSystem", "ParaxialRay", "paraxial_system", "trace_ynu", "trace_ynu_reverse"]
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,16 @@ class ParaxialRay:
 
     @property
     def nu(self) -> np.ndarray:
+        """Reduced slopes n u (object space first)."""
         return self.n * self.u
+
+    def height_at(self, distance_mm: float) -> float:
+        """Height (mm) in image space at ``distance_mm`` after the last surface's vertex."""
+        return float(self.y[-2] + distance_mm * self.u[-1])
+
+    def axis_crossing_mm(self) -> float:
+        """Distance after the last vertex where the ray crosses the axis (inf if parallel)."""
+        return float("inf") if self.u[-1] == 0.0 else float(-self.y[-2] / self.u[-1])
 
 
 def trace_ynu(system: ParaxialSystem, y1_mm: float, u0: float) -> ParaxialRay:
@@ -118,4 +127,29 @@ def trace_ynu(system: ParaxialSystem, y1_mm: float, u0: float) -> ParaxialRay:
         inc[i] = y[i] * system.curvature_per_mm[i] + u[i]
         u[i + 1] = (n[i] * u[i] - y[i] * system.power_per_mm[i]) / n[i + 1]
         y[i + 1] = y[i] + system.thickness_mm[i] * u[i + 1]
+    return ParaxialRay(y, u, n.copy(), inc)
+
+
+def trace_ynu_reverse(system: ParaxialSystem, y_last_mm: float, u_image: float) -> ParaxialRay:
+    """Trace a paraxial ray backward from image space to object space.
+
+    The ray is given by its height ``y_last_mm`` at the last surface and its
+    image-space slope ``u_image`` (after the last surface). Each refraction is
+    inverted, ``n u = n' u' + y Phi``, and each transfer runs backward,
+    ``y_prev = y - t u``. The result has the same layout as :func:`trace_ynu`
+    (heights at every surface and at the image surface, object-space slope
+    first), so a reverse trace of a forward-traced ray returns that ray.
+    """
+    N = system.n_surfaces
+    y = np.empty(N + 1)
+    u = np.empty(N + 1)
+    inc = np.empty(N)
+    n = system.index
+    y[N - 1], u[N] = y_last_mm, u_image
+    y[N] = y_last_mm + system.thickness_mm[N - 1] * u_image
+    for i in range(N - 1, -1, -1):
+        u[i] = (n[i + 1] * u[i + 1] + y[i] * system.power_per_mm[i]) / n[i]
+        inc[i] = y[i] * system.curvature_per_mm[i] + u[i]
+        if i > 0:
+            y[i - 1] = y[i] - system.thickness_mm[i - 1] * u[i]
     return ParaxialRay(y, u, n.copy(), inc)

@@ -99,7 +99,9 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     format : str, optional
         One of :data:`FORMATS`; by default from the extension.
     **options
-        Passed to the format's reader (e.g. ``pbrt_thickness="next"``).
+        Reader options named ``<format>_<option>`` (e.g. ``pbrt_thickness="next"``,
+        ``pbrt_field_deg=20``); ``None`` values are ignored. An option for
+        another format than the file's is an error.
 
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
@@ -108,6 +110,15 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     fmt = format or detect_format(path, text)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
+    kwargs = {}
+    for key, value in options.items():
+        if value is None:
+            continue
+        prefix, _, name = key.partition("_")
+        if prefix != fmt or not name:
+            raise PrescriptionError(f"option {key.replace('_', '-')} does not apply to a {fmt} file", path=path,
+                                    hint="options are named after the format they apply to (pbrt-thickness)")
+        kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
-    return reader(path, text=text, **options)
+    return reader(path, text=text, **kwargs)

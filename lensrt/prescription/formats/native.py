@@ -241,6 +241,23 @@ def _f(x: float) -> str:
     return r
 
 
+def _deg(angle_rad: float) -> str:
+    """Degrees text that reads back (``x * pi / 180``) to exactly ``angle_rad``.
+
+    ``degrees(radians(x))`` is not always ``x`` in floating point, so the
+    neighbours of ``degrees(angle_rad)`` are tried; every angle a reader
+    produced from degrees is found within a few ulps.
+    """
+    d = math.degrees(angle_rad)
+    up = down = d
+    for _ in range(8):
+        for cand in (up, down):
+            if cand * (math.pi / 180.0) == angle_rad:
+                return _f(cand)
+        up, down = math.nextafter(up, math.inf), math.nextafter(down, -math.inf)
+    return _f(d)
+
+
 def _s(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
 
@@ -251,9 +268,11 @@ def _material(m: Material) -> str:
     if isinstance(m, CatalogGlass):
         return f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)} }}"
     if isinstance(m, ModelGlass):
-        return f"{{ nd = {_f(m.nd)}, vd = {_f(m.vd)} }}"
+        name = "" if m.name == ModelGlass(m.nd, m.vd).name else f", name = {_s(m.name)}"
+        return f"{{ nd = {_f(m.nd)}, vd = {_f(m.vd)}{name} }}"
     if isinstance(m, ConstantIndex):
-        return f"{{ index = {_f(m.n)} }}"
+        name = "" if m.name == ConstantIndex(m.n).name else f", name = {_s(m.name)}"
+        return f"{{ index = {_f(m.n)}{name} }}"
     raise PrescriptionError(f"cannot write material {m!r} in the native format")
 
 
@@ -274,17 +293,17 @@ def dumps_native(lens: Lens) -> str:
         out.append(f"object_material = {_material(lens.object_material)}")
     out += ["", "[aperture]", f"type = {_s(lens.aperture.kind)}", f"value = {_f(lens.aperture.value)}"]
     ir = lens.iris
-    out += ["", "[iris]", f"blades = {ir.blades}", f"rotation_deg = {_f(math.degrees(ir.rotation_rad))}"]
+    out += ["", "[iris]", f"blades = {ir.blades}", f"rotation_deg = {_deg(ir.rotation_rad)}"]
     if ir.roundness:
         out.append(f"roundness = {_f(ir.roundness)}")
     if ir.obstruction_ratio:
         out.append(f"obstruction_ratio = {_f(ir.obstruction_ratio)}")
     fd = lens.fields
-    scale = 180.0 / math.pi if fd.kind == "angle" else 1.0
+    conv = _deg if fd.kind == "angle" else _f
     out += ["", "[fields]", f"type = {_s(fd.kind)}",
-            "y = [" + ", ".join(_f(v * scale) for v in fd.y) + "]"]
+            "y = [" + ", ".join(conv(v) for v in fd.y) + "]"]
     if any(fd.x):
-        out.append("x = [" + ", ".join(_f(v * scale) for v in fd.x) + "]")
+        out.append("x = [" + ", ".join(conv(v) for v in fd.x) + "]")
     out.append("weights = [" + ", ".join(_f(v) for v in fd.weights) + "]")
     wl = lens.wavelengths
     out += ["", "[wavelengths]", "nm = [" + ", ".join(_f(v) for v in wl.nm) + "]",

@@ -1,0 +1,99 @@
+"""``lensrt render [SCENE]``: render a scene through its lens; ``--plan`` shows what a render would do."""
+from __future__ import annotations
+
+import argparse
+
+from ..errors import LensrtError
+from ._common import emit, print_json
+
+__all__ = ["register"]
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("render", help="render a scene through the lens (--plan: show the render plan)")
+    p.add_argument("scene", nargs="?", default=None, metavar="SCENE",
+                   help="scene file (.toml) or built-in scene name; default: the built-in default scene")
+    p.add_argument("--plan", action="store_true", help="print the scene and the render plan, render nothing")
+    p.add_argument("--list", action="store_true", help="list the built-in scenes")
+    p.add_argument("--lens", metavar="FILE", help="use this lens instead of the scene's")
+    p.add_argument("--preview", metavar="OUT.png",
+                   help="write a quick pinhole view of the scene (no lens: layout and colours only)")
+    p.add_argument("--width", type=int, default=360, metavar="PX", help="--preview width in pixels (default 360)")
+    p.add_argument("--spp", type=int, default=16, help="--preview samples per pixel (default 16)")
+    p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
+    p.add_argument("--json", action="store_true", help="with --plan or --list: one JSON object")
+    p.set_defaults(func=cmd_render)
+
+
+def _load_lens_or_note(scene, override: str | None):
+    """The scene's lens, or ``None`` and the reason when it cannot be loaded (the plan still prints)."""
+    from ..loading import load_lens
+    try:
+        return load_lens(override if override is not None else scene.camera.lens_source), None
+    except LensrtError as err:
+        return None, str(err)
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from ..render.scene import builtin_scenes, load_scene
+    if args.list:
+        rows = []
+        for path in builtin_scenes():
+            s = load_scene(path)
+            rows.append({"name": s.name, "file": str(path), "description": s.description})
+        if args.json:
+            print_json({"scenes": rows})
+        else:
+            width = max(len(r["name"]) for r in rows)
+            for r in rows:
+                emit(f"{r['name']:<{width}}  {r['description']}")
+        return 0
+    scene = load_scene(args.scene)
+    if args.preview:
+        return _preview(args, scene)
+    if args.plan:
+        from ..render.plan import plan_render
+        lens, note = _load_lens_or_note(scene, args.lens)
+        plan = plan_render(scene, lens)
+        if args.json:
+            print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": note})
+            return 0
+        emit(scene.summary())
+        emit("")
+        emit(plan.describe())
+        if note:
+            emit(f"  note         lens not loaded ({note}); lens-dependent choices use defaults")
+        return 0
+    from importlib import import_module
+    try:
+        integrator = import_module("lensrt.render.integrator")
+    except ModuleNotFoundError as err:
+        if err.name != "lensrt.render.integrator":
+            raise
+        raise LensrtError("this build of lensrt has no render integrator yet (lensrt/render/integrator.py)",
+                          hint="`lensrt render SCENE --plan` shows what a render would do") from None
+    lens, note = _load_lens_or_note(scene, args.lens)
+    if lens is None:
+        raise LensrtError(f"cannot load the scene's lens: {note}")
+    return int(integrator.run_cli(args, scene, lens) or 0)
+
+
+def _preview(args: argparse.Namespace, scene) -> int:
+    """Pinhole preview -> 8-bit sRGB PNG, exposed so that the 99th-percentile luminance is white."""
+    import numpy as np
+    from PIL import Image
+    from ..render.preview import preview_pinhole
+    from ..render.spectra import srgb_encode, xyz_to_linear_srgb
+    if args.width < 1 or args.width > 8192 or args.spp < 2:
+        raise LensrtError("--width must be 1-8192 and --spp at least 2")
+    est = preview_pinhole(scene, args.width, samples_per_pixel=args.spp, seed=scene.render.seed, device=args.device)
+    xyz = est.value
+    white = float(np.percentile(xyz[..., 1], 99)) or 1.0
+    rgb = srgb_encode(xyz_to_linear_srgb(xyz / white))
+    try:
+        Image.fromarray((rgb * 255.0 + 0.5).astype(np.uint8)).save(args.preview)
+    except (OSError, ValueError) as err:
+        raise LensrtError(f"cannot write {args.preview!r}: {err}") from None
+    emit(f"{args.preview}: pinhole view of {scene.name!r}, {xyz.shape[1]} x {xyz.shape[0]} px, "
+         f"{est.samples:.3g} rays in {est.seconds:.3g} s; white = {white:.4g} cd/m^2 (99th percentile)")
+    return 0

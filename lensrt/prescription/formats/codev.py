@@ -1,0 +1,420 @@
+"""CODE V sequence (``.seq``) reader: the sequential, rotationally symmetric subset.
+
+Commands (case-insensitive, ``;`` separates commands on one line, ``!``
+starts a comment, ``&`` continues a line):
+
+* lens data: ``SO``, ``S``, ``SI`` (curvature or radius per ``RDM``, thickness,
+  glass), ``STO``, ``CIR`` (a clear semi-diameter; ``CIR EDG`` is a mechanical
+  edge and ignored), ``ASP``/``CON``/``SPH`` with ``K`` and ``A`` .. ``J``
+  (r^4, r^6, ... r^20 -> ``Surface.asphere[1]``, ``[2]``, ...), ``SLB``
+  (label), ``RDY``/``CUY``/``THI``/``GLA`` on the current surface;
+* specification: ``RDM``, ``DIM`` (M, C, I), ``EPD``/``FNO``/``NAO``, ``WL``
+  (nm), ``REF``, ``WTW``, ``XAN``/``YAN``, ``XOB``/``YOB``, ``XIM``/``YIM``,
+  ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
+  ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
+* ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
+  codes), ``PIM`` and other solves/pickups (the value on the S line is the
+  solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end).
+
+A thickness on ``SI`` is a defocus of the image surface from where the last
+thickness puts it; it is added to the last surface's thickness. An object
+thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
+a catalog suffix (``NSK16_SCHOTT``); a number ``nnn.vvv`` is CODE V's
+fictitious glass code (n_d = 1.nnn, V_d = vv.v; ``517.642`` is 1.517/64.2).
+
+Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
+decentred apertures, special surface types, zooms and private catalogs are
+errors naming the file, the line and the command.
+"""
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+from ...errors import PrescriptionError, located
+from ...units import MM_PER_UNIT, deg_to_rad
+from ..materials import AIR, Material, ModelGlass, find_glass
+from ..model import Aperture, Fields, Lens, Surface, Wavelengths
+from ._common import fmt_list, make_lens, parse_number, reject_other_format, substitution_note
+
+__all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
+
+#: object thicknesses at or above this are infinite (CODE V)
+INFINITE_THICKNESS = 1.0e10
+
+IGNORED = {
+    "LEN": "lens start", "INI": "designer initials", "CCY": "variable code", "THC": "variable code",
+    "GLC": "variable code", "PIM": "paraxial image solve (solved thickness kept)", "DER": "derivative increments",
+    "VAL": "constraint value", "POL": "polarisation switch", "PIK": "pickup (picked value kept)",
+    "PUX": "solve (solved value kept)", "PUY": "solve (solved value kept)", "PUI": "solve (solved value kept)",
+    "PUC": "solve (solved value kept)", "PCY": "solve (solved value kept)", "PCX": "solve (solved value kept)",
+    "EDG": "edge thickness solve (solved value kept)", "UMY": "solve (solved value kept)",
+    "UCY": "solve (solved value kept)", "IMY": "solve (solved value kept)", "ICY": "solve (solved value kept)",
+    "CA": "clear aperture mode", "WID": "wide-angle flag", "SPH": "spherical profile",
+}
+UNSUPPORTED = {
+    "XDE": "a decenter", "YDE": "a decenter", "ZDE": "a decenter", "ADE": "a tilt", "BDE": "a tilt",
+    "CDE": "a tilt", "DAR": "a decenter-and-return", "BEN": "a bend (fold)", "REV": "a reverse decenter",
+    "RET": "a coordinate return", "XOD": "an offset decenter", "YOD": "an offset decenter",
+    "ZOD": "an offset decenter", "REFL": "a mirror", "RMD": "a mirror/TIR mode", "DIF": "a diffractive surface",
+    "HOE": "a holographic element", "GRT": "a grating", "HWL": "a diffractive surface", "HOR": "a diffractive surface",
+    "HCT": "a diffractive surface", "HCO": "a diffractive surface", "DOE": "a diffractive surface",
+    "XTO": "a toroidal surface", "YTO": "a toroidal surface", "AAS": "an anamorphic asphere",
+    "CYL": "a cylinder", "SPS": "a special surface", "ZRN": "a Zernike surface", "ZFR": "a Zernike surface",
+    "XYP": "an XY polynomial surface", "UDS": "a user-defined surface", "CUX": "a toroidal curvature",
+    "RDX": "a toroidal radius", "REX": "a rectangular aperture", "REY": "a rectangular aperture",
+    "ELX": "an elliptical aperture", "ELY": "an elliptical aperture", "CIG": "a general aperture",
+    "REG": "a general aperture", "ELG": "a general aperture", "ADX": "a decentred aperture",
+    "ADY": "a decentred aperture", "ARO": "a rotated aperture", "ZOO": "zoom data", "POS": "zoom positions",
+    "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
+    "NSO": "a non-sequential object", "PRV": "a private glass catalog", "PWL": "a private glass catalog",
+    "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
+    "KC": "a conic variable code", "CUF": "a Fresnel/base curvature",
+}
+_ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
+_DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
+_FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
+_KNOWN = set(IGNORED) | set(UNSUPPORTED) | {"RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM",
+                                            "PRE", "STO", "CIR", "ASP", "CON", "SLB", "RDY", "CUY", "THI", "GLA",
+                                            "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM",
+                                            "XRI", "YRI"}
+_FICTITIOUS = re.compile(r"^(\d{3,})\.(\d+)$")
+
+
+def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
+    """Commands of a ``.seq`` text as (1-based line, tokens); quotes kept as one token."""
+    out: list[tuple[int, list[str]]] = []
+    pending: list[str] = []
+    pending_line = 0
+    for no, raw in enumerate(text.splitlines(), start=1):
+        tokens: list[str] = []
+        cmd_start = pending_line if pending else no
+        cur, quote = "", ""
+        cont = False
+        for ch in raw:
+            if quote:
+                cur += ch
+                if ch == quote:
+                    quote = ""
+                continue
+            if ch in "'\"":
+                quote = ch
+                cur += ch
+            elif ch == "!":
+                break
+            elif ch.isspace() or ch == ",":
+                if cur:
+                    tokens.append(cur)
+                cur = ""
+            elif ch == ";":
+                if cur:
+                    tokens.append(cur)
+                cur = ""
+                if pending or tokens:
+                    out.append((cmd_start, pending + tokens))
+                pending, tokens, cmd_start = [], [], no
+            else:
+                cur += ch
+        if cur:
+            tokens.append(cur)
+        if tokens and tokens[-1] == "&":
+            tokens.pop()
+            cont = True
+        if cont:
+            pending, pending_line = pending + tokens, cmd_start
+            continue
+        if pending or tokens:
+            out.append((cmd_start, pending + tokens))
+        pending = []
+    if pending:
+        out.append((pending_line, pending))
+    return out
+
+
+class _Seq:
+    def __init__(self, path: str | None) -> None:
+        self.path = path
+        self.radius_mode = True
+        self.dim = "mm"
+        self.rows: list[dict] = []          # SO, S..., SI as dicts
+        self.spec: dict[str, tuple[list[str], int]] = {}
+        self.title = ""
+        self.notes: list[tuple[str, str]] = []
+        self.subs: dict[str, str] = {}
+
+    def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
+        return PrescriptionError(msg, path=self.path, line=line, hint=hint)
+
+    def num(self, tok: str, what: str, line: int) -> float:
+        return parse_number(tok, what, path=self.path, line=line)
+
+    def cur(self, cmd: str, line: int) -> dict:
+        if not self.rows or self.rows[-1]["kind"] == "SI":
+            raise self.err(f"{cmd} without a surface (it must follow SO or an S line)", line)
+        return self.rows[-1]
+
+    def surface_row(self, kind: str, toks: list[str], line: int) -> None:
+        if kind != "SO" and not self.rows:
+            raise self.err(f"{kind} before SO", line, "a sequence starts with 'SO 0 <object distance>'")
+        if kind == "SO" and self.rows:
+            raise self.err("a second SO", line)
+        if self.rows and self.rows[-1]["kind"] == "SI":
+            raise self.err(f"{kind} after SI", line, "SI is the image surface and comes last")
+        if len(toks) < 2:
+            raise self.err(f"{kind} needs a {'radius' if self.radius_mode else 'curvature'} and a thickness",
+                           line)
+        v = self.num(toks[0], "radius" if self.radius_mode else "curvature", line)
+        curv = (0.0 if v == 0.0 else 1.0 / v) if self.radius_mode else v
+        thick = parse_number(toks[1], "thickness", path=self.path, line=line, allow_inf=kind == "SO")
+        glass = None
+        if len(toks) > 2:
+            glass = toks[2]
+            if glass.upper() == "REFL":
+                raise self.err(f"{kind} ... REFL: mirrors are not supported", line,
+                               "lensrt models refractive lenses only")
+        if len(toks) > 3:
+            raise self.err(f"unexpected {' '.join(toks[3:])!r} after the glass of {kind}", line)
+        self.rows.append(dict(kind=kind, line=line, curv=curv, thick=thick, glass=glass, stop=False, sd=None,
+                              conic=0.0, asph={}, label=""))
+
+    def command(self, line: int, toks: list[str]) -> bool:
+        """Apply one command; returns False at GO."""
+        name = toks[0].upper()
+        args = toks[1:]
+        if len(name) > 3 and name not in ("TITLE",) and name[:3] in _KNOWN:
+            name = name[:3]  # CODE V reads the first three letters: STOP = STO
+        if name in ("SO", "S", "SI"):
+            self.surface_row("S" if name not in ("SO", "SI") else name, args, line)
+            return True
+        if name == "GO":
+            return False
+        if name == "RDM":
+            self.radius_mode = not (args and args[0].upper().startswith("N"))
+            return True
+        if name in ("TIT", "TITLE"):
+            self.title = " ".join(a.strip("'\"") for a in args)
+            return True
+        if name == "DIM":
+            if not args or args[0].upper() not in _DIM:
+                raise self.err(f"unknown DIM {' '.join(args)!r}", line, "use DIM M, C or I")
+            self.dim = _DIM[args[0].upper()]
+            return True
+        if name in ("EPD", "FNO", "NAO", "WL", "REF", "WTW", "WTF", "TEM", "PRE") or \
+                name[:1] in "XY" and name[1:] in _FIELD_KEYS or name in ("VUX", "VLX", "VUY", "VLY"):
+            self.spec[name] = (args, line)
+            return True
+        if name == "STO":
+            self.cur(name, line)["stop"] = True
+            return True
+        if name in ("CIR", "SLB") and self.rows and self.rows[-1]["kind"] == "SI":
+            return True  # the image surface's size and label do not change the optics
+        if name == "CIR":
+            row = self.cur(name, line)
+            quals = [a.upper() for a in args if not _looks_number(a)]
+            vals = [a for a in args if _looks_number(a)]
+            if any(q in ("HOL", "OBS") for q in quals):
+                raise self.err(f"CIR {' '.join(quals)}: holes and obscurations are not supported", line)
+            if "EDG" in quals:
+                return True  # mechanical edge aperture: no effect on the rays
+            if not vals or any(q not in ("CLR",) for q in quals):
+                raise self.err(f"cannot read CIR {' '.join(args)}", line, "use 'CIR <semi-diameter>'")
+            row["sd"] = self.num(vals[0], "semi-diameter", line)
+            return True
+        if name in ("ASP", "CON"):
+            self.cur(name, line)
+            return True
+        if name == "K":
+            self.cur(name, line)["conic"] = self.num(args[0], "conic constant", line)
+            return True
+        if len(name) == 1 and name in _ASPH_LETTERS:
+            row = self.cur(name, line)
+            row["asph"][_ASPH_LETTERS.index(name) + 1] = self.num(args[0], f"aspheric coefficient {name}", line)
+            return True
+        if name == "SLB":
+            self.cur(name, line)["label"] = " ".join(a.strip("'\"") for a in args)
+            return True
+        if name in ("RDY", "CUY", "THI", "GLA"):
+            if args and re.match(r"^S(\d+|O|I)$", args[0], re.IGNORECASE):
+                raise self.err(f"{name} {args[0]}: commands that change another surface are not supported", line,
+                               "write the value on that surface's S line")
+            row = self.cur(name, line)
+            if name == "THI":
+                row["thick"] = self.num(args[0], "thickness", line)
+            elif name == "GLA":
+                row["glass"] = args[0]
+            else:
+                v = self.num(args[0], name, line)
+                row["curv"] = v if name == "CUY" else (0.0 if v == 0.0 else 1.0 / v)
+            return True
+        if name in UNSUPPORTED:
+            raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
+                           "lensrt models rotationally symmetric, sequential, refractive lenses only")
+        if name in IGNORED:
+            return True
+        raise self.err(f"unknown command {toks[0]!r}", line,
+                       "lensrt cannot tell whether it changes the optics; remove it or report it")
+
+    # -- assembly -----------------------------------------------------------
+    def material(self, glass: str | None, line: int) -> Material:
+        if glass is None or glass.upper() == "AIR":
+            return AIR
+        m = _FICTITIOUS.match(glass)
+        if m:
+            nd = 1.0 + int(m.group(1)) / 10 ** len(m.group(1))
+            vd = int(m.group(2)) / 10.0 ** (len(m.group(2)) - 2)
+            with located(self.path, line):
+                return ModelGlass(nd, vd, name=glass)
+        name = glass.strip("'\"")
+        with located(self.path, line):
+            found = find_glass(name)
+        base = re.sub(r"[_:][A-Za-z]+$", "", name) if "_" in name or ":" in name else name
+        if found.name.replace("-", "").upper() != base.replace("-", "").upper():
+            self.subs[name] = found.describe()
+        return found
+
+    def build(self) -> Lens:
+        f = MM_PER_UNIT[self.dim]
+        if not self.rows:
+            raise self.err("no SO/S/SI lines: this is not a CODE V lens sequence", None,
+                           "a sequence lists 'SO', then one 'S' per surface, then 'SI'")
+        obj = self.rows[0]
+        body = [r for r in self.rows[1:] if r["kind"] == "S"]
+        img = self.rows[-1] if self.rows[-1]["kind"] == "SI" else None
+        if not body:
+            raise self.err("the sequence has no S surfaces", obj["line"])
+        if obj["curv"] != 0.0:
+            raise self.err("curved object surface (SO)", obj["line"], "lensrt's object surface is a plane")
+        if obj["stop"]:
+            raise self.err("the object surface (SO) is marked STO", obj["line"])
+        defocus = 0.0
+        if img is not None:
+            if img["curv"] != 0.0:
+                raise self.err("curved image surface (SI)", img["line"], "lensrt's image surface is a plane")
+            defocus = img["thick"]
+        surfaces = []
+        for k, r in enumerate(body):
+            with located(self.path, r["line"]):
+                n = max(r["asph"]) if r["asph"] else 0
+                asph = tuple(r["asph"].get(i, 0.0) * f ** (-1 - 2 * i) for i in range(0, n + 1)) if n else ()
+                thick = r["thick"] + (defocus if k == len(body) - 1 else 0.0)
+                surfaces.append(Surface(
+                    curvature_per_mm=r["curv"] / f, thickness_mm=thick * f,
+                    material=self.material(r["glass"], r["line"]),
+                    semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=r["conic"], asphere=asph,
+                    is_stop=r["stop"], label=r["label"], line=r["line"]))
+        if defocus:
+            self.notes.append(("image_defocus_mm", f"{defocus * f:.12g} (SI thickness, added to the last "
+                                                   "surface's thickness)"))
+        return self.system(surfaces, obj, f)
+
+    def values(self, key: str, what: str) -> tuple[list[float], int] | None:
+        if key not in self.spec:
+            return None
+        args, line = self.spec[key]
+        return [self.num(a, what, line) for a in args], line
+
+    def system(self, surfaces: list[Surface], obj: dict, f: float) -> Lens:
+        path = self.path
+        aps = [k for k in ("EPD", "FNO", "NAO") if k in self.spec]
+        if not aps:
+            raise self.err("no system aperture (EPD, FNO or NAO)", None, "add e.g. 'EPD 25'")
+        if len(aps) > 1:
+            raise self.err(f"two system apertures ({' and '.join(aps)})", self.spec[aps[1]][1], "keep one")
+        vals, ap_line = self.values(aps[0], "aperture value")  # type: ignore[misc]
+        kind = {"EPD": "epd", "FNO": "image_fno", "NAO": "object_na"}[aps[0]]
+        with located(path, ap_line):
+            if not vals:
+                raise self.err(f"{aps[0]} without a value", ap_line)
+            aperture = Aperture(kind, vals[0] * f if kind == "epd" else vals[0])
+        # fields
+        kinds = sorted({k[1:] for k in self.spec if k[:1] in "XY" and k[1:] in _FIELD_KEYS})
+        if len(kinds) > 1:
+            raise self.err(f"two field definitions ({', '.join(kinds)})", self.spec["Y" + kinds[1]][1]
+                           if "Y" + kinds[1] in self.spec else None, "keep one of XAN/YAN, XOB/YOB, XIM/YIM, XRI/YRI")
+        if kinds:
+            fk = _FIELD_KEYS[kinds[0]]
+            ys = self.values("Y" + kinds[0], "field value") or ([0.0], None)
+            n = len(ys[0])
+            xs = self.values("X" + kinds[0], "field value") or ([0.0] * n, ys[1])
+            if len(xs[0]) != n:
+                raise self.err(f"X{kinds[0]} gives {len(xs[0])} values, Y{kinds[0]} {n}", xs[1])
+            scale = deg_to_rad(1.0) if fk == "angle" else f
+            wtf = self.values("WTF", "field weight") or ([1.0] * n, None)
+            if len(wtf[0]) != n:
+                raise self.err(f"WTF gives {len(wtf[0])} weights for {n} fields", wtf[1])
+            with located(path, ys[1]):
+                fields = Fields(fk, tuple(v * scale for v in ys[0]), tuple(v * scale for v in xs[0]), tuple(wtf[0]))
+        else:
+            fields = Fields()
+            n = 1
+            self.notes.append(("fields", "the file gives no field points: on-axis only"))
+        for key in ("VUX", "VLX", "VUY", "VLY"):
+            v = self.values(key, "vignetting factor")
+            if v is not None and any(v[0]):
+                if len(v[0]) != n:
+                    raise self.err(f"{key} gives {len(v[0])} values for {n} fields", v[1])
+                self.notes.append((f"vignetting_{key.lower()}", fmt_list(v[0])))
+        # wavelengths
+        wl = self.values("WL", "wavelength")
+        if wl is None:
+            raise self.err("no wavelengths (WL)", None, "add e.g. 'WL 656.3 587.6 486.1'")
+        nm, wl_line = wl
+        wtw = self.values("WTW", "wavelength weight") or ([1.0] * len(nm), None)
+        if len(wtw[0]) != len(nm):
+            raise self.err(f"WTW gives {len(wtw[0])} weights for {len(nm)} wavelengths", wtw[1])
+        ref = self.values("REF", "reference wavelength")
+        primary = int(ref[0][0]) - 1 if ref else len(nm) // 2
+        if not 0 <= primary < len(nm):
+            raise self.err(f"REF {primary + 1} is not one of the {len(nm)} wavelengths", ref[1] if ref else None)
+        with located(path, wl_line):
+            wavelengths = Wavelengths(tuple(nm), tuple(wtw[0]), primary)
+        for key, default, unit in (("TEM", 20.0, "C"), ("PRE", 1.0, "atm")):
+            v = self.values(key, key)
+            if v is not None and v[0] and v[0][0] != default:
+                msg = (f"{key} {v[0][0]:g} {unit}: lensrt uses catalog indices at 20 C and 1 atm "
+                       "(thermal and pressure index changes are not modelled)")
+                warnings.warn(f"{path}:{v[1]}: {msg}", UserWarning, stacklevel=3)
+                self.notes.append(("environment", msg))
+        dist = obj["thick"]
+        dist = math.inf if dist >= INFINITE_THICKNESS else dist * f
+        obj_mat = self.material(obj["glass"], obj["line"])
+        sub = substitution_note(self.subs)
+        if sub:
+            self.notes.append(sub)
+        if dist <= 0.0:
+            raise self.err(f"object distance {dist:g} must be positive", obj["line"],
+                           "SO's thickness is the distance from the object to surface 1")
+        return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
+                         object_distance_mm=dist, object_material=obj_mat,
+                         name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
+                         notes=tuple(self.notes))
+
+
+def _looks_number(tok: str) -> bool:
+    try:
+        float(tok)
+        return True
+    except ValueError:
+        return False
+
+
+def loads_seq(text: str, path: str | Path | None = None) -> Lens:
+    """Parse CODE V sequence text into a :class:`Lens`."""
+    spath = str(path) if path is not None else None
+    reject_other_format(text, "codev", spath)
+    seq = _Seq(spath)
+    for line, toks in tokenize_seq(text):
+        with located(spath, line):
+            if not seq.command(line, toks):
+                break
+    return seq.build()
+
+
+def read_seq(path: str | Path, text: str | None = None) -> Lens:
+    """Read a CODE V ``.seq`` file into a :class:`Lens`."""
+    if text is None:
+        from . import read_text
+        text = read_text(path)
+    return loads_seq(text, path)

@@ -1,0 +1,547 @@
+"""Zemax OpticStudio ``.zmx`` reader: the sequential, rotationally symmetric subset.
+
+Supported (see the README's table): ``UNIT`` (MM, CM, IN, M; lengths are
+converted to mm), ``SURF`` with ``TYPE STANDARD`` or ``EVENASPH``, ``CURV``,
+``DISZ`` (``INFINITY`` on the object surface), ``GLAS``, ``CONI``, ``PARM``
+(EVENASPH: PARM 1 is the r^2 coefficient, PARM 2 r^4, ...), ``DIAM``
+(semi-diameter), ``CLAP 0 r`` (a circular clear aperture), ``STOP``, ``COMM``;
+system data ``ENPD``/``FNUM``/``OBNA``/``FLOA``, ``FTYP``, ``XFLN``/``YFLN``/
+``FWGN`` (and the older ``XFLD``/``YFLD``/``FWGT``), ``WAVM``/``WAVL``/``WWGT``
+(micrometres), ``PWAV``, ``GCAT``, ``NAME``, ``NOTE``, vignetting factors
+``VDXN``/``VDYN``/``VCXN``/``VCYN`` (kept in ``lens.notes``).
+
+Glass: the name is looked up in the catalogs ``GCAT`` names, in that order
+(those lensrt ships: Schott, Ohara, Hoya, CDGM, Hikari, Sumita). Only when the
+name is in none of them are the n_d/V_d written on the ``GLAS`` line used, as a
+:class:`~lensrt.prescription.materials.ModelGlass`, with a
+:class:`GlassFallbackWarning`. ``GLAS ___BLANK`` (OpticStudio's model glass) is
+a model glass by definition.
+
+Display, optimisation and tolerancing data are ignored explicitly
+(:data:`IGNORED`); merit-function operands after the last surface are
+ignored. Everything that changes the optics but lies outside lensrt's model
+(mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
+other surface types, multi-configuration, non-circular or decentred apertures,
+curved object/image surfaces, ...) is an error naming the file, the line and
+the construct. Nothing is dropped silently.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ...errors import PrescriptionError, UnknownGlassError, located
+from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
+from ..materials import AIR, CATALOGS, Material, ModelGlass
+from ..model import Aperture, Fields, Lens, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
+from ._common import fmt_list, lookup_glass, make_lens, parse_number, reject_other_format, substitution_note
+
+__all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
+
+
+class GlassFallbackWarning(UserWarning):
+    """A glass name found in no catalog: the n_d/V_d of the file are used instead."""
+
+
+#: keywords that never change the optics of a sequential lens, ignored on purpose
+IGNORED: dict[str, str] = {
+    "VERS": "file version", "MODE": "checked: SEQ only", "PFIL": "file settings", "LANG": "language",
+    "HIDE": "display", "SLAB": "display label", "MIRR": "mirror-substrate display", "POPS": "physical optics",
+    "FIMP": "import flag", "COAT": "coating (not modelled)", "COFN": "coating file names",
+    "GFAC": "glass substitution settings", "GLRS": "glass settings", "GSTD": "glass settings",
+    "NSCD": "non-sequential defaults", "RAIM": "ray aiming (an analysis setting)", "PUSH": "settings",
+    "SDMA": "semi-diameter margin", "ROPD": "OPD reference", "PICB": "settings", "POLS": "polarisation",
+    "TOL": "tolerance data", "MOFF": "multi-configuration operand", "HYPR": "settings",
+    "RCMF": "settings", "VDSZ": "optimisation variable", "VPAR": "optimisation variable",
+    "VCRV": "optimisation variable", "VTHI": "optimisation variable", "PPAR": "parameter pickup (value stored)",
+    "PZUP": "thickness pickup (value stored)", "MAZH": "settings", "MEMA": "mechanical semi-diameter",
+    "OMMA": "mechanical settings", "OEMA": "mechanical settings", "FLAP": "floating aperture = DIAM",
+    "DMFS": "merit function settings", "BLNK": "merit function comment", "AUTH": "author",
+    "EFFL": "settings", "TCED": "settings", "CONF": "configuration settings",
+    "DBDT": "settings", "PWFN": "settings", "OPDX": "merit operand", "ENVD": "checked: 20 C, 1 atm",
+    "PUPD": "checked: uniform apodization", "OBDC": "checked: zero aperture decenter",
+    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter", "MNUM": "checked: 1 configuration",
+    "NOTE": "kept in lens.notes", "NAME": "lens name", "COMM": "surface label", "VANN": "checked: zero",
+    "TRAC": "merit operand", "GLCB": "merit operand",
+}
+
+#: keywords of constructs outside lensrt's model, and what to tell the user
+UNSUPPORTED: dict[str, str] = {
+    "SQAP": "a rectangular aperture", "ELAP": "an elliptical aperture", "SPID": "a spider aperture",
+    "OBSC": "a circular obscuration", "UDAP": "a user-defined aperture", "RCAP": "a rectangular aperture",
+    "DECX": "a surface decenter", "DECY": "a surface decenter",
+    "TILT": "a surface tilt", "NSOB": "a non-sequential object", "GRAT": "a grating",
+}
+
+_SUPPORTED_TYPES = ("STANDARD", "EVENASPH")
+_TYPE_NAMES = {
+    "COORDBRK": "a coordinate break (tilt/decenter)", "DGRATING": "a diffraction grating",
+    "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
+    "PARAXIAL": "an ideal paraxial lens", "ODDASPHE": "an odd asphere", "XOSPHERE": "an extended odd asphere",
+    "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface", "BINARY_1": "a binary optic",
+    "BINARY_2": "a binary optic", "GRID_SAG": "a grid sag surface", "TILTSURF": "a tilted surface",
+    "NONSEQCO": "a non-sequential component", "USERSURF": "a user-defined surface", "QED_TYPE": "a Q-type asphere",
+}
+_CATALOG_NAMES = {c.upper(): c for c in CATALOGS}
+_UNITS = {"MM": "mm", "CM": "cm", "IN": "in", "INCH": "in", "INCHES": "in", "M": "m", "METER": "m",
+          "METERS": "m", "METR": "m"}
+_FIELD_TYPES = {0: "angle", 1: "object_height", 2: "paraxial_image_height", 3: "real_image_height"}
+
+
+@dataclass
+class _Surf:
+    number: int
+    line: int
+    type: str = "STANDARD"
+    type_line: int | None = None
+    curv: float = 0.0
+    disz: float | None = None
+    glass: list[str] | None = None
+    glass_line: int | None = None
+    conic: float = 0.0
+    parm: dict[int, tuple[float, int]] = field(default_factory=dict)
+    diam: float | None = None
+    clap: float | None = None
+    stop: bool = False
+    label: str = ""
+
+
+def _rest(raw: str, keyword: str) -> str:
+    s = raw.strip()
+    return s[len(keyword):].strip()
+
+
+class _Reader:
+    def __init__(self, path: str | None) -> None:
+        self.path = path
+        self.unit = "mm"
+        self.surfs: list[_Surf] = []
+        self.aperture: tuple[str, float, int] | None = None
+        self.ftyp: list[str] | None = None
+        self.ftyp_line: int | None = None
+        self.fields: dict[str, tuple[list[float], int]] = {}
+        self.waves: dict[int, tuple[float, float, int]] = {}
+        self.wavl: tuple[list[float], int] | None = None
+        self.wwgt: tuple[list[float], int] | None = None
+        self.pwav: tuple[int, int] | None = None
+        self.gcat: list[str] | None = None
+        self.name = ""
+        self.notes: list[tuple[str, str]] = []
+        self.note_text: list[str] = []
+        self.subs: dict[str, str] = {}
+
+    # -- helpers -------------------------------------------------------------
+    def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
+        return PrescriptionError(message, path=self.path, line=line, hint=hint)
+
+    def num(self, tok: str, what: str, line: int, allow_inf: bool = False) -> float:
+        return parse_number(tok, what, path=self.path, line=line, allow_inf=allow_inf)
+
+    def nums(self, toks: list[str], what: str, line: int) -> list[float]:
+        return [self.num(t, what, line) for t in toks]
+
+    def cur(self, kw: str, line: int) -> _Surf:
+        if not self.surfs:
+            raise self.err(f"{kw} appears before the first SURF", line,
+                           "surface data must follow a 'SURF n' line")
+        return self.surfs[-1]
+
+    # -- one line ------------------------------------------------------------
+    def line(self, raw: str, no: int, after_last_surf: bool) -> None:
+        toks = raw.split()
+        kw = toks[0].upper()
+        args = toks[1:]
+        if kw == "SURF":
+            n = int(self.num(args[0], "surface number", no)) if args else -1
+            if n != len(self.surfs):
+                raise self.err(f"SURF {args[0] if args else ''} out of order (expected SURF {len(self.surfs)})", no,
+                               "surfaces must be numbered 0 (object), 1, 2, ... in order")
+            self.surfs.append(_Surf(number=n, line=no))
+            return
+        if kw == "MODE":
+            if not args or args[0].upper() != "SEQ":
+                raise self.err(f"MODE {' '.join(args)}: only sequential (MODE SEQ) files are supported", no,
+                               "non-sequential and mixed-mode systems are outside lensrt's model")
+            return
+        handler = getattr(self, "kw_" + kw, None)
+        if handler is not None:
+            handler(args, no, raw)
+            return
+        if kw in UNSUPPORTED:
+            raise self.err(f"{kw}: {UNSUPPORTED[kw]} is not supported", no,
+                           "lensrt models rotationally symmetric, sequential, refractive lenses only")
+        if kw in IGNORED:
+            return
+        if after_last_surf and not raw[:1].isspace() and len(kw) == 4 and kw.isalnum():
+            return  # a merit-function or tolerance operand: optimisation data, not optics
+        raise self.err(f"unknown keyword {toks[0]!r}", no,
+                       "lensrt cannot tell whether it changes the optics; remove it or report it")
+
+    # -- system data ---------------------------------------------------------
+    def kw_UNIT(self, args, no, raw):
+        if not args or args[0].upper() not in _UNITS:
+            raise self.err(f"unknown lens unit {' '.join(args[:1])!r}", no, "use UNIT MM, CM, IN or M")
+        self.unit = _UNITS[args[0].upper()]
+
+    def kw_NAME(self, args, no, raw):
+        self.name = _rest(raw, raw.split()[0]).strip('"')
+
+    def kw_NOTE(self, args, no, raw):
+        text = " ".join(args[1:]).strip() if args and args[0].isdigit() else " ".join(args)
+        if text:
+            self.note_text.append(text)
+
+    def _set_aperture(self, kind: str, value: float, no: int) -> None:
+        if self.aperture is not None and self.aperture[0] != kind:
+            raise self.err(f"two system apertures ({self.aperture[0]} on line {self.aperture[2]} and {kind})", no,
+                           "keep one of ENPD, FNUM, OBNA, FLOA")
+        self.aperture = (kind, value, no)
+
+    def kw_ENPD(self, args, no, raw):
+        self._set_aperture("epd", self.num(args[0], "entrance pupil diameter", no), no)
+
+    def kw_FNUM(self, args, no, raw):
+        self._set_aperture("image_fno", self.num(args[0], "f-number", no), no)
+
+    def kw_OBNA(self, args, no, raw):
+        self._set_aperture("object_na", self.num(args[0], "object-space NA", no), no)
+
+    def kw_FLOA(self, args, no, raw):
+        self._set_aperture("float_by_stop", 0.0, no)
+
+    def kw_FTYP(self, args, no, raw):
+        self.ftyp, self.ftyp_line = args, no
+
+    def _field_list(self, key: str, args, no) -> None:
+        self.fields[key] = (self.nums(args, f"{key} value", no), no)
+
+    def kw_XFLN(self, args, no, raw):
+        self._field_list("XFLN", args, no)
+
+    def kw_YFLN(self, args, no, raw):
+        self._field_list("YFLN", args, no)
+
+    def kw_FWGN(self, args, no, raw):
+        self._field_list("FWGN", args, no)
+
+    kw_XFLD, kw_YFLD, kw_FWGT = kw_XFLN, kw_YFLN, kw_FWGN
+
+    def kw_VDXN(self, args, no, raw):
+        self._field_list("VDXN", args, no)
+
+    def kw_VDYN(self, args, no, raw):
+        self._field_list("VDYN", args, no)
+
+    def kw_VCXN(self, args, no, raw):
+        self._field_list("VCXN", args, no)
+
+    def kw_VCYN(self, args, no, raw):
+        self._field_list("VCYN", args, no)
+
+    def kw_VANN(self, args, no, raw):
+        if any(v != 0.0 for v in self.nums(args, "vignetting angle", no)):
+            raise self.err("VANN: rotated vignetting (vignetting angle) is not supported", no)
+
+    def kw_WAVM(self, args, no, raw):
+        i = int(self.num(args[0], "wavelength number", no))
+        w = self.num(args[1], "wavelength", no) if len(args) > 1 else 0.55
+        wt = self.num(args[2], "wavelength weight", no) if len(args) > 2 else 1.0
+        self.waves[i] = (w, wt, no)
+
+    def kw_WAVL(self, args, no, raw):
+        self.wavl = (self.nums(args, "wavelength", no), no)
+
+    def kw_WWGT(self, args, no, raw):
+        self.wwgt = (self.nums(args, "wavelength weight", no), no)
+
+    def kw_PWAV(self, args, no, raw):
+        self.pwav = (int(self.num(args[0], "primary wavelength number", no)), no)
+
+    def kw_GCAT(self, args, no, raw):
+        self.gcat = [a.upper() for a in args]
+
+    def kw_ENVD(self, args, no, raw):
+        vals = self.nums(args[:2], "environment value", no)
+        if len(vals) == 2 and (vals[0] != 20.0 or vals[1] != 1.0):
+            msg = (f"ENVD: temperature {vals[0]:g} C, pressure {vals[1]:g} atm; lensrt uses catalog indices "
+                   "at 20 C and 1 atm (thermal index changes are not modelled)")
+            warnings.warn(f"{self.path}:{no}: {msg}", UserWarning, stacklevel=4)
+            self.notes.append(("environment", msg))
+
+    def kw_PUPD(self, args, no, raw):
+        if args and self.num(args[0], "apodization type", no) != 0:
+            raise self.err("PUPD: pupil apodization is not supported", no, "use uniform apodization")
+
+    def kw_MNUM(self, args, no, raw):
+        if args and int(self.num(args[0], "configuration count", no)) > 1:
+            raise self.err(f"MNUM {args[0]}: multi-configuration files are not supported", no,
+                           "export the configuration you want as its own .zmx file")
+
+    # -- surface data --------------------------------------------------------
+    def kw_TYPE(self, args, no, raw):
+        s = self.cur("TYPE", no)
+        t = args[0].upper() if args else ""
+        if t not in _SUPPORTED_TYPES:
+            what = _TYPE_NAMES.get(t, f"surface type {t or '(none)'}")
+            raise self.err(f"TYPE {t}: {what} is not supported", no,
+                           "lensrt reads STANDARD and EVENASPH surfaces only")
+        s.type, s.type_line = t, no
+
+    def kw_CURV(self, args, no, raw):
+        self.cur("CURV", no).curv = self.num(args[0], "curvature", no)
+
+    def kw_DISZ(self, args, no, raw):
+        s = self.cur("DISZ", no)
+        s.disz = self.num(args[0], "thickness", no, allow_inf=True)
+        if math.isinf(s.disz) and s.number != 0:
+            raise self.err("DISZ INFINITY on a lens surface", no, "only the object distance may be infinite")
+
+    def kw_GLAS(self, args, no, raw):
+        s = self.cur("GLAS", no)
+        if not args:
+            raise self.err("GLAS without a glass name", no)
+        if args[0].upper() == "MIRROR":
+            raise self.err("GLAS MIRROR: mirrors are not supported", no,
+                           "lensrt models refractive lenses only")
+        s.glass, s.glass_line = args, no
+
+    def kw_CONI(self, args, no, raw):
+        self.cur("CONI", no).conic = self.num(args[0], "conic constant", no)
+
+    def kw_PARM(self, args, no, raw):
+        s = self.cur("PARM", no)
+        i = int(self.num(args[0], "parameter number", no))
+        v = self.num(args[1], f"PARM {i}", no) if len(args) > 1 else 0.0
+        if i < 1:
+            raise self.err(f"PARM {i}: parameter numbers start at 1", no)
+        s.parm[i] = (v, no)
+
+    def kw_DIAM(self, args, no, raw):
+        self.cur("DIAM", no).diam = self.num(args[0], "semi-diameter", no)
+
+    def kw_CLAP(self, args, no, raw):
+        s = self.cur("CLAP", no)
+        rmin, rmax = self.nums(args[:2], "clear aperture radius", no)
+        if rmin != 0.0:
+            raise self.err(f"CLAP {rmin:g} {rmax:g}: an annular aperture (inner radius {rmin:g}) is not supported",
+                           no)
+        s.clap = rmax
+
+    def kw_STOP(self, args, no, raw):
+        self.cur("STOP", no).stop = True
+
+    def kw_COMM(self, args, no, raw):
+        self.cur("COMM", no).label = _rest(raw, raw.split()[0]).strip('"')
+
+    def kw_OBDC(self, args, no, raw):
+        if any(v != 0.0 for v in self.nums(args[:2], "aperture decenter", no)):
+            raise self.err("OBDC: a decentred aperture is not supported", no)
+
+    def kw_SCBD(self, args, no, raw):
+        if any(v != 0.0 for v in self.nums(args[1:], "tilt/decenter value", no)):
+            raise self.err("SCBD: a surface tilt/decenter is not supported", no,
+                           "lensrt models rotationally symmetric, centred lenses only")
+
+    def kw_XDAT(self, args, no, raw):
+        if len(args) > 1 and self.num(args[1], "extra data value", no) != 0.0:
+            raise self.err("XDAT: extra surface data is not supported for STANDARD/EVENASPH surfaces", no)
+
+    # -- glass -----------------------------------------------------------------
+    def material(self, s: _Surf) -> Material:
+        if s.glass is None:
+            return AIR
+        toks, no = s.glass, s.glass_line
+        name = toks[0]
+
+        def model(reason: str) -> ModelGlass:
+            if len(toks) < 5:
+                raise self.err(f"glass {name!r}: {reason}, and the GLAS line gives no n_d/V_d", no,
+                               "name a catalog glass or give 'GLAS ___BLANK 1 0 nd vd'")
+            nd = self.num(toks[3], "n_d", no)
+            vd = self.num(toks[4], "V_d", no)
+            with located(self.path, no):
+                return ModelGlass(nd, vd, name="" if name.upper() == "___BLANK" else name)
+
+        if name.upper() == "___BLANK":
+            return model("a model glass")
+        ours = [_CATALOG_NAMES[c] for c in (self.gcat or []) if c in _CATALOG_NAMES]
+        if self.gcat is None:
+            ours = list(CATALOGS)
+        others = [c for c in (self.gcat or []) if c not in _CATALOG_NAMES]
+        if ours:
+            try:
+                glass = lookup_glass(name, ours)
+            except UnknownGlassError:
+                pass
+            else:
+                if glass.name.replace("-", "").upper() != name.replace("-", "").upper():
+                    self.subs[name] = glass.describe()
+                return glass
+        glass = model("not in the GCAT catalogs")
+        where = ", ".join(ours) if ours else "none"
+        extra = f"; lensrt does not ship {', '.join(others)}" if others else ""
+        warnings.warn(f"{self.path}:{no}: glass {name!r} is in no GCAT catalog lensrt has (searched: {where}"
+                      f"{extra}): using the GLAS line's n_d = {glass.nd:g}, V_d = {glass.vd:g} as a model glass",
+                      GlassFallbackWarning, stacklevel=3)
+        self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); not in GCAT catalogs"))
+        return glass
+
+    # -- assemble --------------------------------------------------------------
+    def build(self) -> Lens:
+        f = MM_PER_UNIT[self.unit]
+        if len(self.surfs) < 3:
+            raise self.err(f"{len(self.surfs)} SURF blocks: a lens needs the object, at least one surface and "
+                           "the image", self.surfs[-1].line if self.surfs else None)
+        obj, img, body = self.surfs[0], self.surfs[-1], self.surfs[1:-1]
+        for s, what in ((obj, "object"), (img, "image")):
+            if s.curv != 0.0 or s.conic != 0.0 or any(v for v, _ in s.parm.values()):
+                raise self.err(f"curved {what} surface (SURF {s.number})", s.line,
+                               f"lensrt's {what} surface is a plane")
+            if s.stop:
+                raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
+        surfaces = []
+        for s in body:
+            with located(self.path, s.line):
+                asph: tuple[float, ...] = ()
+                if s.type == "EVENASPH":
+                    n = max(s.parm) if s.parm else 0
+                    asph = tuple(s.parm.get(i, (0.0, 0))[0] * f ** (1 - 2 * i) for i in range(1, n + 1))
+                elif any(v != 0.0 for v, _ in s.parm.values()):
+                    bad = next(ln for v, ln in s.parm.values() if v != 0.0)
+                    raise self.err("PARM on a STANDARD surface", bad, "use TYPE EVENASPH for aspheric terms")
+                sd = s.clap if s.clap is not None else s.diam
+                if sd is not None and sd <= 0.0:
+                    sd = None  # DIAM 0: no semi-diameter given (computed on load)
+                surfaces.append(Surface(
+                    curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
+                    material=self.material(s), semi_diameter_mm=None if sd is None else sd * f,
+                    conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line))
+        return self._system(surfaces, obj, f)
+
+    def _system(self, surfaces: list[Surface], obj: _Surf, f: float) -> Lens:
+        path, notes = self.path, list(self.notes)
+        if self.aperture is None:
+            raise self.err("no system aperture (ENPD, FNUM, OBNA or FLOA)", None,
+                           "add e.g. 'ENPD 10' (entrance pupil diameter in lens units)")
+        kind, value, ap_line = self.aperture
+        with located(path, ap_line):
+            aperture = Aperture(kind, value * f if kind == "epd" else value)
+        # fields
+        ftyp = self.ftyp or []
+        ftype_code = int(self.num(ftyp[0], "field type", self.ftyp_line)) if ftyp else 0
+        if ftype_code not in _FIELD_TYPES:
+            raise self.err(f"FTYP {ftype_code}: field type not supported (theodolite angles?)", self.ftyp_line,
+                           "use angles, object heights, paraxial or real image heights")
+        kind_f = _FIELD_TYPES[ftype_code]
+        if len(ftyp) > 1 and ftyp[1] not in ("0",):
+            notes.append(("field_normalization", "rectangular in the Zemax file; lensrt normalises radially"))
+        yv, yline = self.fields.get("YFLN", ([0.0], None))
+        nfld = int(self.num(ftyp[2], "field count", self.ftyp_line)) if len(ftyp) > 2 else len(yv)
+        if nfld < 1 or nfld > len(yv):
+            raise self.err(f"FTYP says {nfld} fields but YFLN gives {len(yv)}", self.ftyp_line or yline)
+        xv = self.fields.get("XFLN", ([0.0] * nfld, None))[0]
+        wv = self.fields.get("FWGN", ([1.0] * nfld, None))[0]
+        if len(xv) < nfld or len(wv) < nfld:
+            raise self.err(f"{nfld} fields but fewer XFLN/FWGN values", yline)
+        scale = deg_to_rad(1.0) if kind_f == "angle" else f
+        with located(path, yline):
+            fields = Fields(kind_f, tuple(v * scale for v in yv[:nfld]), tuple(v * scale for v in xv[:nfld]),
+                            tuple(wv[:nfld]))
+        notes += _vignetting_notes(self.fields, nfld)
+        if "YFLN" not in self.fields:
+            notes.append(("fields", "the file gives no field points: on-axis only"))
+        # wavelengths (micrometres in the file)
+        nwav = int(self.num(ftyp[3], "wavelength count", self.ftyp_line)) if len(ftyp) > 3 else None
+        if self.waves:
+            idx = sorted(self.waves)
+            nwav = nwav if nwav is not None else len(idx)
+            missing = [i for i in range(1, nwav + 1) if i not in self.waves]
+            if missing:
+                raise self.err(f"wavelength {missing[0]} of {nwav} has no WAVM line", self.ftyp_line)
+            um = [self.waves[i][0] for i in range(1, nwav + 1)]
+            wts = [self.waves[i][1] for i in range(1, nwav + 1)]
+            wline = self.waves[1][2]
+        elif self.wavl is not None:
+            um, wline = self.wavl
+            wts = self.wwgt[0] if self.wwgt is not None else [1.0] * len(um)
+            if len(wts) != len(um):
+                raise self.err(f"WWGT gives {len(wts)} weights for {len(um)} wavelengths", self.wwgt[1])
+        else:
+            um, wts, wline = [0.55], [1.0], None
+            notes.append(("wavelengths", "the file gives no wavelengths: 550 nm (OpticStudio's default)"))
+        primary = 0
+        if self.pwav is not None:
+            primary = self.pwav[0] - 1
+            if not 0 <= primary < len(um):
+                raise self.err(f"PWAV {self.pwav[0]} is not one of the {len(um)} wavelengths", self.pwav[1])
+        with located(path, wline):
+            wavelengths = Wavelengths(tuple(round(w * NM_PER_UM, 6) for w in um), tuple(wts), primary)
+        if obj.disz is None:
+            raise self.err("the object surface (SURF 0) has no DISZ", obj.line, "give 'DISZ INFINITY' or a distance")
+        if self.note_text:
+            notes.append(("zemax_note", " ".join(self.note_text)[:500]))
+        with located(path, obj.line):
+            obj_mat = self.material(obj)
+        sub = substitution_note(self.subs)
+        if sub:
+            notes.append(sub)
+        if obj.disz <= 0.0:
+            raise self.err(f"object distance DISZ {obj.disz:g} must be positive", obj.line,
+                           "SURF 0's DISZ is the distance from the object to surface 1 (or INFINITY)")
+        return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
+                         object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
+                         source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes))
+
+
+def _vignetting_notes(fields: dict[str, tuple[list[float], int | None]], n: int) -> list[tuple[str, str]]:
+    """Zemax VDX/VDY/VCX/VCY as CODE V-style VUX/VLX/VUY/VLY (fractions of the pupil radius cut away).
+
+    Zemax maps Py' = VDY + (1 - VCY) Py, so the upper rim moves to 1 - VUY with
+    VUY = VCY - VDY and the lower rim to -(1 - VLY) with VLY = VCY + VDY.
+    """
+    out = []
+    for axis in ("X", "Y"):
+        vd = fields.get(f"VD{axis}N", ([0.0] * n, None))[0][:n]
+        vc = fields.get(f"VC{axis}N", ([0.0] * n, None))[0][:n]
+        vd, vc = vd + [0.0] * (n - len(vd)), vc + [0.0] * (n - len(vc))
+        if any(vd) or any(vc):
+            out.append((f"vignetting_vu{axis.lower()}", fmt_list([c - d for c, d in zip(vc, vd)])))
+            out.append((f"vignetting_vl{axis.lower()}", fmt_list([c + d for c, d in zip(vc, vd)])))
+    return out
+
+
+def loads_zmx(text: str, path: str | Path | None = None) -> Lens:
+    """Parse ``.zmx`` text (already decoded) into a :class:`Lens`."""
+    spath = str(path) if path is not None else None
+    reject_other_format(text, "zemax", spath)
+    lines = text.splitlines()
+    starts = [i for i, ln in enumerate(lines) if ln.split()[:1] == ["SURF"] or ln.split()[:1] == ["surf"]]
+    if not starts:
+        raise PrescriptionError("no SURF lines: this is not a Zemax lens file", path=spath,
+                                hint="a .zmx file lists its surfaces as 'SURF 0', 'SURF 1', ...")
+    last_surf = starts[-1]
+    reader = _Reader(spath)
+    after = False
+    for i, raw in enumerate(lines):
+        if not raw.strip():
+            continue
+        if i > last_surf and not raw[:1].isspace() and raw.split()[0].upper() not in (
+                "CURV", "DISZ", "GLAS", "CONI", "PARM", "DIAM", "STOP", "TYPE", "CLAP"):
+            after = True
+        with located(spath, i + 1):
+            reader.line(raw, i + 1, after)
+    return reader.build()
+
+
+def read_zmx(path: str | Path, text: str | None = None) -> Lens:
+    """Read a Zemax ``.zmx`` file (UTF-16 with BOM, UTF-8 or ASCII) into a :class:`Lens`.
+
+    Semi-diameters come from ``DIAM`` (or ``CLAP``); surfaces without one are
+    left for :func:`lensrt.load_lens` to compute.
+    """
+    if text is None:
+        from . import read_text
+        text = read_text(path)
+    return loads_zmx(text, path)

@@ -1,0 +1,64 @@
+"""Test targets as sensor-plane spectral irradiance: a uniform field and the ColorChecker chart.
+
+Spectral reflectances come from colour-science (``SDS_COLOURCHECKERS``), illuminants from
+:func:`lensrt.sensor.exposure.illuminant_spd`. A chart is returned as a table of spectra plus
+a label image, the piecewise-uniform form :func:`lensrt.sensor.expose` takes with ``labels``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import LensrtError
+from .exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
+
+__all__ = ["colorchecker_reflectances", "ChartScene", "colorchecker_scene", "CHART"]
+
+#: the ColorChecker reflectance set used by default
+CHART = "ColorChecker N Ohta"
+
+
+def colorchecker_reflectances(wavelength_nm: np.ndarray = STANDARD_WAVELENGTHS_NM,
+                              chart: str = CHART) -> tuple[list[str], np.ndarray]:
+    """Patch names and spectral reflectances (24, n) of a ColorChecker at ``wavelength_nm`` (nm)."""
+    import colour
+    if chart not in colour.SDS_COLOURCHECKERS:
+        raise LensrtError(f"unknown chart {chart!r}", hint=f"use one of {list(colour.SDS_COLOURCHECKERS)}")
+    sds = colour.SDS_COLOURCHECKERS[chart]
+    names = list(sds)
+    wl = np.asarray(wavelength_nm, dtype=np.float64)
+    refl = np.stack([np.interp(wl, sds[n].wavelengths, sds[n].values) for n in names])
+    return names, refl
+
+
+@dataclass
+class ChartScene:
+    """A chart on the sensor: ``spectra`` (k, n) W / (m^2 nm), ``labels`` (rows, cols) indices into it,
+    ``wavelength_nm`` (n,), patch ``names`` and the inner ``boxes`` (row0, row1, col0, col1) of
+    each patch, away from its edges, for measuring."""
+
+    spectra: np.ndarray
+    labels: np.ndarray
+    wavelength_nm: np.ndarray
+    names: list[str]
+    boxes: list[tuple[int, int, int, int]]
+    reflectance: np.ndarray
+
+
+def colorchecker_scene(patch_px: int = 32, illuminant: str | float = "D65", white_illuminance_lux: float = 1000.0,
+                       wavelength_nm: np.ndarray = STANDARD_WAVELENGTHS_NM, chart: str = CHART) -> ChartScene:
+    """The 4 x 6 ColorChecker, each patch ``patch_px`` square, lit so that a perfect white reflector
+    would give ``white_illuminance_lux`` on the sensor."""
+    if patch_px < 4:
+        raise LensrtError("patches need at least 4 x 4 photosites")
+    names, refl = colorchecker_reflectances(wavelength_nm, chart)
+    white = spectral_irradiance_from_illuminance(white_illuminance_lux, illuminant, wavelength_nm)
+    rows, cols = 4 * patch_px, 6 * patch_px
+    r = np.arange(rows)[:, None] // patch_px
+    c = np.arange(cols)[None, :] // patch_px
+    labels = (r * 6 + c).astype(np.intp)
+    m = max(2, patch_px // 4)
+    boxes = [(i // 6 * patch_px + m, (i // 6 + 1) * patch_px - m, i % 6 * patch_px + m, (i % 6 + 1) * patch_px - m)
+             for i in range(24)]
+    return ChartScene(refl * white, labels, np.asarray(wavelength_nm, dtype=np.float64), names, boxes, refl)

@@ -1,0 +1,35 @@
+"""``lensrt render``: --list, --plan (text and JSON), clear errors."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from lensrt.cli import main
+
+pytestmark = pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
+
+
+def test_render_list(capsys):
+    assert main(["render", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert "default" in out and "still_life_mesh" in out
+
+
+def test_render_plan_text_and_json(capsys):
+    assert main(["render", "scenes/still_life_mesh.toml", "--plan", "--lens", "codev_dblgauss_100mm_f2"]) == 0
+    out = capsys.readouterr().out
+    assert "render plan for scene 'still_life_mesh'" in out and "wp.Mesh BVH" in out
+    assert "camera_spectral_mesh_shadowed" in out
+    assert main(["render", "night_street", "--plan", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["plan"]["mode"] == "light_splat" and d["plan"]["variant"]["name"].startswith("splat_")
+
+
+def test_render_errors_exit_2(capsys, tmp_path):
+    assert main(["render", "no_such_scene", "--plan"]) == 2
+    assert "built-in scenes:" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[scene]\nunits = \"furlong\"\n")
+    assert main(["render", str(bad), "--plan"]) == 2
+    assert "'units'" in capsys.readouterr().err
