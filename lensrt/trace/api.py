@@ -25,9 +25,9 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
 from .aiming import AIM_MODES, aim_rays, field_point, pupil_geometry
-from .kernels import RAY_IN_COLS, get_kernels
+from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels
 from .pack import pack_lens
-from .status import OK, count_statuses
+from .status import GRAZING_COS, OK, count_statuses
 from .surfaces import N_RECORD
 
 __all__ = ["RayBatch", "RayResult", "trace", "rays_from_pupil", "make_rays", "kernel_to_stop", "chief_ray"]
@@ -65,7 +65,8 @@ class RayResult:
 
     ``position_mm`` (n, 3) is in the lens frame (z from the first vertex): on the
     image surface for OK rays, else where the ray stopped. ``surface`` is the
-    0-based surface where a ray failed (-1 when OK). ``records`` (when asked)
+    0-based surface where a ray failed (-1 when OK); :attr:`grazing` flags rays that met a
+    surface beyond 80 deg incidence. ``records`` (when asked)
     holds per surface met: x, y, z (sag, vertex frame), L, M, N after refraction,
     incidence and refraction angles (rad) and the segment length (mm).
     """
@@ -81,10 +82,17 @@ class RayResult:
     seconds: float
     records: np.ndarray | None = None
     aimed: np.ndarray | None = field(default=None)
+    #: smallest cos(angle of incidence) over the surfaces the ray refracted at
+    min_cos_incidence: np.ndarray | None = None
 
     @property
     def ok(self) -> np.ndarray:
         return self.status == OK
+
+    @property
+    def grazing(self) -> np.ndarray:
+        """Rays that met some surface beyond GRAZING_INCIDENCE_DEG (ill-conditioned; see status.py)."""
+        return self.min_cos_incidence < GRAZING_COS
 
     @property
     def counts(self) -> dict[str, int]:
@@ -151,7 +159,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     real = k.real
     t0 = time.perf_counter()
     arr = wp.array(host, dtype=real, device=dev)
-    out = wp.empty((n, RAY_IN_COLS), dtype=real, device=dev)
+    out = wp.empty((n, RAY_OUT_COLS), dtype=real, device=dev)
     status = wp.empty(n, dtype=wp.int32, device=dev)
     surface = wp.empty(n, dtype=wp.int32, device=dev)
     rec = wp.zeros((n, end + 1, N_RECORD) if record else (1, 1, N_RECORD), dtype=real, device=dev)
@@ -181,7 +189,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     pos = np.stack([o[:, 0], o[:, 1], z], axis=1)
     records = rec.numpy().astype(np.float64) if record else None
     return RayResult(pos, o[:, 3:6], o[:, 6], st, sf, rays.wavelength_nm.copy(), precision, dev, seconds,
-                     records, rays.aimed.copy() if rays.aimed is not None else None)
+                     records, rays.aimed.copy() if rays.aimed is not None else None, o[:, 7])
 
 
 def kernel_to_stop(lens: Lens, device: str | None = None):

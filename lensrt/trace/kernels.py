@@ -32,18 +32,18 @@ from functools import lru_cache
 from types import SimpleNamespace
 from .pack import real_dtype
 from .sampling import sampling_funcs
-from .status import N_STATUS, OK
+from .status import GRAZING_COS, OK, STATUS_NAMES
 from .surfaces import surface_funcs
 
 __all__ = ["get_kernels", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "N_STATS", "STAT_NAMES",
-           "N_COUNTS", "RAY_IN_COLS", "RAY_OUT_COLS"]
+           "N_COUNTS", "COUNT_NAMES", "RAY_IN_COLS", "RAY_OUT_COLS"]
 
 #: histogram weights are stored as round(weight * 2^FIXED_POINT_BITS) in int64
 FIXED_POINT_BITS = 24
 #: per-ray input columns of the store kernel: x y z L M N wavelength_nm
 RAY_IN_COLS = 7
-#: per-ray output columns: x y z(frame of the last surface met) L M N opl
-RAY_OUT_COLS = 7
+#: per-ray output columns: x y z(frame of the last surface met) L M N opl, smallest cos(incidence)
+RAY_OUT_COLS = 8
 
 #: columns of a stream source row (see lensrt.trace.stream.StreamSource)
 SRC = dict(kind=0, ox=1, oy=2, oz=3, wx=4, wy=5, wz=6, e1x=7, e1y=8, e1z=9, e2x=10, e2y=11, e2z=12,
@@ -54,8 +54,10 @@ SRC_COLS = 28
 #: weights w, positions relative to the source's (sx, sy)
 STAT_NAMES = ("n_ok", "sum_w", "sum_wx", "sum_wy", "sum_wxx", "sum_wyy", "sum_wxy", "sum_w_grid")
 N_STATS = len(STAT_NAMES)
-#: per-thread counts: one per ray status, then OK rays that fell outside the grid
-N_COUNTS = N_STATUS + 1
+#: per-thread counts: one per ray status, then OK rays that fell outside the grid, then OK rays
+#: that met a surface at grazing incidence (> GRAZING_INCIDENCE_DEG)
+COUNT_NAMES = STATUS_NAMES + ("OUTSIDE_GRID", "GRAZING")
+N_COUNTS = len(COUNT_NAMES)
 
 
 def module_name(precision: str) -> str:
@@ -87,7 +89,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
                     surface: wp.array(dtype=wp.int32), rec: wp.array3d(dtype=real)):
         r = wp.tid() + ray_base
         w_um = rays[r, 6] * real(1.0e-3)
-        st, where, x, y, z, L, M, N, opl = trace_ray(
+        st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
             surf, media, iris, n_surfaces, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4],
             rays[r, 5], w_um * w_um, index_table, -1, end, clip, plane_dz, record, rec, r)
         out[r, 0] = x
@@ -97,6 +99,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
         out[r, 4] = M
         out[r, 5] = N
         out[r, 6] = opl
+        out[r, 7] = min_cos
         status[r] = st
         surface[r] = where
 
@@ -168,6 +171,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
         c_nc = wp.int64(0)
         c_inv = wp.int64(0)
         c_out = wp.int64(0)
+        c_graze = wp.int64(0)
         k = lane
         while k < count:
             i = start + k
@@ -204,11 +208,13 @@ def get_kernels(precision: str) -> SimpleNamespace:
                 if kind == 1:
                     weight = weight * dz
             w_um = wl * real(1.0e-3)
-            st, where, x, y, z, L, M, N, opl = trace_ray(
+            st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
                 surf, media, iris, n_surfaces, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row,
                 n_surfaces, clip, plane_dz, 0, rec, 0)
             if st == OK:
                 c_ok = c_ok + wp.int64(1)
+                if min_cos < real(GRAZING_COS):
+                    c_graze = c_graze + wp.int64(1)
                 xd = wp.float64(x - refx)
                 yd = wp.float64(y - refy)
                 wd = wp.float64(weight)
@@ -267,6 +273,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
         counts[tid, 4] = c_nc
         counts[tid, 5] = c_inv
         counts[tid, 6] = c_out
+        counts[tid, 7] = c_graze
 
     @wp.kernel(module=mod, enable_backward=False)
     def reduce_threads(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), T: int,

@@ -84,6 +84,12 @@ class ReferenceRay:
     opl_mm: float
     hits: list[SurfaceHit] = field(default_factory=list)
 
+    @property
+    def min_cos_incidence(self) -> float:
+        """Smallest cos(angle of incidence) over the surfaces the ray refracted at."""
+        refracted = [h for h in self.hits if h.incidence_rad > 0.0 or h.refraction_rad > 0.0]
+        return min((math.cos(h.incidence_rad) for h in refracted), default=1.0)
+
 
 def sag_and_slope(c: float, kp1: float, asphere: tuple[float, ...], r2: float) -> tuple[float, float] | None:
     """Sag z(r) and its derivative dz/d(r^2) at r^2 = ``r2``; None beyond the conic's extent."""

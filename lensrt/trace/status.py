@@ -7,12 +7,14 @@ image surface has index ``n_surfaces``). Analyses count the codes
 """
 from __future__ import annotations
 
+import math
 from enum import IntEnum
 
 import numpy as np
 
 __all__ = ["RayStatus", "OK", "MISSED", "VIGNETTED", "TIR", "NO_CONVERGE", "INVALID",
-           "STATUS_NAMES", "N_STATUS", "describe_status", "count_statuses", "APERTURE_TOLERANCE"]
+           "STATUS_NAMES", "N_STATUS", "describe_status", "count_statuses", "APERTURE_TOLERANCE",
+           "GRAZING_INCIDENCE_DEG", "GRAZING_COS"]
 
 
 class RayStatus(IntEnum):
@@ -36,6 +38,12 @@ class RayStatus(IntEnum):
 OK, MISSED, VIGNETTED, TIR, NO_CONVERGE, INVALID = (int(s) for s in RayStatus)
 STATUS_NAMES: tuple[str, ...] = tuple(s.name for s in RayStatus)
 N_STATUS = len(STATUS_NAMES)
+
+#: a ray that meets a surface more steeply than this (angle of incidence, deg) is *grazing*:
+#: its intersection and refraction are ill-conditioned, so rounding grows there (float32
+#: rays may then differ from float64 beyond the documented bound); results flag such rays
+GRAZING_INCIDENCE_DEG = 80.0
+GRAZING_COS = math.cos(math.radians(GRAZING_INCIDENCE_DEG))
 
 #: clear apertures (semi-diameters, stop radius, iris) are tested as
 #: r <= sd * (1 + APERTURE_TOLERANCE), so that a ray aimed exactly at an edge (the

@@ -40,10 +40,9 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
 from .aiming import FieldPoint, beam_basis, field_point, pupil_geometry, ray_through_point
-from .kernels import FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_COLS, STAT_NAMES, get_kernels
+from .kernels import COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_COLS, STAT_NAMES, get_kernels
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
-from .status import STATUS_NAMES
 from .surfaces import N_RECORD
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "stream_source",
@@ -140,10 +139,10 @@ class StreamResult:
         return self.rays_total / self.seconds if self.seconds > 0 else math.inf
 
     def status_counts(self, source: int | None = None) -> dict[str, int]:
-        """Rays per status (all sources, or one); ``OUTSIDE_GRID`` counts OK rays off the grid."""
+        """Rays per status (all sources, or one); ``OUTSIDE_GRID`` counts OK rays off the grid,
+        ``GRAZING`` OK rays that met a surface beyond 80 deg incidence (ill-conditioned)."""
         c = self.batch_counts.sum(axis=(0, 1)) if source is None else self.batch_counts[source].sum(axis=0)
-        names = STATUS_NAMES + ("OUTSIDE_GRID",)
-        return {n: int(v) for n, v in zip(names, c)}
+        return {n: int(v) for n, v in zip(COUNT_NAMES, c)}
 
     def flux_per_ray(self, source: int = 0) -> float:
         """Pupil-box area (mm^2) x spectrum total / rays: multiply weights by it to get flux."""

@@ -181,7 +181,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
 
     @func
     def refract(L: real, M: real, N: real, nx: real, ny: real, nz: real, n1: real, n2: real, angles: int):
-        # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when asked)
+        # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when
+        # asked), cos I
         cos_i = L * nx + M * ny + N * nz
         sx = nx
         sy = ny
@@ -220,7 +221,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             N2 = N2 * inv
             if angles != 0:
                 ang_r = wp.atan2(mu * sin_i, cos_r)
-        return status, L2, M2, N2, ang_i, ang_r
+        return status, L2, M2, N2, ang_i, ang_r, cos_i
 
     @func
     def inside_iris(iris: wp.array(dtype=real), x: real, y: real) -> int:
@@ -251,7 +252,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                   n_surfaces: int, x0: real, y0: real, z0: real, L0: real, M0: real, N0: real, w2: real,
                   index_table: wp.array2d(dtype=real), table_row: int, end: int, clip: int, plane_dz: real,
                   record: int, rec: wp.array3d(dtype=real), ray: int):
-        """Trace one ray; returns status, surface, x, y, z (frame of the last surface met), L, M, N, opl.
+        """Trace one ray; returns status, surface, x, y, z (frame of the last surface met), L, M, N, opl,
+        and the smallest cos(incidence) met (grazing rays are ill-conditioned).
 
         Refracts at surfaces 0 .. end-1 and stops on surface ``end`` (``end = n_surfaces``:
         the plane ``plane_dz`` behind the image surface). ``table_row >= 0`` takes indices
@@ -267,6 +269,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         status = int(OK)
         where = int(-1)
         opl = real(0.0)
+        min_cos = real(1.0)
         if not (norm > real(0.0)) or not wp.isfinite(norm) or not wp.isfinite(x + y + z):
             status = int(INVALID)
             where = int(0)
@@ -320,7 +323,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                             status = int(INVALID)
                             where = i
                         else:
-                            st, L, M, N, ang_i, ang_r = refract(L, M, N, nx, ny, nz, n1, n2, record)
+                            st, L, M, N, ang_i, ang_r, cos_i = refract(L, M, N, nx, ny, nz, n1, n2, record)
+                            min_cos = wp.min(min_cos, cos_i)
                             if st != int(OK):
                                 status = st
                                 where = i
@@ -338,7 +342,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                 if status == int(OK) and i < end:
                     z = z - surf[i, S_THICK]  # into the next vertex frame
             i = i + 1
-        return status, where, x, y, z, L, M, N, opl
+        return status, where, x, y, z, L, M, N, opl, min_cos
 
     ns.medium_index = medium_index
     ns.conic_t = conic_t
