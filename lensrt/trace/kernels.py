@@ -110,7 +110,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
                      use_table: int, index_table: wp.array2d(dtype=real),
                      chan_mode: int, n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
                      hist: wp.array(dtype=wp.int64), nx: int, ny: int, inv_dx: real, inv_dy: real,
-                     n_layers: int, n_rep: int,
+                     n_layers: int, n_rep: int, hist_batches: int,
                      sampler: int, seed: int, epoch: int, n_batches: int, threads_per_batch: int,
                      start: int, count: int, n_strata: int,
                      tid_base: int, rep_base: int,
@@ -231,7 +231,8 @@ def get_kernels(precision: str) -> SimpleNamespace:
                     ix = int(fx)
                     iy = int(fy)
                     swg = swg + wd
-                    base = ((rep * n_layers + layer) * n_chan) * plane_size + iy * nx + ix
+                    hb = batch % hist_batches  # per-batch histograms when hist_batches = n_batches
+                    base = (((rep * n_layers + layer) * hist_batches + hb) * n_chan) * plane_size + iy * nx + ix
                     if chan_mode == 0:
                         wp.atomic_add(hist, base, wp.int64(weight * real(fixed_one) + real(0.5)))
                     else:

@@ -128,6 +128,8 @@ class StreamResult:
     sampler: str
     seed: int
     launches: int = 0
+    #: (layers, batches, channels, ny, nx) when asked for (``batch_histograms=True``)
+    batch_histograms: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
     @property
@@ -185,6 +187,32 @@ class StreamResult:
             return math.sqrt(max(s[4] / s[1] - mx * mx + s[5] / s[1] - my * my, 0.0))
         v, se = self._estimate(source, rms)
         return float(v), float(se)
+
+    def moment_sums(self, source: int = 0) -> np.ndarray:
+        """Per-batch weighted moment sums (B, 6): w, wx, wy, wxx, wxy, wyy, positions relative to the
+        source's ``centre_mm`` (the order of ``lensrt.analysis.psf.MOMENT_KEYS``)."""
+        s = self.batch_stats[source]
+        return np.stack([s[:, 1], s[:, 2], s[:, 3], s[:, 4], s[:, 6], s[:, 5]], axis=1)
+
+    def off_grid_weight(self, source: int = 0) -> np.ndarray:
+        """Per-batch weight of the OK rays that landed off the grid (B,)."""
+        s = self.batch_stats[source]
+        return np.maximum(s[:, 1] - s[:, 7], 0.0)
+
+    def psf_inputs(self, source: int = 0, channel: int = 0) -> dict:
+        """Keyword arguments for ``lensrt.analysis.psf.geometric_psf`` (with an ImageGrid of
+        shape (ny, nx), pitch grid.pixel_mm * 1000 um, centred on ``centre_mm``).
+
+        Needs ``batch_histograms=True`` and one source per layer; rows run top-down (+y up)
+        as the analysis grids do.
+        """
+        if self.batch_histograms is None:
+            raise LensrtError("psf_inputs needs a stream run with batch_histograms=True")
+        layer = int(self.extra.get("layers_of_sources", list(range(len(self.pupil_area_mm2))))[source])
+        hist = self.batch_histograms[layer, :, channel, ::-1, :]
+        return {"hist": hist, "moment_sums": self.moment_sums(source), "off_grid": self.off_grid_weight(source),
+                "reference_mm": tuple(float(v) for v in self.centre_mm[source]),
+                "samples": self.rays_per_source, "seconds": self.seconds, "seed": self.seed}
 
     def image(self, layer: int = 0, channel: int = 0) -> np.ndarray:
         """One (ny, nx) plane of the histogram (sum of weights per bin; row 0 = lowest y)."""
@@ -342,7 +370,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
            iris: Iris | None = None, stop_radius_mm: float | None = None, clip: bool = True,
            rays_per_launch: int | None = None, threads_per_batch: int | None = None,
            replicas: int | None = None, cpu_workers: int | None = None,
-           device_reduce: bool | None = None) -> StreamResult:
+           device_reduce: bool | None = None, batch_histograms: bool = False) -> StreamResult:
     """Trace ``rays_per_source`` Monte Carlo rays from each source and bin them (module docstring).
 
     Parameters
@@ -373,6 +401,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         CPU cores this process may use); results do not depend on it.
     device_reduce : bool, optional
         Sum the per-thread slots with a kernel on the device (default: on GPUs only).
+    batch_histograms : bool
+        Keep one histogram per batch (``StreamResult.batch_histograms``, for per-pixel standard
+        errors); memory grows by the number of batches.
     """
     from ..device import warp
     wp = warp()
@@ -415,7 +446,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     else:  # Warp's CPU atomics are plain adds: one histogram replica per worker thread
         workers = max(1, min(int(cpu_workers or _cpu_count()), n_threads))
         replicas = workers
-    hist_len = replicas * layers * n_chan * plane
+    hb = B if batch_histograms else 1
+    hist_len = replicas * layers * hb * n_chan * plane
     if hist_len >= 2**31:
         raise LensrtError(f"histogram of {hist_len} bins is too large (limit 2^31)")
     if rays_per_launch is None:
@@ -451,7 +483,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                       int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
                       chan_mode, n_chan, chan_arr, real(nm0), real(dnm),
                       hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
-                      layers, 1 if workers > 1 else int(replicas),
+                      layers, 1 if workers > 1 else int(replicas), hb,
                       code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
 
             def run(w: int) -> None:
@@ -475,12 +507,14 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if device_reduce:
         tot_stats = dev_stats.numpy().reshape(S, B, N_STATS)
         tot_counts = dev_counts.numpy().reshape(S, B, N_COUNTS)
-    h = hist.numpy().reshape(replicas, layers, n_chan, grid.ny, grid.nx).sum(axis=0)
+    h = hist.numpy().reshape(replicas, layers, hb, n_chan, grid.ny, grid.nx).sum(axis=0)
     seconds = time.perf_counter() - t0
-    histogram = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
+    per_batch = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
+    histogram = h.sum(axis=1).astype(np.float64) / float(2**FIXED_POINT_BITS)
     return StreamResult(histogram, n_b * B, B, tot_stats, tot_counts,
                         np.array([s.box.area_mm2 for s in sources]), spectrum.total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid, seconds, precision, dev,
-                        sampler, int(seed), launches,
+                        sampler, int(seed), launches, per_batch if batch_histograms else None,
                         {"threads_per_batch": T, "replicas": int(replicas), "cpu_workers": workers,
+                         "layers_of_sources": [s.layer for s in sources],
                          "stat_names": STAT_NAMES})
