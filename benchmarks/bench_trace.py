@@ -130,7 +130,6 @@ def time_store(lens: Lens, rays: int, precision: str, device: str) -> tuple[floa
 
 def time_optiland(lens: Lens, rays: int, hy: float) -> tuple[float, float] | None:
     try:
-        import optiland.backend as be  # noqa: F401
         from optiland import optic
         from optiland.materials import IdealMaterial
     except Exception:  # noqa: BLE001 - optional peer

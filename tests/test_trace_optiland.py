@@ -10,7 +10,6 @@ are aimed at the paraxial entrance pupil in both (optiland's default).
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 import pytest

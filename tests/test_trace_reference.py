@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from lensrt.prescription.materials import AIR, ConstantIndex
+from lensrt.prescription.materials import ConstantIndex
 from lensrt.prescription.model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 from lensrt.trace.reference import inside_iris, intersect, refract, trace_reference
 from lensrt.trace.status import MISSED, NO_CONVERGE, OK, TIR, VIGNETTED, describe_status

@@ -17,7 +17,7 @@ from types import SimpleNamespace
 from typing import Any
 
 from .pack import (IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION, IRIS_ROUNDNESS,
-                   IRIS_BLADES, IRIS_STOP, MAX_ASPHERE, MEDIUM_CONSTANT, S_ASPH, S_C, S_KIND, S_KP1, S_NASPH,
+                   IRIS_BLADES, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_KIND, S_KP1, S_NASPH,
                    S_SD2, S_THICK)
 from .reference import NEWTON_MAX_ITER
 from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
