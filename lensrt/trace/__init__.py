@@ -8,8 +8,9 @@ oracle) and :mod:`lensrt.trace.status` (ray status codes).
 from __future__ import annotations
 
 from .api import RayBatch, RayResult, chief_ray, kernel_to_stop, make_rays, rays_from_pupil, trace
+from .reverse import from_reversed, reversed_lens, to_reversed
 from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED, RayStatus, count_statuses, describe_status
 
 __all__ = ["RayBatch", "RayResult", "trace", "make_rays", "rays_from_pupil", "chief_ray", "kernel_to_stop",
            "RayStatus", "OK", "MISSED", "VIGNETTED", "TIR", "NO_CONVERGE", "INVALID", "count_statuses",
-           "describe_status"]
+           "describe_status", "reversed_lens", "to_reversed", "from_reversed"]
