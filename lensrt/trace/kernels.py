@@ -183,7 +183,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
                 uw = sm.sobol_1d(u32(i), wseed)
             else:
                 uw = real(wp.randf(state))
-            wl, line = sm.sample_cdf(uw, spec_mode, spec_nm, spec_cdf)
+            wl, line, wl_pdf = sm.sample_cdf(uw, spec_mode, spec_nm, spec_cdf)
             row = int(-1)
             if use_table != 0:
                 row = line

@@ -241,10 +241,10 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
 
     @func
     def sample_cdf(u: real, mode: int, nm: wp.array(dtype=real), cdf: wp.array(dtype=real)):
-        """Wavelength from a spectrum: returns (wavelength_nm, line index or -1).
+        """Wavelength from a spectrum: returns (wavelength_nm, line index or -1, pdf).
 
-        mode 0: discrete lines nm[k] with cdf[k] <= u < cdf[k+1]; mode 1: bins
-        [nm[k], nm[k+1]) with uniform density inside (linear in the cdf).
+        mode 0: discrete lines nm[k] with cdf[k] <= u < cdf[k+1] (pdf = the line's probability);
+        mode 1: bins [nm[k], nm[k+1]) with uniform density inside (pdf per nm).
         """
         n = cdf.shape[0] - 1
         lo = int(0)
@@ -255,13 +255,13 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                 lo = mid
             else:
                 hi = mid
-        if mode == 0:
-            return nm[lo], lo
         width = cdf[lo + 1] - cdf[lo]
+        if mode == 0:
+            return nm[lo], lo, width
         f = real(0.5)
         if width > real(0.0):
             f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
-        return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1)
+        return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
 
     ns = SimpleNamespace(hash_u32=hash_u32, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
