@@ -252,7 +252,7 @@ def _newton(residual: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.nd
         lam = np.ones(len(idx))
         accepted = np.zeros(len(idx), dtype=bool)
         pending = good.copy()
-        for _ in range(20):  # backtracking: take the first step length that lowers the residual
+        for _ in range(12):  # backtracking: take the first step length that lowers the residual
             p = np.nonzero(pending)[0]
             if len(p) == 0:
                 break
@@ -339,16 +339,17 @@ def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: 
     # continuation: walk the field (and pupil) up from the axis for the rays that failed
     bad = np.nonzero(~ok)[0]
     cur = np.zeros((len(bad), 2))
-    good = np.ones(len(bad), dtype=bool)
-    steps = 16
+    steps = 8
     for k in range(1, steps + 1):
         f = k / steps
         res = residual_for(target[bad] * f, wl[bad], _scaled_field(fp, f))
-        cur_new, ok_k = _newton(res, cur, scale)
-        good &= ok_k
-        cur = np.where(ok_k[:, None], cur_new, cur)
-    ab[bad[good]] = cur[good]
-    ok[bad[good]] = True
+        cur_new, ok_k = _newton(res, cur, scale, max_iter=20)
+        if not ok_k.any():  # nothing follows the path: give up on these rays
+            return ab, ok
+        keep = np.nonzero(ok_k)[0]  # continue with the rays still on the path
+        bad, cur = bad[keep], cur_new[keep]
+    ab[bad] = cur
+    ok[bad] = True
     return ab, ok
 
 
