@@ -16,7 +16,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..analysis.psf import PsfResult
 
 __all__ = ["plot_mtf_curves", "plot_mtf_vs_field", "plot_through_focus", "plot_psf", "plot_psf_mosaic",
-           "nice_length"]
+           "nice_length", "plot_system_mtf", "plot_convergence"]
 
 
 def _figure(width_in: float, height_in: float):
@@ -156,4 +156,55 @@ def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int
         x, y = res.reference_mm
         ax.set_title(f"({x:.1f}, {y:.1f}) mm", fontsize=7)
     fig.suptitle(title or f"PSF map ({results[0].kind}, tiles peak-normalised)", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
+    """Lens, OLPF, detector and system MTF of one field point (``lensrt.analysis.mtf_report.mtf_curves``
+    output with a detector), sagittal solid, tangential dashed, the diffraction limit and Nyquist marked."""
+    fig = _figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    f = np.asarray(curves["freqs_cpmm"])
+    ax.plot(f, curves["diffraction_limit"], color="0.55", lw=2.5, alpha=0.6,
+            label=f"diffraction limit f/{curves['diffraction_f_number']:.3g}")
+    parts = [("lens", "C0"), ("olpf", "C2"), ("detector", "C1"), ("system", "k")]
+    for name, c in parts:
+        if f"{name}_sagittal" not in curves:
+            continue
+        ax.plot(f, curves[f"{name}_sagittal"], color=c, lw=1.5, label=f"{name} S")
+        ax.plot(f, curves[f"{name}_tangential"], color=c, lw=1.5, ls="--", label=f"{name} T")
+    if "nyquist_cpmm" in curves:
+        nq = curves["nyquist_cpmm"]
+        ax.axvline(nq, color="k", lw=1, ls=":")
+        ax.annotate(f"Nyquist {nq:.0f}", (nq, 0.98), rotation=90, ha="right", va="top", fontsize=8)
+    ax.set(xlim=(0, float(f.max())), ylim=(0, 1.02), xlabel="spatial frequency (cycles/mm)", ylabel="MTF",
+           title=title or "System MTF = lens x OLPF x detector (S solid, T dashed)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return _save(fig, path)
+
+
+def plot_convergence(path: str | Path, data: dict, title: str = "") -> Path:
+    """Standard error against trace seconds, log-log, one line per sampler and precision
+    (``lensrt.analysis.convergence.converge_psf`` output), with a slope -1/2 guide."""
+    fig = _figure(6.4, 4.4)
+    ax = fig.add_subplot()
+    styles = {"float32": "-", "float64": "--"}
+    samplers = sorted({r["sampler"] for r in data["runs"]}, key=["random", "stratified", "sobol", "r2"].index)
+    colours = {s: f"C{i}" for i, s in enumerate(samplers)}
+    for sl in data["slopes"]:
+        pts = [r for r in data["runs"] if r["sampler"] == sl["sampler"] and r["precision"] == sl["precision"]]
+        t = [p["seconds"] for p in pts]
+        e = [p["stderr_mm"] * UM_PER_MM for p in pts]
+        ax.loglog(t, e, styles.get(sl["precision"], "-"), color=colours[sl["sampler"]], marker="o", ms=3,
+                  label=f"{sl['sampler']} {sl['precision']}: slope {sl['slope_stderr_vs_seconds']:.2f}")
+    first = [r for r in data["runs"] if r["sampler"] == samplers[0]]
+    if first:
+        t0, e0 = first[0]["seconds"], first[0]["stderr_mm"] * UM_PER_MM
+        tt = np.array([t0, max(r["seconds"] for r in data["runs"])])
+        ax.loglog(tt, e0 * (tt / t0) ** -0.5, color="0.6", lw=1, ls=":", label="slope -1/2")
+    ax.set(xlabel="trace time (s)", ylabel="standard error of the RMS radius (um)",
+           title=title or "Error against run time")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
     return _save(fig, path)

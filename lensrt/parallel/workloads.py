@@ -27,6 +27,7 @@ WorkloadFactory = Callable[[str, int], Job]
 #: name -> "module:attribute" (or the factory itself)
 WORKLOADS: dict[str, str | WorkloadFactory] = {
     "sweep": "lensrt.sweep:sweep_workload",
+    "psf-map": "lensrt.analysis.psf_map:psf_map_workload",
 }
 
 

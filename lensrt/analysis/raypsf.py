@@ -1,0 +1,282 @@
+"""Geometric PSFs on real rays: the stream kernel's histogram turned into a :class:`PsfResult`.
+
+For one field point (:func:`geometric_psf_at`):
+
+1. the real, vignetted entrance pupil's box is found (:func:`lensrt.trace.stream.pupil_box`)
+   and the real chief ray traced to the observation plane: its landing point is
+   the PSF's reference point and the grid's centre;
+2. the grid: ``setup.pixels`` square pixels; unless ``setup.pitch_um`` fixes it,
+   the pitch is chosen so that the grid holds every ray of a 48 x 48 pilot grid
+   over the pupil (at the spectrum's shortest, primary and longest wavelength)
+   with a 10 % margin;
+3. ``setup.rays`` Monte Carlo rays (sampler, seed, ``setup.batches`` independent
+   batches) are traced and binned by the stream kernel, with per-batch
+   histograms and moment sums;
+4. :func:`lensrt.analysis.psf.geometric_psf` turns them into the PSF (unit
+   volume) and jackknife standard errors; the sagittal and tangential MTF at
+   the reference frequencies (and optional curves) get theirs the same way.
+
+Progressive runs (``setup.target_error`` / ``setup.time_budget_s``): rounds of
+rays are added -- the first 2^16 (or fewer), then each round doubles the total
+-- until the error measure reaches the target (``lensrt.stats.StopRule``) or
+the next round would overrun the time budget. Round r uses its own seed
+derived from (seed, r); batch b of every round is added to batch b of the
+total, so the B batches stay equal and independent and the jackknife over
+them remains valid. A fixed-ray run is round 0 alone.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..stats import Estimate, ProgressiveRun, StopRule, jackknife
+from ..units import UM_PER_MM
+from .fields import FieldSpec
+from .grid import ImageGrid
+from .mtf import mtf_estimate, tangential_angle_rad
+from .psf import PsfResult, geometric_psf
+from .psf_setup import PsfSetup
+from .rays import chief_ray_at, field_xy_of, pupil_grid_rays, trace_pupil_rays
+
+__all__ = ["StreamTotals", "geometric_psf_at", "prepare_field", "FieldGeometry", "round_seed", "psf_window",
+           "add_mtf_estimates"]
+
+#: smallest automatic half-width of a geometric PSF grid (mm): 2 um
+_MIN_HALF_MM = 2e-3
+
+
+def round_seed(seed: int, r: int) -> int:
+    """Seed of round ``r`` of a progressive run (round 0 is ``seed`` itself)."""
+    if r == 0:
+        return int(seed) & 0x7FFFFFFF
+    return int(np.random.SeedSequence([int(seed), int(r)]).generate_state(1, np.uint32)[0]) & 0x7FFFFFFF
+
+
+@dataclass(frozen=True)
+class FieldGeometry:
+    """What a field point needs before tracing: field point, pupil box, chief ray landing point."""
+
+    fp: object
+    box: object
+    reference_mm: tuple[float, float]
+    chief_direction: tuple[float, float, float]
+    seconds: float
+
+
+def prepare_field(setup: PsfSetup, f: FieldSpec, device: str | None = None) -> FieldGeometry:
+    """Pupil box (at the spectrum's extremes and primary) and real chief ray of field ``f``."""
+    from ..trace.aiming import field_point
+    from ..trace.stream import pupil_box
+    t0 = time.perf_counter()
+    lens, spec = setup.lens, setup.spectrum
+    fp = field_point(lens, f.hx, f.hy)
+    wls = sorted({spec.min_nm, spec.primary_nm, spec.max_nm})
+    box = pupil_box(lens, fp, wls, device=device)
+    if box.area_mm2 <= 0:
+        raise LensrtError(f"field {f.label or (f.hx, f.hy)}: no ray passes the lens",
+                          hint="choose field points inside the lens's coverage")
+    chief = chief_ray_at(lens, fp, [spec.primary_nm], setup.plane_z_mm, device)
+    ref = (float(chief.position_mm[0, 0]), float(chief.position_mm[0, 1]))
+    return FieldGeometry(fp, box, ref, tuple(float(v) for v in chief.direction[0]), time.perf_counter() - t0)
+
+
+def psf_window(setup: PsfSetup, geom: FieldGeometry, device: str | None = None, n_side: int = 48
+               ) -> tuple[float, int, float]:
+    """(pitch_um, pixels, pilot half-width mm) of the grid for this field (module docstring, step 2)."""
+    spec = setup.spectrum
+    rays = pupil_grid_rays(geom.fp, geom.box, n_side)
+    half = 0.0
+    for wl in sorted({spec.min_nm, spec.primary_nm, spec.max_nm}):
+        r = trace_pupil_rays(setup.lens, rays, wl, setup.plane_z_mm, device)
+        if r.ok.any():
+            d = np.abs(r.position_mm[r.ok, :2] - np.asarray(geom.reference_mm))
+            half = max(half, float(d.max()))
+    half = max(1.1 * half, _MIN_HALF_MM)
+    pixels = int(setup.pixels)
+    if setup.pitch_um is not None:
+        return float(setup.pitch_um), pixels, half
+    pitch_um = 2.0 * half * UM_PER_MM / pixels
+    if setup.max_pitch_um is not None and pitch_um > setup.max_pitch_um:
+        pixels = min(4096, int(math.ceil(2.0 * half * UM_PER_MM / setup.max_pitch_um)))
+        pixels += pixels % 2
+        pitch_um = max(setup.max_pitch_um, 2.0 * half * UM_PER_MM / pixels)
+    return float(pitch_um), pixels, half
+
+
+@dataclass
+class StreamTotals:
+    """Per-batch sums over the rounds of a (progressive) stream run."""
+
+    hist: np.ndarray
+    moments: np.ndarray
+    off_grid: np.ndarray
+    counts: dict = field(default_factory=dict)
+    rays: int = 0
+    trace_seconds: float = 0.0
+    launches: int = 0
+    rounds: int = 0
+    device: str = ""
+    box_area_mm2: float = 0.0
+
+    def add(self, res) -> None:
+        inp = res.psf_inputs(0)
+        self.hist += inp["hist"]
+        self.moments += inp["moment_sums"]
+        self.off_grid += inp["off_grid"]
+        for k, v in res.status_counts(0).items():
+            self.counts[k] = self.counts.get(k, 0) + int(v)
+        self.rays += int(res.rays_total)
+        self.trace_seconds += float(res.seconds)
+        self.launches += int(res.launches)
+        self.rounds += 1
+        self.device = res.device
+        self.box_area_mm2 = float(res.pupil_area_mm2[0])
+
+
+def _rms_rel_error(moments: np.ndarray) -> tuple[float, float]:
+    def rms(t: np.ndarray) -> float:
+        w = t[0]
+        if not w > 0:
+            return 0.0
+        cx, cy = t[1] / w, t[2] / w
+        return math.sqrt(max(t[3] / w - cx * cx + t[5] / w - cy * cy, 0.0))
+    v, se = jackknife(moments, rms)
+    return v, (se / v if v > 0 else math.inf)
+
+
+def _mtf_error(hist: np.ndarray, grid: ImageGrid, freqs: np.ndarray, ref: tuple[float, float]) -> float:
+    if freqs.size == 0 or not hist.sum() > 0:
+        return math.inf
+    t = tangential_angle_rad(ref)
+    se = [np.max(mtf_estimate(hist, grid, freqs, a).stderr) for a in (t, t + 0.5 * math.pi)]
+    return float(max(se))
+
+
+def _usable_freqs(freqs, grid: ImageGrid) -> np.ndarray:
+    f = np.asarray(freqs, dtype=np.float64)
+    return f[(f >= 0) & (f <= 0.5 / grid.pitch_mm * (1 - 1e-9))]
+
+
+def run_stream(setup: PsfSetup, geom: FieldGeometry, grid: ImageGrid, seed: int, device: str | None = None
+               ) -> tuple[StreamTotals, ProgressiveRun]:
+    """Trace and bin the field's rays, progressively when the setup asks for it (module docstring)."""
+    from ..trace.stream import Grid, StreamSource, stream
+    lens = setup.lens
+    src = StreamSource(geom.fp, geom.box, setup.plane_z_mm, geom.reference_mm, 0, "lambertian")
+    sgrid = Grid(grid.shape[1], grid.shape[0], grid.pitch_mm)
+    spectrum = setup.spectrum.trace_spectrum()
+    B = int(setup.batches)
+    rows, cols = grid.shape
+    tot = StreamTotals(np.zeros((B, rows, cols)), np.zeros((B, 6)), np.zeros(B))
+    rule = StopRule(max_samples=int(setup.rays), target_error=setup.target_error,
+                    time_budget_s=setup.time_budget_s, relative=setup.target_quantity == "rms", min_batches=1)
+    run = ProgressiveRun(rule)
+    freqs = _usable_freqs(setup.mtf_freqs_cpmm, grid)
+    n_next = int(setup.rays)
+    if setup.progressive:
+        n_next = min(int(setup.rays), max(1 << 16, B * 256))
+    r = 0
+    while True:
+        n_next = max(B, (n_next // B) * B)
+        res = stream(lens, [src], sgrid, n_next, spectrum=spectrum, sampler=setup.sampler, seed=round_seed(seed, r),
+                     batches=B, precision=setup.precision, device=device, batch_histograms=True)
+        tot.add(res)
+        run.add(res.rays_total)
+        r += 1
+        if not setup.progressive:
+            break
+        if setup.target_quantity == "rms":
+            value, err = _rms_rel_error(tot.moments)
+            run.record(value, err * value)
+        else:
+            err = _mtf_error(tot.hist, grid, freqs, geom.reference_mm)
+            run.record(err, err)
+        if run.should_stop(err):
+            break
+        # next round: double the total, within the ray cap and the time budget
+        n_next = min(tot.rays, int(setup.rays) - tot.rays)
+        if setup.time_budget_s is not None:
+            rate = tot.rays / max(tot.trace_seconds, 1e-9)
+            left = setup.time_budget_s - run.elapsed_s
+            n_next = min(n_next, int(0.8 * left * rate))
+            if n_next < B * 64:
+                run.stop_reason = "time_budget"
+                break
+        if n_next < B:
+            run.stop_reason = "samples"
+            break
+    return tot, run
+
+
+def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, freqs_curve,
+                      mtf_fn=None) -> dict[str, Estimate]:
+    """Sagittal/tangential MTF Estimates at the reference frequencies (and curves) for a PSF result.
+
+    From per-batch histograms (jackknife) when ``hist`` is given; else deterministic, from
+    ``mtf_fn(freqs, angle_rad)`` (e.g. a diffraction OTF over whole FFT periods) or the PSF itself.
+    Frequencies beyond the grid's Nyquist are left out (listed in the metadata).
+    """
+    from .mtf import mtf_along
+    out: dict[str, Estimate] = {}
+    grid = result.grid
+    t = tangential_angle_rad(result.reference_mm)
+    nyq = 0.5 / grid.pitch_mm if mtf_fn is None else math.inf
+    for key, freqs in (("mtf", freqs_ref), ("mtf_curve", freqs_curve)):
+        f_all = np.asarray(freqs, dtype=np.float64)
+        if f_all.size == 0:
+            continue
+        f = f_all[(f_all >= 0) & (f_all <= nyq * (1 - 1e-9))]
+        if f.size < f_all.size:
+            result.metadata.setdefault("mtf_beyond_grid_nyquist_cpmm", []).extend(
+                [float(v) for v in f_all[f_all > nyq * (1 - 1e-9)]])
+        if f.size == 0:
+            continue
+        for name, ang in (("sagittal", t + 0.5 * math.pi), ("tangential", t)):
+            if hist is not None:
+                e = mtf_estimate(hist, grid, f, ang, binned=True, seconds=result.seconds, samples=result.samples)
+            else:
+                v = mtf_fn(f, ang) if mtf_fn is not None else mtf_along(result.psf, grid, f, ang, binned=result.binned)
+                e = Estimate(np.asarray(v), np.zeros(f.size), result.samples, result.seconds, "deterministic", "")
+            out[f"{key}_{name}"] = e
+        result.metadata[f"{key}_freqs_cpmm"] = [float(v) for v in f]
+    result.estimates.update(out)
+    return out
+
+
+def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | None = None,
+                     geom: FieldGeometry | None = None, reason: str = "asked for") -> PsfResult:
+    """The geometric PSF of field point ``f`` (module docstring)."""
+    t0 = time.perf_counter()
+    geom = prepare_field(setup, f, device) if geom is None else geom
+    pitch_um, pixels, half = psf_window(setup, geom, device)
+    grid = ImageGrid.centred((pixels, pixels), pitch_um, geom.reference_mm)
+    tot, run = run_stream(setup, geom, grid, seed, device)
+    seconds = time.perf_counter() - t0
+    spec = setup.spectrum
+    n = tot.rays
+    meta = {"method": "geometric", "method_reason": reason, "sampler": setup.sampler, "precision": setup.precision,
+            "device": tot.device, "focus": setup.focus, "spectrum": spec.to_dict(), "field": f.to_dict(),
+            "pupil_box_mm2": tot.box_area_mm2, "status_counts": tot.counts,
+            "transmission": tot.counts.get("OK", 0) / n if n else 0.0, "trace_seconds": tot.trace_seconds,
+            "rays_per_second": n / tot.trace_seconds if tot.trace_seconds > 0 else None,
+            "launches": tot.launches, "rounds": tot.rounds, "stop_reason": run.stop_reason if setup.progressive
+            else "rays", "pilot_half_width_mm": half, "chief_direction": list(geom.chief_direction)}
+    if setup.progressive:
+        meta["progress"] = [p.to_dict() for p in run.history]
+        meta["target_error"] = setup.target_error
+        meta["target_quantity"] = setup.target_quantity
+    if tot.counts.get("GRAZING", 0):
+        meta["grazing_rays"] = tot.counts["GRAZING"]
+    if not tot.hist.sum() > 0:
+        raise LensrtError(f"field {f.label}: no ray reached the PSF grid", hint="check the focus and the field")
+    result = geometric_psf(tot.hist, grid, moment_sums=tot.moments, off_grid=tot.off_grid,
+                           reference_mm=geom.reference_mm, wavelengths_nm=spec.lines_nm, weights=spec.line_weights,
+                           field_xy=field_xy_of(setup.lens, f.hx, f.hy), field_kind=setup.lens.fields.kind,
+                           samples=n, seconds=seconds, seed=int(seed), ee_fractions=setup.ee_fractions,
+                           metadata=meta)
+    add_mtf_estimates(result, tot.hist, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm)
+    return result
