@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -210,7 +211,7 @@ def diffraction_psf_at(setup: PsfSetup, f: FieldSpec, device: str | None = None,
         result.metadata["mtf_from"] = "weighted sum of each wavelength's OTF (pupil autocorrelation)"
         add_mtf_estimates(result, None, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm,
                           pupil_mtf_function(pupils, weights, q, ref))
-    return result
+    return replace(result, seconds=time.perf_counter() - t0)
 
 
 def pupil_otf(pupil) -> tuple[np.ndarray, float]:

@@ -68,14 +68,18 @@ class _Rings:
         self.ox, self.oy = (v.ravel() for v in np.meshgrid(off, off))
         self.area = grid.pixel_area_mm2
 
-    def energy(self, flat: np.ndarray, r: float) -> float:
+    def fractions(self, r: float) -> np.ndarray:
+        """Fraction of each pixel (flattened) inside the circle of radius r (sub-sampled where it cuts)."""
         frac = (self.dmax <= r).astype(np.float64)
         cut = np.nonzero((self.dmin < r) & (self.dmax > r))[0]
         if cut.size:
             sx = self.ax[cut, None] + self.ox[None, :]
             sy = self.ay[cut, None] + self.oy[None, :]
             frac[cut] = np.mean(sx * sx + sy * sy <= r * r, axis=1)
-        return float(flat @ frac) * self.area
+        return frac
+
+    def energy(self, flat: np.ndarray, r: float) -> float:
+        return float(flat @ self.fractions(r)) * self.area
 
 
 class _Fourier:

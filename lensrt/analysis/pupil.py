@@ -292,7 +292,9 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         raise LensrtError(f"{outside} valid rays lie outside the pupil grid (|px| or |py| > 1)",
                           hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
+    from scipy.spatial import Delaunay
     pts = np.column_stack([px[ok], py[ok]])
+    tri = Delaunay(pts)  # one triangulation of the valid rays for the OPD and the amplitude
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
     if aperture is None:
         allpts = np.column_stack([px, py])
@@ -303,7 +305,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         if mask.shape != (n, n):
             raise LensrtError(f"aperture mask has shape {mask.shape}, expected ({n}, {n})")
     if method == "linear":
-        grid_w = LinearNDInterpolator(pts, w[ok])(gx, gy)
+        grid_w = LinearNDInterpolator(tri, w[ok])(gx, gy)
         hole = ~np.isfinite(grid_w) & (mask > 0)  # lit edge cells outside the valid rays' hull
         if hole.any():
             grid_w[hole] = _extrapolate(pts, w[ok], gx[hole], gy[hole])
@@ -318,7 +320,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         raise LensrtError(f"unknown pupil gridding method {method!r}", hint="use 'linear' or 'zernike'")
     if amplitude is not None:
         a = np.ravel(np.asarray(amplitude, dtype=np.float64))[ok]
-        grid_a = LinearNDInterpolator(pts, a)(gx, gy)
+        grid_a = LinearNDInterpolator(tri, a)(gx, gy)
         hole = ~np.isfinite(grid_a)
         if hole.any():
             grid_a[hole] = NearestNDInterpolator(pts, a)(gx[hole], gy[hole])

@@ -37,7 +37,7 @@ smallest scale that holds every valid ray (2 % margin). Rays that fail
 (vignetted by any clear aperture, stopped by an iris blade, missed, TIR) are
 traced again without clipping to place them in p; the aperture is the region
 where the linear interpolant of "this ray passed" is >= 1/2, anti-aliased
-over 4 x 4 sub-cells at n = 128 (512 / n per side) -- so vignetting and the iris polygon come from the rays
+over 4 x 4 sub-cells in the cells along the edge -- so vignetting and the iris polygon come from the rays
 themselves, with zero amplitude outside. The amplitude carries the ray
 density: uniform flux over the entrance-pupil box, times the kernel's ray
 weight, spread over the p-area each ray occupies, |a|^2 = w / |d(p)/d(a, b)|
@@ -54,7 +54,7 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from ..units import NM_PER_MM
-from .pupil import aperture_mask, enclosing_na, pupil_coordinates_from_directions, pupil_from_rays
+from .pupil import enclosing_na, pupil_coordinates_from_directions, pupil_from_rays
 from .rays import PupilRays, pupil_grid_rays
 
 __all__ = ["ReferenceSphere", "RayWavefront", "reference_sphere", "opd_to_sphere_mm", "trace_wavefronts",
@@ -221,17 +221,37 @@ def trace_wavefronts(lens: Lens, fp, box, wavelengths_nm: Sequence[float], plane
     return out
 
 
+def _ray_mask(inside_value, n: int, supersample: int = 4) -> np.ndarray:
+    """Clear fraction of each pupil cell where ``inside_value(px, py) >= 1/2``, sub-sampled (s x s points) only
+    in cells at the edge (where the value at the centres of the cell and its neighbours is not all 0 or 1)."""
+    from .pupil import pupil_coordinates
+    gx, gy = pupil_coordinates(n)
+    v = inside_value(gx, gy)
+    mask = (v >= 0.5).astype(np.float64)
+    mixed = (v > 1e-9) & (v < 1 - 1e-9)
+    pad = np.pad(mask, 1, mode="edge")
+    differs = np.zeros_like(mixed)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            differs |= pad[1 + dr:n + 1 + dr, 1 + dc:n + 1 + dc] != mask
+    edge = np.nonzero(mixed | differs)
+    if edge[0].size and supersample > 1:
+        s = int(supersample)
+        off = ((np.arange(s) + 0.5) / s - 0.5) * (2.0 / n)
+        ox, oy = (a.ravel() for a in np.meshgrid(off, off))
+        qx = gx[edge][:, None] + ox[None, :]
+        qy = gy[edge][:, None] + oy[None, :]
+        mask[edge] = np.mean(inside_value(qx, qy) >= 0.5, axis=1)
+    return mask
+
+
 def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.diffraction.PupilFunction` of a traced wavefront on an n x n pupil grid."""
     from scipy.interpolate import LinearNDInterpolator
     from .diffraction import PupilFunction
     pts = np.column_stack([wf.px, wf.py])
-    inside_f = LinearNDInterpolator(pts, wf.valid.astype(np.float64), fill_value=0.0)
-
-    def inside(qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
-        return inside_f(qx, qy) >= 0.5
-
-    mask = aperture_mask(n, inside, supersample=max(1, 512 // n))  # 4 x 4 sub-cells at n = 128
+    inside = LinearNDInterpolator(pts, wf.valid.astype(np.float64), fill_value=0.0)
+    mask = _ray_mask(inside, n, supersample=4)
     amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))

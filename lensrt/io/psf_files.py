@@ -104,6 +104,9 @@ def read_psf_map_exr(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str,
                 out[k] = json.loads(v)
             except ValueError:
                 pass
+    for k, conv in (("lensrt:seed", int), ("lensrt:pixel_pitch_um", float)):
+        if k in out:
+            out[k] = conv(out[k])
     psfs = {name: chans[f"{name}.psf"] for name in out["lensrt:layers"]}
     return psfs, out
 
