@@ -21,7 +21,7 @@ jackknife standard errors for geometric PSFs):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..stats import Estimate, batch_means, jackknife
-from .energy import centroid_mm, encircled_energy_function, radius_for_energy
+from .energy import centroid_mm, radius_for_energy
 from .grid import ImageGrid
 from .mtf import tangential_angle_rad
 

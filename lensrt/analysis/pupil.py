@@ -40,7 +40,7 @@ from ..prescription.model import Iris
 __all__ = ["pupil_coordinates", "aperture_mask", "circular_aperture", "iris_aperture",
            "aperture_from_iris", "vignetted_aperture", "noll_to_nm", "zernike", "fit_zernike",
            "zernike_surface", "pupil_coordinates_from_directions", "enclosing_na", "defocus_opd_mm",
-           "pupil_from_rays"]
+           "pupil_from_rays", "TriLinear"]
 
 
 def pupil_coordinates(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -215,25 +215,59 @@ def defocus_opd_mm(px: np.ndarray, py: np.ndarray, na: float, dz_mm: float,
     return dz_mm * (N - chief_direction[2])
 
 
+class TriLinear:
+    """Piecewise-linear interpolation on the Delaunay triangulation of scattered points.
+
+    Built on ``matplotlib.tri`` (C++ point location and plane coefficients):
+    scipy's ``LinearNDInterpolator`` computes a barycentric transform per
+    triangle through LAPACK, which behind a multi-threaded BLAS costs seconds for
+    ten thousand triangles. Near-degenerate triangles (area below 1e-6 of the
+    median, e.g. from collinear points on the hull of a regular ray grid) are
+    masked. ``interp(values, qx, qy, fill)`` returns ``fill`` outside the hull.
+    """
+
+    def __init__(self, x: np.ndarray, y: np.ndarray) -> None:
+        from matplotlib.tri import Triangulation
+        try:
+            tr = Triangulation(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        except (RuntimeError, ValueError) as err:
+            raise LensrtError(f"cannot triangulate the pupil rays: {err}",
+                              hint="trace more pupil rays (they may all lie on a line)") from None
+        xt, yt = tr.x[tr.triangles], tr.y[tr.triangles]
+        area = np.abs((xt[:, 1] - xt[:, 0]) * (yt[:, 2] - yt[:, 0]) - (xt[:, 2] - xt[:, 0]) * (yt[:, 1] - yt[:, 0]))
+        tr.set_mask(area <= 1e-6 * np.median(area))
+        self.tri = tr
+
+    def interp(self, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, fill: float = np.nan) -> np.ndarray:
+        from matplotlib.tri import LinearTriInterpolator
+        v = LinearTriInterpolator(self.tri, np.asarray(values, dtype=np.float64))(qx, qy)
+        return np.ma.filled(v.astype(np.float64), fill)
+
+
 def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, k: int = 16) -> np.ndarray:
     """Local least-squares quadratic through the k nearest rays, evaluated at (qx, qy).
 
     Edge cells of a pupil often lie just beyond the outermost valid ray,
     where the wavefront is steepest: a nearest-ray value would be off by
-    half a ray spacing times the slope.
+    half a ray spacing times the slope. All cells are solved in one batched
+    call (normal equations in coordinates scaled by each cell's neighbourhood).
     """
     from scipy.spatial import cKDTree
 
     k = min(k, len(values))
     _, idx = cKDTree(pts).query(np.column_stack([qx, qy]), k=k)
-    out = np.empty(qx.size)
-    for i, (x0, y0) in enumerate(zip(qx, qy)):
-        dx, dy = pts[idx[i], 0] - x0, pts[idx[i], 1] - y0
-        basis = np.column_stack([np.ones(k), dx, dy, dx * dx, dx * dy, dy * dy]) if k >= 6 else \
-            np.column_stack([np.ones(k), dx, dy])[:, :min(3, k)]
-        coef, *_ = np.linalg.lstsq(basis, values[idx[i]], rcond=None)
-        out[i] = coef[0]
-    return out
+    idx = np.asarray(idx).reshape(len(qx), k)
+    dx, dy = pts[idx, 0] - np.asarray(qx)[:, None], pts[idx, 1] - np.asarray(qy)[:, None]
+    scale = np.maximum(np.sqrt(np.mean(dx * dx + dy * dy, axis=1)), 1e-300)[:, None]
+    u, v = dx / scale, dy / scale
+    one = np.ones_like(u)
+    cols = [one, u, v, u * u, u * v, v * v] if k >= 6 else [one, u, v][:min(3, k)]
+    basis = np.stack(cols, axis=2)  # (cells, k, terms)
+    ata = np.einsum("nki,nkj->nij", basis, basis)
+    atb = np.einsum("nki,nk->ni", basis, values[idx])
+    ridge = 1e-12 * np.trace(ata, axis1=1, axis2=2)[:, None, None] * np.eye(basis.shape[2])
+    coef = np.linalg.solve(ata + ridge, atb[..., None])[..., 0]
+    return coef[:, 0]
 
 
 def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: np.ndarray, n: int, *,
@@ -255,7 +289,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         Pupil grid size.
     method : {"linear", "zernike"}
         ``"linear"`` (default): piecewise-linear interpolation on the Delaunay
-        triangulation of the valid rays (scipy ``LinearNDInterpolator``). Exact at
+        triangulation of the valid rays (:class:`TriLinear`). Exact at
         every ray, follows any vignetted outline, needs no order to be chosen;
         its error is O(h^2 |W''|) for a ray spacing h, and a dense ray set makes
         it converge to the true wavefront. Lit cells just outside the valid
@@ -277,7 +311,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         ``info`` has the method, rays used, RMS fit residual (mm) at the rays and,
         for ``"zernike"``, the coefficients (mm).
     """
-    from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
+    from scipy.interpolate import NearestNDInterpolator
 
     px, py, w = (np.ravel(np.asarray(a, dtype=np.float64)) for a in (px, py, opd_mm))
     ok = np.ravel(np.asarray(valid, dtype=bool))
@@ -292,20 +326,18 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         raise LensrtError(f"{outside} valid rays lie outside the pupil grid (|px| or |py| > 1)",
                           hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
-    from scipy.spatial import Delaunay
     pts = np.column_stack([px[ok], py[ok]])
-    tri = Delaunay(pts)  # one triangulation of the valid rays for the OPD and the amplitude
+    tri = TriLinear(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
     if aperture is None:
-        allpts = np.column_stack([px, py])
-        frac = LinearNDInterpolator(allpts, ok.astype(np.float64), fill_value=0.0)(gx, gy)
+        frac = TriLinear(px, py).interp(ok.astype(np.float64), gx, gy, fill=0.0)
         mask = (frac >= 0.5).astype(np.float64)
     else:
         mask = np.asarray(aperture, dtype=np.float64)
         if mask.shape != (n, n):
             raise LensrtError(f"aperture mask has shape {mask.shape}, expected ({n}, {n})")
     if method == "linear":
-        grid_w = LinearNDInterpolator(tri, w[ok])(gx, gy)
+        grid_w = tri.interp(w[ok], gx, gy)
         hole = ~np.isfinite(grid_w) & (mask > 0)  # lit edge cells outside the valid rays' hull
         if hole.any():
             grid_w[hole] = _extrapolate(pts, w[ok], gx[hole], gy[hole])
@@ -320,7 +352,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         raise LensrtError(f"unknown pupil gridding method {method!r}", hint="use 'linear' or 'zernike'")
     if amplitude is not None:
         a = np.ravel(np.asarray(amplitude, dtype=np.float64))[ok]
-        grid_a = LinearNDInterpolator(tri, a)(gx, gy)
+        grid_a = tri.interp(a, gx, gy)
         hole = ~np.isfinite(grid_a)
         if hole.any():
             grid_a[hole] = NearestNDInterpolator(pts, a)(gx[hole], gy[hole])

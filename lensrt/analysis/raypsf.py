@@ -184,11 +184,16 @@ def run_stream(setup: PsfSetup, geom: FieldGeometry, grid: ImageGrid, seed: int,
     n_next = int(setup.rays)
     if setup.progressive:
         n_next = min(int(setup.rays), max(1 << 16, B * 256))
+    # GPU histogram replicas (against atomic contention) within 256 MiB of per-batch histograms
+    from ..device import resolve_device
+    replicas = None
+    if resolve_device(device).startswith("cuda"):
+        replicas = int(max(1, min(16, (256 << 20) // (8 * rows * cols * B))))
     r = 0
     while True:
         n_next = max(B, (n_next // B) * B)
         res = stream(lens, [src], sgrid, n_next, spectrum=spectrum, sampler=setup.sampler, seed=round_seed(seed, r),
-                     batches=B, precision=setup.precision, device=device, batch_histograms=True)
+                     batches=B, precision=setup.precision, device=device, batch_histograms=True, replicas=replicas)
         tot.add(res)
         run.add(res.rays_total)
         r += 1

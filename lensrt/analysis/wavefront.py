@@ -247,11 +247,11 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> np.ndarray:
 
 def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.diffraction.PupilFunction` of a traced wavefront on an n x n pupil grid."""
-    from scipy.interpolate import LinearNDInterpolator
     from .diffraction import PupilFunction
-    pts = np.column_stack([wf.px, wf.py])
-    inside = LinearNDInterpolator(pts, wf.valid.astype(np.float64), fill_value=0.0)
-    mask = _ray_mask(inside, n, supersample=4)
+    from .pupil import TriLinear
+    lin = TriLinear(wf.px, wf.py)
+    valid = wf.valid.astype(np.float64)
+    mask = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
     amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))

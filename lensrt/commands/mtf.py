@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ._common import emit, print_json
-from ._psf_options import add_psf_options, fields_from_args, host_device, parse_list, setup_from_args
+from ._psf_options import add_psf_options, fields_from_args, host_device, setup_from_args
 
 __all__ = ["register", "cmd_mtf", "default_mtf_fields"]
 
@@ -121,7 +121,7 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
                     cells.append("-")
                 else:
                     v, se = float(np.atleast_1d(e.value)[j]), float(np.atleast_1d(e.stderr)[j])
-                    cells.append(f"{v:.3f}" + (f" +- {se:.3f}" if se else ""))
+                    cells.append(f"{v:.3f}" + (f" +- {se:.1g}" if se else ""))
         rows.append([f.label, f"{math.hypot(*r.reference_mm):.3f}", r.kind.replace("diffraction-", "d-"),
                      f"{r.samples:.3g}", r.seconds] + cells)
     heads = ["field", "height (mm)", "method", "rays", "seconds"]
@@ -153,11 +153,11 @@ def _write(args, pmap, out: dict, curves, vs_field, focus) -> dict:
     plot_mtf_curves(files["png"], c0["freqs_cpmm"],
                     [(pmap.fields[i].label, curves[i]["lens_sagittal"], curves[i]["lens_tangential"]) for i in sel],
                     diffraction=c0["diffraction_limit"], nyquist_cpmm=c0.get("nyquist_cpmm"),
-                    title=f"{lens}: lens MTF (S solid, T dashed)")
-    plot_system_mtf(files["system"], c0, title=f"{lens} at {pmap.fields[0].label}: system MTF")
-    plot_mtf_vs_field(files["field"], vs_field, title=f"{lens}: MTF against image height")
+                    title=f"{lens}\nlens MTF (S solid, T dashed)")
+    plot_system_mtf(files["system"], c0, title=f"{lens}, {pmap.fields[0].label}\nsystem MTF = lens x OLPF x detector")
+    plot_mtf_vs_field(files["field"], vs_field, title=f"{lens}\nMTF against image height (S solid, T dashed)")
     if focus:
         files["focus"] = d / "mtf_focus.png"
-        plot_through_focus(files["focus"], focus[0], title=f"{lens} at {pmap.fields[0].label}: through-focus MTF")
+        plot_through_focus(files["focus"], focus[0], title=f"{lens}, {pmap.fields[0].label}\nthrough-focus MTF")
     files["json"].write_text(dumps_json(out) + "\n")
     return {k: str(v) for k, v in files.items()}

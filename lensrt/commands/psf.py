@@ -85,7 +85,7 @@ def _converge(args: argparse.Namespace, setup, f, dev) -> int:
         d.mkdir(parents=True, exist_ok=True)
         (d / "converge.json").write_text(dumps_json(data) + "\n")
         plot_convergence(d / "converge.png", data,
-                         title=f"{setup.lens.name}: RMS radius at {f.label}, error against run time")
+                         title=f"{setup.lens.name}\nRMS radius at {f.label}: error against run time")
         data["files"] = [str(d / "converge.json"), str(d / "converge.png")]
     if args.json:
         print_json(data)
