@@ -178,7 +178,7 @@ def test_defocus_disc_rms_matches_the_closed_form_within_its_standard_error(samp
 
 def test_best_focus_minimises_the_axial_rms_spot():
     from lensrt.analysis.focus import best_focus_z_mm
-    from lensrt.analysis.raypsf import geometric_psf_at, prepare_field
+    from lensrt.analysis.raypsf import geometric_psf_at
     lens = singlet(conic=0.0)  # spherical aberration: best focus lies in front of the paraxial focus
     z_best, rms_best = best_focus_z_mm(lens, device="cpu")
     z_par = make_setup(lens, focus="paraxial", device="cpu").plane_z_mm
@@ -254,3 +254,23 @@ def test_system_mtf_is_the_product_of_its_parts(airy):
     assert c["nyquist_cpmm"] == 100.0
     # the diffraction limit is drawn at the lens's paraxial working f-number
     assert np.allclose(c["diffraction_limit"], mtf.diffraction_mtf(f, WL, c["diffraction_f_number"]))
+
+
+def test_diffraction_and_geometric_psfs_share_the_centroid_off_axis():
+    # in the Debye picture the centroid of the diffraction PSF is the intensity-weighted mean transverse ray
+    # aberration -- the geometric centroid: checks the OPD sign, the pupil coordinates and the grids together
+    from lensrt.analysis.diffpsf import diffraction_psf_at
+    from lensrt.analysis.raypsf import geometric_psf_at
+    from lensrt.analysis.spectrum import line_spectrum
+    from lensrt.loading import load_lens
+    lens = load_lens("cooke_triplet_50mm_f5")
+    setup = make_setup(lens, line_spectrum([587.56]), "best", "cpu", pixels=256, rays=1 << 18, precision="float64")
+    f = FieldSpec(0.0, 1.0, "full")
+    g = geometric_psf_at(setup, f, 1, "cpu")
+    d = diffraction_psf_at(setup.with_(method="diffraction"), f, "cpu")
+    assert d.metadata["opd_pv_waves"] > 1.5  # aberrated: the centroid is well off the chief ray
+    dy_g = g.estimates["centroid_y_mm"].value - g.reference_mm[1]
+    dy_d = d.estimates["centroid_y_mm"].value - d.reference_mm[1]
+    assert abs(dy_g) > 3e-3
+    assert abs(dy_d - dy_g) < 0.02 * abs(dy_g) + 5 * g.estimates["centroid_y_mm"].stderr
+    assert abs(d.estimates["centroid_x_mm"].value - d.reference_mm[0]) < 1e-5

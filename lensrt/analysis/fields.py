@@ -7,7 +7,7 @@ built backwards: the real chief ray (primary wavelength) is traced for a fine
 set of normalised radial fields |H| along +y to the observation plane
 (:func:`chief_height_table`); the image height is monotonic in |H| over the
 lens's coverage, so the field of a sensor point at radius rho and azimuth phi
-is |H| = h(rho) by monotone cubic (PCHIP) interpolation of the inverted table,
+is |H| = h(rho) by cubic-spline interpolation of the inverted table,
 at azimuth phi (or phi + pi where the image is inverted, e.g. a near object).
 Rotational symmetry of the lens is assumed (lensrt's surfaces are
 rotationally symmetric). Each PSF reports where its real chief ray actually
@@ -67,14 +67,14 @@ class ChiefTable:
         return float(abs(self.height_mm[-1]))
 
     def field_of_height(self, rho_mm: np.ndarray) -> np.ndarray:
-        """Normalised radial field |H| whose chief ray lands at radius ``rho_mm`` (PCHIP of the inverse)."""
-        from scipy.interpolate import PchipInterpolator
+        """Normalised radial field |H| whose chief ray lands at radius ``rho_mm`` (cubic spline of the inverse)."""
+        from scipy.interpolate import CubicSpline
         rho = np.asarray(rho_mm, dtype=np.float64)
         if np.any(rho > self.max_height_mm * (1 + 1e-9)):
             raise LensrtError(f"image radius {rho.max():.4g} mm is beyond the lens's coverage: the real chief "
                               f"ray reaches {self.max_height_mm:.4g} mm at most",
                               hint="use a smaller --sensor format (or fewer/inner field points)")
-        return PchipInterpolator(np.abs(self.height_mm), self.h)(rho)
+        return CubicSpline(np.abs(self.height_mm), self.h)(rho)
 
 
 @lru_cache(maxsize=16)
