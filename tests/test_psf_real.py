@@ -274,3 +274,24 @@ def test_diffraction_and_geometric_psfs_share_the_centroid_off_axis():
     assert abs(dy_g) > 3e-3
     assert abs(dy_d - dy_g) < 0.02 * abs(dy_g) + 5 * g.estimates["centroid_y_mm"].stderr
     assert abs(d.estimates["centroid_x_mm"].value - d.reference_mm[0]) < 1e-5
+
+
+@pytest.mark.slow
+def test_small_fresnel_number_uses_huygens_and_still_gives_the_airy_pattern():
+    # an f/50 aberration-free singlet: Fresnel number NA^2 R / lambda ~ 10 < 20, so auto picks the direct
+    # Huygens sum over the reference sphere; on the focal plane it is still the Airy pattern
+    from lensrt.analysis.psf_map import psf_at
+    semi = 0.5
+    s = (Surface(thickness_mm=5.0, material=ConstantIndex(N_GLASS), semi_diameter_mm=semi, is_stop=True),
+         Surface(curvature_per_mm=-1.0 / ((N_GLASS - 1.0) * F_MM), conic=-N_GLASS**2, thickness_mm=F_MM,
+                 semi_diameter_mm=semi * 1.2))
+    lens = Lens(s, aperture=Aperture("float_by_stop", 0.0), fields=Fields("angle", (0.0, math.radians(1.0))),
+                wavelengths=Wavelengths((WL,)))
+    r = psf_at(make_setup(lens, focus="paraxial", device="cpu", method="auto", pixels=48, pupil_samples=64),
+               AXIS, 0, "cpu")
+    assert r.kind == "diffraction-huygens" and "Fresnel" in r.metadata["method_reason"]
+    assert r.metadata["fresnel_number"] < 20
+    n_w = 0.5 * math.hypot(semi, F_MM) / semi  # 1 / (2 sin u') of the marginal ray (sag of 5 um neglected)
+    x, y = r.grid.mesh_mm()
+    ref = mtf.airy_psf(np.hypot(x - r.reference_mm[0], y - r.reference_mm[1]), WL, n_w)
+    assert np.max(np.abs(r.psf - ref)) < 0.01 * ref.max()
