@@ -114,13 +114,14 @@ class DistortionCurve:
         return self.distortion_percent if definition == "paraxial" else self.distortion_codev_percent
 
     def closest_mapping(self) -> str | None:
-        """The mapping of :data:`MAPPINGS` whose heights the real ones follow best (RMS), None if not at infinity."""
+        """The mapping of :data:`MAPPINGS` the real image heights follow best (RMS relative difference over the
+        traced field points); only mappings defined at all of them compete. None if the object is not at infinity."""
+        use = self.valid & (np.abs(self.object_value) > 0)
         best, err = None, math.inf
         for name, h in self.mapping_height_mm.items():
-            ok = self.valid & np.isfinite(h)
-            if ok.sum() < 2 or not ok[self.object_value >= 0.999 * np.nanmax(self.object_value)].all():
+            if use.sum() < 1 or not np.all(np.isfinite(h[use])):
                 continue
-            e = float(np.sqrt(np.mean((self.real_height_image_mm[ok] - h[ok]) ** 2)))
+            e = float(np.sqrt(np.mean((self.real_height_image_mm[use] / h[use] - 1.0) ** 2)))
             if e < err:
                 best, err = name, e
         return best
@@ -136,8 +137,8 @@ class DistortionCurve:
              "distortion_percent": self.distortion_percent, "distortion_codev_percent": self.distortion_codev_percent,
              "definitions": DEFINITION_TEXT}
         if self.infinite:
-            d["mapping_height_mm"] = self.mapping_height_mm
-            d["mapping_distortion_percent"] = self.mapping_distortion_percent
+            d.update({f"{k}_height_mm": v for k, v in self.mapping_height_mm.items()})
+            d.update({f"{k}_distortion_percent": v for k, v in self.mapping_distortion_percent.items()})
             d["closest_mapping"] = self.closest_mapping()
         return d
 

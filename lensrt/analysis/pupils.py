@@ -84,10 +84,13 @@ class PupilOutline:
     exit_projected_solid_angle_sr: float  # the real exit pupil's, seen from the chief ray's image point
     rays: int = 0
     frame: tuple = field(default=(), repr=False)
+    infinite: bool = True
 
     def to_dict(self, points: int = 72) -> dict:
         step = max(1, len(self.a_mm) // points)
-        return {"field_value": self.object_value, "wavelength_nm": self.wavelength_nm, "clip": self.clip,
+        key, val = ("field_deg", math.degrees(self.object_value)) if self.infinite else \
+            ("object_height_mm", self.object_value)
+        return {key: val, "wavelength_nm": self.wavelength_nm, "clip": self.clip,
                 "area_mm2": self.area_mm2, "projected_solid_angle_sr": self.projected_solid_angle_sr,
                 "exit_projected_solid_angle_sr": self.exit_projected_solid_angle_sr,
                 "centre_ab_mm": self.centre_ab_mm, "outline_a_mm": self.a_mm[::step],
@@ -249,7 +252,7 @@ def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None =
             u = dirs
         ex_solid = _shoelace(u[:, 0], u[:, 1])
     return PupilOutline(float(object_value), wl, clip, tracer, phi, rho, (a0, b0), a0 + rho * cos, b0 + rho * sin,
-                        area, solid, dirs, ex_solid, rays, (c, w, e1, e2))
+                        area, solid, dirs, ex_solid, rays, (c, w, e1, e2), fp.infinite)
 
 
 @dataclass

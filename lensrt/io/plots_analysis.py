@@ -61,7 +61,7 @@ def plot_spots(path: str | Path, spots: Sequence["SpotDiagram"], airy_radius_mm:
     n = len(spots)
     if n == 0:
         raise ValueError("no spot diagrams to draw")
-    fig = _figure(2.9 * n + 0.4, 3.5)
+    fig = _figure(max(2.9 * n + 0.4, 6.0), 3.9)
     axes = fig.subplots(1, n, squeeze=False)[0]
     half = max(max(s.geometric_radius_mm for s in spots), airy_radius_mm or 0.0) * UM_PER_MM * 1.08
     for ax, s in zip(axes, spots):
@@ -81,7 +81,8 @@ def plot_spots(path: str | Path, spots: Sequence["SpotDiagram"], airy_radius_mm:
         ax.set_title(f"{_field_title(s.label)}\n{sub}, geo {s.geometric_radius_mm * UM_PER_MM:.1f} um", fontsize=9)
         ax.set_xlabel("x - x_ref (um)")
     axes[0].set_ylabel("y - y_ref (um)")
-    axes[0].legend(fontsize=7, markerscale=4, loc="upper left")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8, markerscale=4)
     ref = "primary chief ray" if spots[0].reference == "chief" else "centroid"
     fig.suptitle(title or f"Spot diagrams on the plane z = {spots[0].plane_z_mm:.3f} mm, relative to the {ref}",
                  fontsize=10)
