@@ -158,13 +158,15 @@ class SpotDiagram:
     grid_rms_radius_mm: float
     estimates: dict[str, Estimate] = field(default_factory=dict)  # polychromatic (lens weights)
     per_wavelength: dict[float, dict[str, Estimate]] = field(default_factory=dict)
+    geometric_radius_by_wavelength_mm: dict[float, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"field": self.label, "wavelengths_nm": self.wavelengths_nm, "reference": self.reference,
                 "reference_mm": self.reference_mm, "plane_z_mm": self.plane_z_mm,
                 "geometric_radius_mm": self.geometric_radius_mm, "grid_rms_radius_mm": self.grid_rms_radius_mm,
                 **{k: v.to_dict() for k, v in self.estimates.items()},
-                "per_wavelength": [{"wavelength_nm": w, **{k: v.to_dict() for k, v in e.items()}}
+                "per_wavelength": [{"wavelength_nm": w, **{k: v.to_dict() for k, v in e.items()},
+                                    "geometric_radius_mm": self.geometric_radius_by_wavelength_mm.get(w)}
                                    for w, e in self.per_wavelength.items()]}
 
 
@@ -258,6 +260,7 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
         allx, ally = allx - shift[0], ally - shift[1]
         ref_mm = (float(chief_pos[k, 0] + shift[0]), float(chief_pos[k, 1] + shift[1]))
         rr = np.hypot(allx, ally)
+        geo = {w: float(np.hypot(x, y).max()) if len(x) else math.nan for w, x, y in zip(wls, xs, ys)}
         out.append(SpotDiagram(spec.object_value, spec.infinite, spec.label, wls, reference, ref_mm, z, xs, ys,
-                               float(rr.max()), float(math.sqrt(np.mean(rr * rr))), est, pw))
+                               float(rr.max()), float(math.sqrt(np.mean(rr * rr))), est, pw, geo))
     return out

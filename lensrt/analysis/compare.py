@@ -17,8 +17,9 @@ between the ynu trace and the real trace below is an aberration:
 * ray fans, OPD fans and spot diagrams (:mod:`.aberrations`).
 
 :func:`compare_lens` returns a :class:`Comparison`; ``to_dict()`` is the JSON of
-``lensrt compare --json`` (every number's unit in its key), ``table()`` the
-terminal text, and :func:`lensrt.io.plots_analysis.write_compare_plots` the figures.
+``lensrt compare --json`` (every number's unit in its key);
+:func:`lensrt.io.compare_text.comparison_text` is the terminal text and
+:func:`lensrt.io.plots_analysis.write_compare_plots` the figures.
 """
 from __future__ import annotations
 
@@ -181,11 +182,6 @@ class Comparison:
             "notes": self.notes,
         }
         return out
-
-    def table(self) -> str:
-        """The terminal report of ``lensrt compare``."""
-        from .compare_text import comparison_text
-        return comparison_text(self)
 
 
 def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,

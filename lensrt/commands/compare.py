@@ -68,7 +68,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         d["figures"] = [str(p) for p in written]
         print_json(d)
         return 0
-    emit(c.table())
+    from ..io.compare_text import comparison_text
+    emit(comparison_text(c))
     for p in written:
         emit(f"wrote {p}")
     return 0

@@ -6,10 +6,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..io.table import format_table
+from .table import format_table
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .compare import Comparison
+    from ..analysis.compare import Comparison
 
 __all__ = ["comparison_text"]
 
