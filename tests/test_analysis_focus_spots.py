@@ -11,8 +11,8 @@ from trace_cases import library_lens
 from lensrt.analysis.aberrations import ray_fan, spot_diagrams
 from lensrt.analysis.compare import lateral_colour
 from lensrt.analysis.distortion import MAPPINGS, distortion_curve, grid_distortion, mapping_height_mm
-from lensrt.analysis.focus import _grid_rays, best_focus, chromatic_focal_shift, correction_name
-from lensrt.analysis.rays import lens_fields, object_field_point, trace64
+from lensrt.analysis.focus import best_focus, chromatic_focal_shift, correction_name
+from lensrt.analysis.rays import lens_fields, object_field_point, pupil_grid_rays, trace64
 from lensrt.errors import LensrtError
 from lensrt.paraxial import first_order
 
@@ -25,7 +25,7 @@ def dgauss():
 def test_best_focus_is_the_rms_minimum(dgauss):
     """The closed-form minimum against the RMS radius traced to planes around it."""
     bf = best_focus(dgauss, n_grid=32, device="cpu")
-    rays = _grid_rays(dgauss, object_field_point(dgauss, 0.0), dgauss.wavelengths.primary_nm, 32, "cpu")
+    rays = pupil_grid_rays(dgauss, object_field_point(dgauss, 0.0), dgauss.wavelengths.primary_nm, 32, "cpu")
 
     def rms(z: float) -> float:
         r = trace64(dgauss, rays, "cpu", clip=True, plane_z_mm=z)
@@ -45,7 +45,7 @@ def test_spot_statistics_against_dense_grid(dgauss):
     spots = spot_diagrams(dgauss, [0.0, 0.7], [wl], n_grid=17, rays=1 << 15, device="cpu")
     for s, h in zip(spots, (0.0, 0.7)):
         fp = object_field_point(dgauss, lens_fields(dgauss)[0].object_value if h == 0 else math.radians(15.4))
-        r = trace64(dgauss, _grid_rays(dgauss, fp, wl, 160, "cpu"), "cpu", clip=True)
+        r = trace64(dgauss, pupil_grid_rays(dgauss, fp, wl, 160, "cpu"), "cpu", clip=True)
         x = r.position_mm[r.ok, 0] - s.reference_mm[0]
         y = r.position_mm[r.ok, 1] - s.reference_mm[1]
         dense = math.sqrt(np.mean(x * x + y * y))

@@ -37,7 +37,8 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from ..stats import Estimate, jackknife
 from ..units import NM_PER_MM
-from .rays import aim_batch, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
+from .rays import (aim_batch, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
+                   trace64)
 
 __all__ = ["RayFan", "ray_fan", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
@@ -205,7 +206,6 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     """
     from ..trace.sampling import spectrum_discrete
     from ..trace.stream import Grid, stream, stream_source
-    from .focus import _grid_rays
     if reference not in ("chief", "centroid"):
         raise LensrtError(f"unknown spot reference {reference!r}", hint="use 'chief' or 'centroid'")
     wls = tuple(float(w) for w in (lens.wavelengths.nm if wavelengths_nm is None else wavelengths_nm))
@@ -240,7 +240,7 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
         xs, ys = [], []
         for w in wls:
             try:
-                r = trace64(lens, _grid_rays(lens, fp, w, n_grid, device), device, clip=True, plane_z_mm=z)
+                r = trace64(lens, pupil_grid_rays(lens, fp, w, n_grid, device), device, clip=True, plane_z_mm=z)
                 xs.append(r.position_mm[r.ok, 0] - chief_pos[k, 0])
                 ys.append(r.position_mm[r.ok, 1] - chief_pos[k, 1])
             except LensrtError:

@@ -38,7 +38,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from ..trace import RayBatch
 from .rays import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z,
-                   object_field_point, paraxial_chief, plane_crossing_z, trace64)
+                   object_field_point, paraxial_chief, plane_crossing_z, pupil_grid_rays, trace64)
 
 __all__ = ["FocalLength", "real_focal_length", "LongitudinalAberration", "longitudinal_aberration", "BestFocus",
            "best_focus", "ChromaticFocalShift", "chromatic_focal_shift", "FieldCurvature", "field_curvature",
@@ -215,20 +215,6 @@ class BestFocus:
                 "rays": self.rays, "definition": self.definition}
 
 
-def _grid_rays(lens: Lens, fp, wavelength_nm: float, n: int, device: str | None) -> RayBatch:
-    """A square n x n grid of rays over the box of the real pupil of ``fp`` (vignetted rays fail when traced)."""
-    from ..trace.aiming import ray_through_point
-    from ..trace.stream import pupil_box
-    box = pupil_box(lens, fp, [wavelength_nm], device=device, coarse=64, fine=32)
-    if box.area_mm2 <= 0:
-        raise LensrtError("no ray of this field point passes the lens")
-    a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
-    b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
-    A, B = np.meshgrid(a, b, indexing="ij")
-    o, d = ray_through_point(fp, box.points(A.ravel(), B.ravel()))
-    return RayBatch(o, d, wavelength_nm)
-
-
 def _rms_quadratic(p: np.ndarray, v: np.ndarray, w: np.ndarray, z0: float) -> tuple[float, float, float]:
     """Minimise the weighted mean square radius about the centroid over planes z: (z_best, rms_best, rms(z0))."""
     tx, ty = v[:, 0] / v[:, 2], v[:, 1] / v[:, 2]
@@ -262,7 +248,7 @@ def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weight
     z_par = first_order(lens, lens.wavelengths.primary_nm).image_z_mm
     ps, vs, ws = [], [], []
     for w, wt in zip(wls, weights):
-        rays = _grid_rays(lens, fp, w, n_grid, device)
+        rays = pupil_grid_rays(lens, fp, w, n_grid, device)
         r = trace64(lens, rays, device, clip=True)
         ps.append(r.position_mm[r.ok])
         vs.append(r.direction[r.ok])

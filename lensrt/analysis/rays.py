@@ -30,7 +30,7 @@ from ..trace.aiming import FieldPoint, aim_rays, beam_basis, field_point, pupil_
 __all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "chief_batch",
            "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
            "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
-           "FIELD_KEYS", "CLOSE_RAY_FRACTION"]
+           "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
 
 #: close rays sit this fraction of the entrance-pupil radius beside the chief ray
 CLOSE_RAY_FRACTION = 1e-4
@@ -228,3 +228,17 @@ def exit_pupil_point_z_mm(lens: Lens, p: np.ndarray, v: np.ndarray, wavelength_n
         return math.inf  # image-space telecentric
     s = -(p[0] * v[0] + p[1] * v[1]) / (vr * vr)
     return float(p[2] + s * v[2])
+
+
+def pupil_grid_rays(lens: Lens, fp: FieldPoint, wavelength_nm: float, n: int, device: str | None = None) -> RayBatch:
+    """A square n x n grid of rays over the box of the real pupil of ``fp`` (vignetted rays fail when traced)."""
+    from ..trace.aiming import ray_through_point
+    from ..trace.stream import pupil_box
+    box = pupil_box(lens, fp, [wavelength_nm], device=device, coarse=64, fine=32)
+    if box.area_mm2 <= 0:
+        raise LensrtError("no ray of this field point passes the lens")
+    a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
+    b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
+    A, B = np.meshgrid(a, b, indexing="ij")
+    o, d = ray_through_point(fp, box.points(A.ravel(), B.ravel()))
+    return RayBatch(o, d, wavelength_nm)

@@ -10,7 +10,6 @@ drawn bundle is the one that reaches the image.
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Sequence
 
