@@ -134,6 +134,11 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
     ax.set_title(title or f"{lens.name or 'lens'}: layout, {wl:g} nm", fontsize=10)
     ax.legend(title="field", fontsize=8, title_fontsize=8, loc="lower right")
     ax.grid(alpha=0.2)
+    # size the figure to the drawing (equal aspect): long lenses get a low figure, not white bands
+    z0, z1 = ax.get_xlim()
+    width = 8.6
+    height = (width - 1.0) * (2.6 * hi) / max(z1 - z0, 1e-9) + 1.2
+    fig.set_size_inches(width, min(max(height, 3.0), 6.5))
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(p)
