@@ -300,27 +300,21 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
     planned = max(1, math.ceil(rule.max_samples / (n_px * setup.spp_per_pass)))
     acc = PassSum(n_px, setup.n_bands, setup.shape, setup.spp_per_pass)
     history: list[dict] = []
-    t_loop = time.perf_counter()
     pass_times: list[float] = []
     stop = None
-    if executor is None:
+    prep = None
+    if executor is None:                 # pack lens and scene (BVH build) before the clock of the passes starts
+        t0 = time.perf_counter()
         prep = prepare_setup(setup, dev)
-        spec_sum = _device_zeros(setup.n_pixels * setup.n_bands, dev)
-        buf = None
-        k = prep.kernels
-        from ..device import warp
-        wp = warp()
-        while stop is None:
-            t0 = time.perf_counter()
-            buf = device_pass(prep, acc.passes, buf)
-            wp.launch(k.accumulate, dim=setup.n_pixels * setup.n_bands, inputs=[buf.spec, spec_sum], device=dev)
-            acc.add(buf.xyz.numpy(), int(buf.hits.numpy().astype(np.int64).sum()))
-            pass_times.append(time.perf_counter() - t0)
-            stop = _after_pass(acc, rule, t_loop, n_px, history, progress, planned, pass_times)
-        spec = spec_sum.numpy()
+        info["times"]["pack_scene_and_lens"] = time.perf_counter() - t0
+    t_loop = time.perf_counter()
+    if executor is None:
+        spec, stop = _render_in_process(prep, acc, rule, t_loop, n_px, history, progress, planned, pass_times)
     else:
         spec, stop = _render_with_executor(setup, executor, acc, rule, t_loop, n_px, history, progress, planned,
                                            pass_times)
+    if history and history[-1].get("rel_error") is None:
+        history[-1]["rel_error"] = relative_error(acc)
     seconds = time.perf_counter() - t_loop
     spp_total = acc.samples_per_pixel
     irr = (np.asarray(spec, dtype=np.float64) / spp_total).astype(np.float32).reshape(setup.shape + (setup.n_bands,))
@@ -337,16 +331,40 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
     return res
 
 
-def _device_zeros(n: int, device: str):
+def _render_in_process(prep, acc: PassSum, rule: StopRule, t_loop: float, n_px: int,
+                       history: list, progress, planned: int, pass_times: list[float]):
+    """Passes on one device; spectral sums and per-pixel moments stay on the device until the end (the
+    same float64 arithmetic as :class:`PassSum` on the host, so the same bits as the executor path)."""
     from ..device import warp
+    from .pupil_table import launch_sliced
     wp = warp()
-    return wp.zeros(n, dtype=wp.float64, device=device)
+    setup, dev = prep.setup, prep.device
+    k = prep.kernels
+    n_spec = setup.n_pixels * setup.n_bands
+    spec_sum = wp.zeros(n_spec, dtype=wp.float64, device=dev)
+    s1 = wp.zeros((setup.n_pixels, 3), dtype=wp.float64, device=dev)
+    s2 = wp.zeros((setup.n_pixels, 3), dtype=wp.float64, device=dev)
+    need_err = rule.target_error is not None
+    buf = None
+    stop = None
+    while stop is None:
+        t0 = time.perf_counter()
+        buf = device_pass(prep, acc.passes, buf)
+        launch_sliced(k.accumulate, n_spec, lambda base: [buf.spec[base:], spec_sum[base:]], dev)
+        wp.launch(k.accumulate_moments, dim=setup.n_pixels, inputs=[buf.xyz, s1, s2], device=dev)
+        acc.add_counts(buf.xyz.numpy()[:, 1], int(buf.hits.numpy().astype(np.int64).sum()))
+        if need_err:
+            acc.xyz1, acc.xyz2 = s1.numpy(), s2.numpy()
+        pass_times.append(time.perf_counter() - t0)
+        stop = _after_pass(acc, rule, t_loop, n_px, history, progress, planned, pass_times, need_err)
+    acc.xyz1, acc.xyz2 = s1.numpy(), s2.numpy()
+    return spec_sum.numpy(), stop
 
 
 def _after_pass(acc: PassSum, rule: StopRule, t_loop: float, n_px: int, history: list, progress, planned: int,
-                pass_times: list[float]) -> str | None:
+                pass_times: list[float], with_error: bool = True) -> str | None:
     elapsed = time.perf_counter() - t_loop
-    err = relative_error(acc)
+    err = relative_error(acc) if with_error else None
     history.append(_history_row(acc, n_px, elapsed, err))
     reason = rule.reason(acc.samples_per_pixel * n_px, elapsed, err, acc.passes)
     if progress is not None:

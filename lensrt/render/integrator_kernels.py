@@ -179,5 +179,16 @@ def get_render_kernels() -> SimpleNamespace:
         i = wp.tid()
         dst[i] = dst[i] + wp.float64(src[i])
 
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def accumulate_moments(src: wp.array(dtype=wp.vec3), s1: wp.array2d(dtype=wp.float64),
+                           s2: wp.array2d(dtype=wp.float64)):
+        # per-pixel sums of the pass values and of their squares (exact in float64: bit-identical to the host)
+        i = wp.tid()
+        for c in range(3):
+            v = wp.float64(src[i][c])
+            s1[i, c] = s1[i, c] + v
+            s2[i, c] = s2[i, c] + v * v
+
     return SimpleNamespace(camera_pass=camera_pass, pupil_probe=pupil_probe, accumulate=accumulate,
+                           accumulate_moments=accumulate_moments,
                            module=MODULE, trace_ray=trace_ray)

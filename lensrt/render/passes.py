@@ -204,19 +204,25 @@ class PassSum:
         self.xyz2 = np.zeros((self.n_pixels, 3))
 
     def add(self, xyz: np.ndarray, hits: int, spec: np.ndarray | None = None) -> None:
+        """Fold in one pass (XYZ sums of its paths per pixel, paths through the lens, spectral sums)."""
         x = np.asarray(xyz, dtype=np.float32).reshape(self.n_pixels, 3).astype(np.float64)
         self.xyz1 += x
-        self.xyz2 += x * x
+        self.xyz2 += x * x          # squares of float32 values are exact in float64
         if spec is not None:
             s = np.asarray(spec, dtype=np.float32).reshape(-1).astype(np.float64)
             if self.spec is None:
                 self.spec = s
             else:
                 self.spec += s
+        self.add_counts(x[:, 1], hits)
+
+    def add_counts(self, y: np.ndarray, hits: int) -> None:
+        """Count one pass whose per-pixel sums are kept elsewhere (on the device): its Y sums give the
+        per-pass region means."""
         self.passes += 1
         self.hits += int(hits)
-        y = x[:, 1].reshape(self.shape) / self.spp_per_pass
-        self.region_means.append([float(y[r0:r1, c0:c1].mean()) for r0, r1, c0, c1 in region_slices(self.shape)])
+        yy = np.asarray(y, dtype=np.float64).reshape(self.shape) / self.spp_per_pass
+        self.region_means.append([float(yy[r0:r1, c0:c1].mean()) for r0, r1, c0, c1 in region_slices(self.shape)])
 
     @property
     def samples_per_pixel(self) -> int:
