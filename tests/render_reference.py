@@ -33,7 +33,7 @@ def _passes(rev, p_rev_z: float, x: float, y: float, qx: float, qy: float, dist:
 
 
 def irradiance_quadrature(camera, x_mm: float, y_mm: float, radiance: float, wavelength_nm: float,
-                          n_phi: int = 96, n_r: int = 8, bisections: int = 30) -> float:
+                          n_phi: int = 256, n_r: int = 8, bisections: int = 32) -> float:
     """Sensor-plane irradiance at (x_mm, y_mm) for a uniform scene of ``radiance`` (module docstring)."""
     lens = camera.lens
     rev = reversed_lens(lens, 0.0)
