@@ -103,7 +103,10 @@ def main(argv: list[str] | None = None) -> int:
     for name, scene, o in cases:
         sys.stderr.write(f"bench_render: {name.strip()} ...\n")
         rows.append(_case(name, scene, o, args.repeat))
-    head = f"bench_render on {describe_device(dev)}; still_life_mesh {width} px wide, {spp} samples/pixel"
+    import os
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    head = (f"bench_render on {describe_device(dev)} ({os.cpu_count()} CPU cores, load average {load:.1f} at the end); "
+            f"still_life_mesh {width} px wide, {spp} samples/pixel")
     if args.json:
         print(json.dumps({"title": head, "rows": rows}, indent=1, default=str))
         return 0

@@ -235,16 +235,17 @@ def _stop_rule(scene, options: RenderOptions, n_pixels: int) -> StopRule:
 def relative_error(acc: PassSum) -> float | None:
     """The render's error measure: RMS over lit pixels of the relative standard error of Y.
 
-    Lit pixels: Y above 5 % of the 99th percentile of Y. ``None`` before two passes.
+    Lit pixels: Y above 5 % of the 99th percentile of Y over the pixels that received light.
+    ``None`` before two passes or when no pixel received light.
     """
     if acc.passes < 2:
         return None
     y = acc.xyz_mean()[..., 1]
     se = acc.xyz_stderr()[..., 1]
-    hi = float(np.percentile(y, 99)) if y.size else 0.0
-    lit = y > 0.05 * hi
-    if hi <= 0 or not lit.any():
+    pos = y[y > 0]
+    if pos.size == 0:
         return None
+    lit = y > 0.05 * float(np.percentile(pos, 99))
     return float(np.sqrt(np.mean((se[lit] / y[lit]) ** 2)))
 
 
@@ -313,11 +314,15 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
     else:
         spec, stop = _render_with_executor(setup, executor, acc, rule, t_loop, n_px, history, progress, planned,
                                            pass_times)
+    seconds = time.perf_counter() - t_loop
     if history and history[-1].get("rel_error") is None:
         history[-1]["rel_error"] = relative_error(acc)
-    seconds = time.perf_counter() - t_loop
     spp_total = acc.samples_per_pixel
-    irr = (np.asarray(spec, dtype=np.float64) / spp_total).astype(np.float32).reshape(setup.shape + (setup.n_bands,))
+    if executor is None:                 # already the mean, as float32
+        irr = np.asarray(spec, dtype=np.float32).reshape(setup.shape + (setup.n_bands,))
+    else:
+        irr = (np.asarray(spec, dtype=np.float64) * (1.0 / spp_total)).astype(np.float32).reshape(
+            setup.shape + (setup.n_bands,))
     notes = [note] if note else []
     if plan.variant.diffraction:
         notes.append("the plan asks for diffraction; the integrator does not apply it (geometric optics only)")
@@ -358,7 +363,10 @@ def _render_in_process(prep, acc: PassSum, rule: StopRule, t_loop: float, n_px: 
         pass_times.append(time.perf_counter() - t0)
         stop = _after_pass(acc, rule, t_loop, n_px, history, progress, planned, pass_times, need_err)
     acc.xyz1, acc.xyz2 = s1.numpy(), s2.numpy()
-    return spec_sum.numpy(), stop
+    # the image as float32 on the device, then one copy (the same bits as float64 sums / n on the host)
+    out = wp.empty(n_spec, dtype=float, device=dev)
+    wp.launch(k.finalize, dim=n_spec, inputs=[spec_sum, wp.float64(1.0 / acc.samples_per_pixel), out], device=dev)
+    return out.numpy(), stop
 
 
 def _after_pass(acc: PassSum, rule: StopRule, t_loop: float, n_px: int, history: list, progress, planned: int,

@@ -189,6 +189,12 @@ def get_render_kernels() -> SimpleNamespace:
             s1[i, c] = s1[i, c] + v
             s2[i, c] = s2[i, c] + v * v
 
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def finalize(src: wp.array(dtype=wp.float64), inv_n: wp.float64, dst: wp.array(dtype=float)):
+        # the mean over all paths, as float32 (what the host would compute from the float64 sums)
+        i = wp.tid()
+        dst[i] = float(src[i] * inv_n)
+
     return SimpleNamespace(camera_pass=camera_pass, pupil_probe=pupil_probe, accumulate=accumulate,
-                           accumulate_moments=accumulate_moments,
+                           accumulate_moments=accumulate_moments, finalize=finalize,
                            module=MODULE, trace_ray=trace_ray)
