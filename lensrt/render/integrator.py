@@ -44,6 +44,8 @@ __all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_p
 ProgressFn = Callable[[int, int, float, "float | None"], None]
 #: most samples per pixel a render started with a time budget or target error but no count may take
 MAX_SPP_OPEN = 65536
+#: largest image whose error measure is recomputed after every pass without a target error
+ERROR_EVERY_PASS_MAX_PIXELS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -349,7 +351,9 @@ def _render_in_process(prep, acc: PassSum, rule: StopRule, t_loop: float, n_px: 
     spec_sum = wp.zeros(n_spec, dtype=wp.float64, device=dev)
     s1 = wp.zeros((setup.n_pixels, 3), dtype=wp.float64, device=dev)
     s2 = wp.zeros((setup.n_pixels, 3), dtype=wp.float64, device=dev)
-    need_err = rule.target_error is not None
+    # the per-pass error measure (error against run time) needs the moments on the host: always for a
+    # target error, else for images up to a megapixel (a copy of 48 bytes per pixel per pass)
+    need_err = rule.target_error is not None or setup.n_pixels <= ERROR_EVERY_PASS_MAX_PIXELS
     buf = None
     stop = None
     while stop is None:
