@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import LensrtError
 from ..stats import Estimate, StopRule, batch_means
 from .camera import Camera, setup_camera
-from .passes import REGIONS, PassSum, RenderSetup, device_pass, prepare_setup, region_slices
+from .passes import REGIONS, PassSum, RenderSetup, device_pass, prepare_setup
 from .plan import Plan, plan_render
 
 __all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_pixels", "run_cli",
@@ -397,6 +397,8 @@ def _render_with_executor(setup: RenderSetup, executor, acc: PassSum, rule: Stop
     from ..parallel import Job, make_items
     from .passes import run_pass_item
     slots = max(1, len(getattr(executor, "devices", [None])))
+    if callable(getattr(executor, "n_workers", None)):       # a Dask cluster: one pass per worker per round
+        slots = max(slots, int(executor.n_workers()))
     stop = None
     while stop is None:
         first = acc.passes
