@@ -15,7 +15,8 @@ Each case runs once to warm up (kernel compilation, BVH build, first allocations
 as ``first run``) and then ``--repeat`` times; the table shows the best. ``seconds`` counts the
 passes only -- tracing, accumulation and the per-pass statistics -- not the set-up (focus, exit-pupil
 table, scene packing and BVH build; ``set-up s``). ``paths/s`` counts every path started, vignetted
-ones included. ``rel. err`` is the render's own error measure: the RMS over lit pixels of the
+ones included; ``paths/CPU s`` divides by the CPU time of all this process's threads (on a shared
+machine it measures the code, ``paths/s`` the code and the neighbours). ``rel. err`` is the render's own error measure: the RMS over lit pixels of the
 relative standard error of Y (batch means over passes).
 
 The plan rows render variants of the same scene at the same size and samples: without the meshes
@@ -52,7 +53,8 @@ def _case(name: str, scene, opts, repeat: int) -> dict:
     kernel = best.plan.variant.name if best.mode == best.plan.mode else best.mode.replace("_", " ")
     return {"case": name, "kernel": kernel, "mode": best.mode, "pixels": f"{cols} x {rows}",
             "spp": best.samples_per_pixel, "passes": best.passes, "bands": int(best.irradiance.shape[2]),
-            "seconds": best.seconds, "paths_per_s": best.samples_per_second,
+            "seconds": best.seconds, "paths_per_s": best.samples_per_second, "cpu_seconds": best.cpu_seconds,
+            "paths_per_cpu_s": best.samples / best.cpu_seconds if best.cpu_seconds > 0 else float("nan"),
             "setup_s": setup, "first_run_wall_s": first_wall, "rel_error": rel,
             "image_Y_lux": None if img is None else [img.value, img.stderr], "device": best.device,
             "setup_detail": best.setup_seconds}
@@ -112,9 +114,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     print(head)
     table = [[r["case"], r["kernel"], r["pixels"], r["spp"], r["bands"], f"{r['seconds']:.3g}",
-              f"{r['paths_per_s']:.3g}", f"{r['setup_s']:.3g}", f"{r['first_run_wall_s']:.3g}",
+              f"{r['paths_per_s']:.3g}", f"{r['paths_per_cpu_s']:.3g}", f"{r['setup_s']:.3g}", f"{r['first_run_wall_s']:.3g}",
               "-" if r["rel_error"] is None else f"{r['rel_error']:.3g}"] for r in rows]
-    print(format_table(table, ["case", "kernel", "pixels", "spp", "bands", "seconds", "paths/s", "set-up s",
+    print(format_table(table, ["case", "kernel", "pixels", "spp", "bands", "seconds", "paths/s", "paths/CPU s", "set-up s",
                                "first run s", "rel. err"]))
     main_row = rows[0]
     print(f"per image: {main_row['seconds']:.3g} s for {main_row['pixels']} px x {main_row['spp']} spp "

@@ -105,6 +105,9 @@ class RenderResult:
     setup_seconds: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     window: tuple[int, int, int, int] | None = None
+    #: CPU time of this process (all threads) during the passes: on a shared machine, paths per CPU
+    #: second measure the code when wall-clock seconds measure the neighbours too
+    cpu_seconds: float = float("nan")
 
     def position_of(self, row, col) -> tuple[np.ndarray, np.ndarray]:
         """Sensor-plane (x_mm, y_mm) of (row, col) of this image (the camera's one map, shifted by the window)."""
@@ -136,6 +139,7 @@ class RenderResult:
                 "pixels": [int(self.shape[1]), int(self.shape[0])], "samples": int(self.samples),
                 "samples_per_pixel": int(self.samples_per_pixel), "passes": int(self.passes),
                 "seconds": float(self.seconds), "samples_per_second": float(self.samples_per_second),
+                "cpu_seconds": float(self.cpu_seconds),
                 "stop_reason": self.stop_reason, "unit": self.unit, "band_width_nm": self.band_width_nm,
                 "bands": int(self.irradiance.shape[2]), "through_lens_fraction": float(self.through_fraction),
                 "regions_Y_lux": {k: v.to_dict() for k, v in self.regions.items()},
@@ -311,12 +315,14 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
         prep = prepare_setup(setup, dev)
         info["times"]["pack_scene_and_lens"] = time.perf_counter() - t0
     t_loop = time.perf_counter()
+    cpu0 = time.process_time()
     if executor is None:
         spec, stop = _render_in_process(prep, acc, rule, t_loop, n_px, history, progress, planned, pass_times)
     else:
         spec, stop = _render_with_executor(setup, executor, acc, rule, t_loop, n_px, history, progress, planned,
                                            pass_times)
     seconds = time.perf_counter() - t_loop
+    cpu_seconds = time.process_time() - cpu0
     if history and history[-1].get("rel_error") is None:
         history[-1]["rel_error"] = relative_error(acc)
     spp_total = acc.samples_per_pixel
@@ -334,6 +340,7 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
                        _regions(acc, spp_total * n_px, seconds), history,
                        acc.hits / max(spp_total * n_px, 1),
                        {**info["times"], "total_before_passes": t_loop - t_start}, notes, setup.window)
+    res.cpu_seconds = cpu_seconds
     res.setup_seconds["pupil_pass_fraction_mean"] = float(np.mean(info["table"].pass_fraction[info["table"].areas_mm2 > 0]))
     return res
 

@@ -177,6 +177,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     acc = PassSum(n_px, nb, (rows, cols), 1)
     history: list[dict] = []
     t_loop = time.perf_counter()
+    cpu0 = time.process_time()
     area_m2 = sen.pixel_area_m2
     stop = None
     rays_done = 0
@@ -221,7 +222,9 @@ def render_splat(scene, lens, plan, options, progress=None):
                                                                   for L in lights)]
     if plan.variant.diffraction:
         notes.append("the plan asks for diffraction; the integrator does not apply it (geometric optics only)")
-    return RenderResult(irr, centres, bw, plan.output_unit, acc.xyz_mean(), acc.xyz_stderr(), rays_done,
-                        acc.passes * spp_pass, acc.passes, seconds, stop or "samples", "light_splat", dev, cam, plan,
-                        _regions(acc, rays_done, seconds), history, float("nan"),
-                        {"total_before_passes": t_loop - t_start}, notes, None)
+    res = RenderResult(irr, centres, bw, plan.output_unit, acc.xyz_mean(), acc.xyz_stderr(), rays_done,
+                       acc.passes * spp_pass, acc.passes, seconds, stop or "samples", "light_splat", dev, cam, plan,
+                       _regions(acc, rays_done, seconds), history, float("nan"),
+                       {"total_before_passes": t_loop - t_start}, notes, None)
+    res.cpu_seconds = time.process_time() - cpu0
+    return res
