@@ -82,7 +82,8 @@ class RenderSetup:
 
 @dataclass
 class Prepared:
-    """A :class:`RenderSetup` on one device: packed lens and scene, tables, scratch buffers' shapes."""
+    """A :class:`RenderSetup` on one device: the packed reversed lens and scene, the pupil boxes, the
+    wavelength CDF and colour-matching functions as device arrays, and the kernels."""
 
     setup: RenderSetup
     device: str

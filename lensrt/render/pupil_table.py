@@ -172,7 +172,7 @@ def exit_pupil_table(camera, rev_packed, wavelengths_nm, n_bins: int = 48, radii
         boxes[j] = (max(p[:, 0].min() - 1.5 * ca, box2[j, 0]), min(p[:, 0].max() + 1.5 * ca, box2[j, 1]),
                     max(p[:, 1].min() - 1.5 * cb, box2[j, 2]), min(p[:, 1].max() + 1.5 * cb, box2[j, 3]))
         frac[j] = ok2[j].sum() * ca * cb / max((boxes[j, 1] - boxes[j, 0]) * (boxes[j, 3] - boxes[j, 2]), 1e-30)
-    if not live[0] and not live.any():
+    if not live.any():
         raise LensrtError("no ray from the sensor gets through the lens (exit-pupil table is empty)",
                           hint="check the lens apertures and the focus")
     return ExitPupilTable(float(r_max), boxes, np.clip(frac, 0.0, 1.0), tuple(float(v) for v in lams),

@@ -63,7 +63,7 @@ def _disc_points(k: int, rng: np.random.Generator) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
 
 
-def _light_list(scene, camera) -> list[dict]:
+def _light_list(scene) -> list[dict]:
     """(name, centre mm, radius mm, intensity spectrum W/(sr nm) on the grid, line nm) per light."""
     out = []
     for p in scene.point_lights:
@@ -147,7 +147,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     order = (np.rint(pr).astype(np.int64) * cols + np.rint(pc).astype(np.int64)).ravel()
     wls = [float(plan.wavelength_nm)] if not plan.spectral else [g.min_nm, 0.5 * (g.min_nm + g.max_nm), g.max_nm]
     lights = []
-    for li in _light_list(scene, cam):
+    for li in _light_list(scene):
         box = _shared_box(lens, cam, li, wls, dev)
         if box is None:
             continue
