@@ -27,6 +27,7 @@ WorkloadFactory = Callable[[str, int], Job]
 #: name -> "module:attribute" (or the factory itself)
 WORKLOADS: dict[str, str | WorkloadFactory] = {
     "sweep": "lensrt.sweep:sweep_workload",
+    "bokeh-map": "lensrt.analysis.bokeh_job:bokeh_map_workload",
 }
 
 
