@@ -1,9 +1,7 @@
-"""Lenses with controlled properties for the bokeh tests, and image measurements on bokeh spots."""
+"""Lenses with controlled properties for the bokeh tests (spherical aberration, vignetting, colour)."""
 from __future__ import annotations
 
 import math
-
-import numpy as np
 
 from lensrt.prescription.materials import ConstantIndex, ModelGlass
 from lensrt.prescription.model import Aperture, Fields, Iris, Lens, Surface, Wavelengths

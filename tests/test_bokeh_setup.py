@@ -82,8 +82,7 @@ def test_stop_radius_for_f_number(dgauss):
 
 
 def test_map_sources_land_on_a_uniform_sensor_grid(dgauss, device):
-    from lensrt.trace import trace
-    from lensrt.trace.api import make_rays  # noqa: F401 - the public API is what we check against
+    from lensrt.trace import RayBatch, trace
     from lensrt.trace.aiming import FieldPoint, aim_rays, reference_to_stop
     f = focus_lens(dgauss, 2000.0)
     frame = sensor_frame((36.0, 24.0), (360, 240))
@@ -98,7 +97,6 @@ def test_map_sources_land_on_a_uniform_sensor_grid(dgauss, device):
     for s in src[::5]:
         fp = FieldPoint(False, None, tuple(s["object_mm"]))
         o, d, ok = aim_rays(dgauss, fp, np.zeros(1), np.zeros(1), f.wavelength_nm, "real", reference_to_stop(dgauss))
-        from lensrt.trace import RayBatch
         r = trace(dgauss, RayBatch(o, d, f.wavelength_nm), "float64", device, clip=False, plane_z_mm=f.sensor_z_mm)
         assert ok[0] and r.ok[0]
         assert r.position_mm[0, :2] == pytest.approx(s["target_mm"], abs=1e-6)

@@ -420,7 +420,7 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
     t0 = time.perf_counter()
     lt = bokeh_light(light, lens)
     probe = BokehSetup(lens, focus, Frame(1, 1, 1.0, 0.0, 0.0), light, intensity_cd, iris, stop_radius_mm,
-                       int(rays), sampler, batches, precision, batch_noise)
+                       int(rays), sampler, batches, precision, batch_noise, (128, 64))
     obj = np.array([source["object_mm"]], dtype=np.float64)
     boxes, foot = pupil_boxes(lens, obj, box_wavelengths(probe, lt), focus.sensor_z_mm, iris=iris,
                               stop_radius_mm=stop_radius_mm, device=device)

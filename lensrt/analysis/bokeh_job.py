@@ -44,6 +44,9 @@ class BokehSetup:
     batches: int = 32
     precision: str = "float32"
     batch_noise: bool = False
+    #: pupil-box search grids (coarse, fine): maps use 64 x 64 then 48 x 48 rays per source (host work
+    #: grows with them); :func:`lensrt.trace.stream.pupil_box` and spots use 128 and 64
+    box_grid: tuple[int, int] = (64, 48)
 
     def iris_used(self) -> Iris:
         return self.lens.iris if self.iris is None else self.iris
@@ -64,6 +67,7 @@ class BokehSetup:
                 "stop_radius_mm": self.stop_radius_used(), "rays_per_source": self.rays_per_source,
                 "sampler": self.sampler, "batches": self.batches, "precision": self.precision,
                 "pixel_pitch_um": self.frame.pitch_mm * 1000.0, "pixels": [self.frame.nx, self.frame.ny],
+                "pupil_box_grids": list(self.box_grid),
                 "emitter": "isotropic point source",
                 "units": "CIE 1931 XYZ (2 deg); Y = illuminance on the sensor in lux"}
 
@@ -88,7 +92,8 @@ def _run(item, prepared: dict, device: str) -> dict:
     obj = np.asarray(item.params["object_mm"], dtype=np.float64)
     t0 = time.perf_counter()
     boxes, foot = pupil_boxes(setup.lens, obj, box_wavelengths(setup, light), setup.focus.sensor_z_mm,
-                              iris=setup.iris, stop_radius_mm=setup.stop_radius_mm, device=device)
+                              iris=setup.iris, stop_radius_mm=setup.stop_radius_mm, device=device,
+                              coarse=setup.box_grid[0], fine=setup.box_grid[1])
     t_box = time.perf_counter() - t0
     outs = stream_windows(setup.lens, obj, boxes, foot, setup.frame, setup.focus.sensor_z_mm, light,
                           setup.rays_per_source, intensity_cd=item.params["intensity_cd"], iris=setup.iris,

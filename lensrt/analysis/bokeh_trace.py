@@ -73,10 +73,10 @@ def _rays_from_points(obj: np.ndarray, aim: np.ndarray) -> tuple[np.ndarray, np.
     """Rays from object points ``obj`` (n, 3) through ``aim`` (n, 3), starting on the sphere
     through the first vertex centred on the object point (as lensrt.trace.aiming does)."""
     v = aim - obj
-    dist = np.linalg.norm(v, axis=1, keepdims=True)
+    dist = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
     d = v / dist
-    r0 = np.linalg.norm(obj, axis=1, keepdims=True)
-    back = (np.sum(aim * aim, axis=1, keepdims=True) - 2.0 * np.sum(aim * obj, axis=1, keepdims=True)) / (dist + r0)
+    r0 = np.sqrt(np.einsum("ij,ij->i", obj, obj))[:, None]
+    back = (np.einsum("ij,ij->i", aim, aim - 2.0 * obj))[:, None] / (dist + r0)
     return aim - back * d, d
 
 
@@ -206,26 +206,23 @@ def _grid_pass(lens: Lens, obj: np.ndarray, c: np.ndarray, e1: np.ndarray, e2: n
     t = (np.arange(n) + 0.5) / n
     ga = box[:, 0:1] + t[None, :] * (box[:, 1:2] - box[:, 0:1])  # (S, n)
     gb = box[:, 2:3] + t[None, :] * (box[:, 3:4] - box[:, 2:3])
-    A = np.repeat(ga, n, axis=1).ravel()
-    B = np.tile(gb, (1, n)).ravel()
+    A = np.repeat(ga, n, axis=1)  # (S, n*n): rays of source k are the k-th row
+    B = np.tile(gb, (1, n))
     src = np.repeat(np.arange(S), n * n)
-    o, d = _rays_from_points(obj[src], c[None, :] + A[:, None] * e1[src] + B[:, None] * e2[src])
-    ok = np.zeros(len(A), dtype=bool)
+    pts = c[None, :] + A.reshape(-1, 1) * e1[src] + B.reshape(-1, 1) * e2[src]
+    o, d = _rays_from_points(obj[src], pts)
+    ok = np.zeros((S, n * n), dtype=bool)
     foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
     for wl in wls:
         res = _trace(lens, o, d, wl, device, plane_z_mm=plane_z_mm, **trace_kw)
-        got = res.ok
+        got = res.ok.reshape(S, n * n)
         ok |= got
-        g = src[got]
-        np.minimum.at(foot[:, 0], g, res.position_mm[got, 0])
-        np.maximum.at(foot[:, 1], g, res.position_mm[got, 0])
-        np.minimum.at(foot[:, 2], g, res.position_mm[got, 1])
-        np.maximum.at(foot[:, 3], g, res.position_mm[got, 1])
-    lo = np.full((S, 2), np.inf)
-    hi = np.full((S, 2), -np.inf)
-    for k, v in enumerate((A, B)):
-        np.minimum.at(lo[:, k], src[ok], v[ok])
-        np.maximum.at(hi[:, k], src[ok], v[ok])
+        for k in (0, 1):
+            v = res.position_mm[:, k].reshape(S, n * n)
+            foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
+            foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
+    lo = np.stack([np.where(ok, A, np.inf).min(axis=1), np.where(ok, B, np.inf).min(axis=1)], axis=1)
+    hi = np.stack([np.where(ok, A, -np.inf).max(axis=1), np.where(ok, B, -np.inf).max(axis=1)], axis=1)
     cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
     return lo, hi, cell, foot
 
