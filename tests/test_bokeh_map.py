@@ -154,3 +154,10 @@ def test_cli_errors(argv, msg, capsys):
     assert main(["bokeh", "--no-files", "--device", "cpu"] + argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("lensrt: error:") and msg in err and "Traceback" not in err
+
+
+def test_report_entry_point_bokeh_near_far(dgauss):
+    from lensrt.analysis.bokeh import bokeh_near_far
+    img = bokeh_near_far(dgauss, 2000.0, grid=(2, 1), pixels=(120, 80), rays=2048, device="cpu")
+    assert [r["depth_mm"] for r in img.sources] == pytest.approx([1025.64, 40000.0, 1025.64, 40000.0], rel=1e-4)
+    assert img.picture().shape == (80, 120, 3) and img.rays == 4 * 2048

@@ -149,3 +149,15 @@ def test_light_tables_reproduce_cie_data():
 def test_light_errors(spec, msg):
     with pytest.raises(LensrtError, match=msg):
         bokeh_light(spec)
+
+
+def test_near_far_depths_give_equal_blur(dgauss):
+    from lensrt.analysis.bokeh import near_far_depths_mm
+    near, far = near_far_depths_mm(2000.0)
+    assert near < 2000.0 < far == 40000.0
+    f = focus_lens(dgauss, 2000.0)
+    g_near, g_far = gaussian_blur(dgauss, f, near), gaussian_blur(dgauss, f, far)
+    assert g_near.defocus_mm < 0 < g_far.defocus_mm
+    assert g_near.diameter_mm == pytest.approx(g_far.diameter_mm, rel=0.1)  # equal for s >> f
+    with pytest.raises(LensrtError):
+        near_far_depths_mm(math.inf)

@@ -48,7 +48,8 @@ from ..units import MM_PER_M
 from .bokeh_trace import Frame, object_heights_for_image, pupil_boxes, stream_windows
 
 __all__ = ["Focus", "focus_lens", "BlurPrediction", "gaussian_blur", "BokehImage", "bokeh_spot", "bokeh_map",
-           "map_sources", "spot_source", "sensor_frame", "stop_radius_for_f_number", "Frame", "INTENSITY_SCALINGS"]
+           "map_sources", "spot_source", "sensor_frame", "stop_radius_for_f_number", "Frame", "INTENSITY_SCALINGS",
+           "near_far_depths_mm", "bokeh_near_far"]
 
 #: how a map's sources' luminous intensities depend on their depth (see :func:`map_sources`)
 INTENSITY_SCALINGS = ("distance2", "none")
@@ -499,3 +500,25 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
     img.timing.update({"placement_seconds": t_place, "job_seconds": result.seconds,
                        "executor": result.executor, "devices": list(result.devices)})
     return img
+
+
+def near_far_depths_mm(focus_distance_mm: float, far_factor: float = 20.0) -> tuple[float, float]:
+    """A near and a far source depth (mm) whose paraxial blur discs are the same size for a lens
+    focused at ``focus_distance_mm``: far = ``far_factor`` x focus, near such that
+    1/near - 1/s = 1/s - 1/far (the blur diameter goes with |1/s_p - 1/s| for s, s_p >> f)."""
+    s = float(focus_distance_mm)
+    if not (math.isfinite(s) and s > 0 and far_factor > 1):
+        raise LensrtError("near/far depths need a finite focus distance and a far factor above 1")
+    far = far_factor * s
+    return 1.0 / (2.0 / s - 1.0 / far), far
+
+
+def bokeh_near_far(lens: Lens, focus_distance_mm: float = 2000.0, *, grid: tuple[int, int] = (9, 6),
+                   pixels: tuple[int, int] = (900, 600), sensor_mm: tuple[float, float] = (36.0, 24.0),
+                   rays: int = 200_000, device: str | None = None, executor=None, **kw) -> BokehImage:
+    """A bokeh map at a near and a far depth (:func:`near_far_depths_mm`) of ``lens`` focused at
+    ``focus_distance_mm`` by unit focusing: what a report shows (foreground and background discs,
+    cat's eyes toward the corners, the iris, coloured rims). Keywords go to :func:`bokeh_map`."""
+    focus = focus_lens(lens, focus_distance_mm)
+    return bokeh_map(lens, focus, grid=grid, depths_mm=list(near_far_depths_mm(focus_distance_mm)), pixels=pixels,
+                     sensor_mm=sensor_mm, rays=rays, device=device, executor=executor, **kw)
