@@ -483,8 +483,8 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
     from .bokeh_job import BokehSetup, bokeh_job
     t0 = time.perf_counter()
     frame = sensor_frame(sensor_mm, pixels)
-    place_device = device
-    if place_device is None and executor is not None and hasattr(executor, "devices"):
+    place_device = device  # the placement's few small traces run in this process
+    if place_device is None and isinstance(executor, LocalExecutor):
         place_device = executor.devices[0]
     sources = map_sources(lens, focus, frame, grid, depths_mm, device=place_device, intensity_cd=intensity_cd,
                           intensity_scaling=intensity_scaling)

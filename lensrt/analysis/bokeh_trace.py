@@ -141,6 +141,12 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         raise LensrtError(f"no real chief ray from a point {bad:g} mm in front of the lens reaches the sensor plane")
     y0 = rt * (-probe / hp)
     h0, ok0 = chief(y0, st)
+    for _ in range(20):  # a paraxial start with no chief ray (strong distortion): move it toward the axis
+        if ok0.all():
+            break
+        y0 = np.where(ok0, y0, 0.7 * y0)
+        hb, okb = chief(y0[~ok0], st[~ok0])
+        h0[~ok0], ok0[~ok0] = hb, okb
     y1 = y0 * (1.0 + 1e-3)
     h1, ok1 = chief(y1, st)
     conv = ok1 & (np.abs(h1 - rt) <= tol_mm)
@@ -150,6 +156,13 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
             break
         y2 = np.where(good, y1 - (h1 - rt) * (y1 - y0) / np.where(good, h1 - h0, 1.0), y1)
         h2, ok2 = chief(y2, st)
+        for _ in range(12):  # a step into heights with no chief ray: halve it (strong distortion)
+            back = good & ~ok2
+            if not back.any():
+                break
+            y2 = np.where(back, 0.5 * (y1 + y2), y2)
+            h2b, ok2b = chief(y2[back], st[back])
+            h2[back], ok2[back] = h2b, ok2b
         y0, h0, ok0 = np.where(good, y1, y0), np.where(good, h1, h0), np.where(good, ok1, ok0)
         y1, h1, ok1 = np.where(good, y2, y1), np.where(good, h2, h1), np.where(good, ok2, ok1)
         conv |= ok1 & (np.abs(h1 - rt) <= tol_mm)
