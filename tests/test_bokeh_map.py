@@ -57,6 +57,9 @@ def test_map_is_the_sum_of_its_spots(device):
     x, _ = img.sensor_xy(rows, cols)
     left = cols < img.frame.nx // 2
     assert np.all(x[left] > 0) and np.all(x[~left] < 0)
+    for r in img.sources:  # an object on the photographer's right appears on the picture's right
+        _, col = img.pixel_of(*r["centroid_mm"])
+        assert (col > img.frame.nx / 2) == (r["object_mm"][0] > 0)
     assert img.pixel_of(*img.sensor_xy(3.0, 7.0)) == pytest.approx((3.0, 7.0))
 
 

@@ -161,3 +161,16 @@ def test_near_far_depths_give_equal_blur(dgauss):
     assert g_near.diameter_mm == pytest.approx(g_far.diameter_mm, rel=0.1)  # equal for s >> f
     with pytest.raises(LensrtError):
         near_far_depths_mm(math.inf)
+
+
+def test_placement_through_strong_distortion():
+    # the macro lens focused far away maps object height to image height very non-linearly; the
+    # paraxial start for 11-14 mm has no chief ray at all, and the solve must still land there
+    from lensrt.analysis.bokeh_trace import object_heights_for_image
+    lens = load_lens("micro_nikkor_105mm_f2.8_macro")
+    f = focus_lens(lens, 2000.0)
+    r = np.array([8.0, 11.0, 14.0])
+    y, ok = object_heights_for_image(lens, 1000.0, f.sensor_z_mm, r, f.wavelength_nm, "cpu")
+    assert ok.all() and np.all(np.diff(y) < 0)
+    y2, ok2 = object_heights_for_image(lens, 1000.0, f.sensor_z_mm, r + 1e-3, f.wavelength_nm, "cpu")
+    assert ok2.all() and np.all(y2 < y)  # monotonic: a nearby target, a nearby object point
