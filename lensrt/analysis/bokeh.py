@@ -51,6 +51,8 @@ __all__ = ["Focus", "focus_lens", "BlurPrediction", "gaussian_blur", "BokehImage
            "map_sources", "spot_source", "sensor_frame", "stop_radius_for_f_number", "Frame", "INTENSITY_SCALINGS",
            "near_far_depths_mm", "bokeh_near_far"]
 
+#: a spot keeps per-batch XYZ histograms only while they fit in this many bytes
+_BATCH_HIST_LIMIT_BYTES = 1 << 30
 #: how a map's sources' luminous intensities depend on their depth (see :func:`map_sources`)
 INTENSITY_SCALINGS = ("distance2", "none")
 
@@ -266,6 +268,18 @@ class BokehImage:
                 "method": "; ".join(methods) + (f"; disc = pixels >= 10 % of the source's 99th-percentile Y"
                                                 if methods else "")}
 
+    def digest(self) -> str:
+        """SHA-256 (hex, 16 digits) of what the image holds -- pixels, variances and per-source results,
+        not the timings: equal digests mean bit-identical images (benchmarks/bench_multigpu.py)."""
+        import hashlib
+        import json
+        h = hashlib.sha256()
+        h.update(np.ascontiguousarray(self.sensor_xyz).tobytes())
+        h.update(np.ascontiguousarray(self.var_y).tobytes())
+        recs = [{k: v for k, v in r.items() if k != "seconds"} for r in self.sources]
+        h.update(json.dumps(recs, sort_keys=True, default=str).encode())
+        return h.hexdigest()[:16]
+
     def to_dict(self) -> dict:
         """JSON-ready summary (arrays go to EXR/PNG files)."""
         f = self.frame
@@ -414,7 +428,8 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
     The window covers the traced footprint of the blur spot plus a margin; ``pixel_um``
     defaults to a 1-2-5 pitch that puts about 200 pixels across the spot; ``window_px``
     fixes a square window of that many pixels centred on the spot. The noise level is by
-    batch means over the ``batches`` independent batches (``batch_noise``), else Poisson.
+    batch means over the ``batches`` independent batches (``batch_noise``, while their
+    histograms fit in 1 GiB), else the Poisson estimate.
     """
     from .bokeh_job import BokehSetup, box_wavelengths
     from .bokeh_spectrum import bokeh_light
@@ -443,6 +458,8 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
         raise LensrtError(f"a {nx} x {ny} pixel window is not usable", hint="choose a larger --pixel-um")
     cx, cy = 0.5 * (fx0 + fx1), 0.5 * (fy0 + fy1)
     frame = Frame(nx, ny, pitch, cx - 0.5 * nx * pitch, cy - 0.5 * ny * pitch)
+    if batch_noise and nx * ny * 3 * 8 * (batches + 1) > _BATCH_HIST_LIMIT_BYTES:
+        batch_noise = False  # per-batch histograms would not fit: the Poisson estimate instead
     setup = replace(probe, frame=frame)
     outs = stream_windows(lens, obj, boxes, foot, frame, focus.sensor_z_mm, lt, int(rays),
                           intensity_cd=intensity_cd, iris=iris, stop_radius_mm=stop_radius_mm, sampler=sampler,
