@@ -8,14 +8,17 @@ stream launch.
 * :func:`object_heights_for_image` -- where to put a point source at depth s
   so that its real chief ray (through the centre of the real stop, primary
   wavelength) meets the sensor plane at a given height: Newton on the aim
-  point for the chief ray inside a secant iteration on the object height,
-  vectorised over heights. A rotationally symmetric lens maps azimuths
-  one to one, so one radial solve serves every azimuth.
+  point for the chief ray inside a secant iteration on the object height
+  (steps into heights that have no chief ray are halved back toward the axis:
+  strongly distorting lenses), vectorised over heights and depths. A
+  rotationally symmetric lens maps azimuths one to one, so one radial solve
+  serves every azimuth.
 * :func:`pupil_boxes` -- the box of each source's *real* (vignetted) entrance
   pupil, exactly as :func:`lensrt.trace.stream.pupil_box` builds it (a
   128 x 128 grid over everything that passes surface 1, then 64 x 64 over what
-  passed; every aperture and the iris; the shortest, a middle and the longest
-  wavelength), but for all sources in one trace per wavelength and pass; the
+  passed -- maps use 64 and 48; every aperture and the iris; the shortest, a
+  middle and the longest wavelength), but for all sources in one trace per
+  wavelength and pass; the
   passing rays are traced to the sensor plane, which gives each source's
   *footprint* (the bounding box of its blur spot) for free.
 * :func:`stream_windows` -- one stream launch for many sources, each binned
