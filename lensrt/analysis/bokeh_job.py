@@ -44,8 +44,9 @@ class BokehSetup:
     batches: int = 32
     precision: str = "float32"
     batch_noise: bool = False
-    #: pupil-box search grids (coarse, fine): maps use 64 x 64 then 48 x 48 rays per source (host work
-    #: grows with them); :func:`lensrt.trace.stream.pupil_box` and spots use 128 and 64
+    #: pupil-box search grids (coarse, fine): maps use 64 x 64 (more, up to 128, when the front element
+    #: is much wider than the pupil: 16 cells across it) then 48 x 48 rays per source (host work grows
+    #: with them); :func:`lensrt.trace.stream.pupil_box` and spots use 128 and 64
     box_grid: tuple[int, int] = (64, 48)
 
     def iris_used(self) -> Iris:
@@ -93,7 +94,7 @@ def _run(item, prepared: dict, device: str) -> dict:
     t0 = time.perf_counter()
     boxes, foot = pupil_boxes(setup.lens, obj, box_wavelengths(setup, light), setup.focus.sensor_z_mm,
                               iris=setup.iris, stop_radius_mm=setup.stop_radius_mm, device=device,
-                              coarse=setup.box_grid[0], fine=setup.box_grid[1])
+                              coarse=setup.box_grid[0], fine=setup.box_grid[1], min_cells_across_pupil=16)
     t_box = time.perf_counter() - t0
     outs = stream_windows(setup.lens, obj, boxes, foot, setup.frame, setup.focus.sensor_z_mm, light,
                           setup.rays_per_source, intensity_cd=item.params["intensity_cd"], iris=setup.iris,

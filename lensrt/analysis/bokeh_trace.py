@@ -256,8 +256,11 @@ def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -
 
 def pupil_boxes(lens: Lens, obj: np.ndarray, wavelengths_nm: Sequence[float], plane_z_mm: float, *,
                 iris: Iris | None = None, stop_radius_mm: float | None = None, device: str | None = None,
-                coarse: int = 128, fine: int = 64) -> tuple[list, np.ndarray]:
+                coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0) -> tuple[list, np.ndarray]:
     """Real pupil boxes of the object points ``obj`` (S, 3) and their footprints on the plane.
+
+    ``min_cells_across_pupil`` raises ``coarse`` (up to 128) until the coarse grid has that
+    many cells across the paraxial entrance pupil's diameter.
 
     Returns (boxes, footprint): a :class:`lensrt.trace.stream.PupilBox` per source
     (area 0 when nothing passes) and (S, 4) footprint bounds x_min, x_max, y_min, y_max
@@ -269,6 +272,13 @@ def pupil_boxes(lens: Lens, obj: np.ndarray, wavelengths_nm: Sequence[float], pl
     wls = sorted({float(v) for v in wavelengths_nm})
     kw = {"iris": iris, "stop_radius_mm": stop_radius_mm}
     box1 = _surface1_boxes(lens, obj, c, w, e1, e2)
+    if min_cells_across_pupil:
+        # a front element much larger than the pupil (wide angles, fisheyes): more coarse cells, so
+        # the coarse pass has several across the paraxial pupil (up to 128, the stream's own count)
+        from ..trace.aiming import pupil_geometry
+        width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
+        need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
+        coarse = max(coarse, min(128, need))
     lo, hi, cell, foot = _grid_pass(lens, obj, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
     lit = np.isfinite(lo[:, 0])
     box2 = _shrink(box1, lo, hi, cell)
