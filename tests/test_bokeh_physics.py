@@ -125,8 +125,12 @@ def test_off_axis_disc_shrinks_as_mechanical_vignetting_predicts(device):
     # f/16 singlet with an aperture 0.55 f behind it, 1.5x the axial beam: cat's eyes from 1 deg on
     clip = load_lens(singlet(50.0, 16.0, -2.25, stop_gap_mm=10.0, vignetting_aperture=1.5, fields_deg=(0.0, 4.0)))
     free = load_lens(singlet(50.0, 16.0, -2.25, stop_gap_mm=10.0, vignetting_aperture=10.0, fields_deg=(0.0, 4.0)))
+    # the analysis stage's vignetting fraction (every aperture over the stop alone, object at infinity)
+    from lensrt.analysis.vignetting import vignetting
+    vig = vignetting(clip, object_values=[math.radians(1.0), math.radians(2.0)], rays=1 << 15, exit_pupil=False,
+                     device=device)
     ratios = []
-    for field in (1.0, 2.0):
+    for k, field in enumerate((1.0, 2.0)):
         out = {}
         for name, lens in (("clip", clip), ("free", free)):
             img, f = _spot(lens, 300.0, 20000.0, device, field_deg=(0.0, field), light=D_LINE, rays=1 << 21,
@@ -140,6 +144,8 @@ def test_off_axis_disc_shrinks_as_mechanical_vignetting_predicts(device):
         frac_se = frac * math.hypot(rc["pupil_area_stderr_mm2"] / rc["pupil_area_mm2"],
                                     rf["pupil_area_stderr_mm2"] / rf["pupil_area_mm2"])
         assert abs(frac - frac_dense) < 4 * frac_se + 2e-3
+        v = vig.vignetting_fraction[k]
+        assert abs(frac - v.value) < 4 * math.hypot(frac_se, v.stderr) + 0.01 * frac  # 20 m against infinity
         # the disc on the sensor against the footprint of the rays that pass every aperture
         area = disc_area_mm2(out["clip"][0]) / disc_area_mm2(out["free"][0])
         assert area == pytest.approx(area_pred, rel=0.02)
