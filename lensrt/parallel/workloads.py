@@ -28,6 +28,7 @@ WorkloadFactory = Callable[[str, int], Job]
 WORKLOADS: dict[str, str | WorkloadFactory] = {
     "sweep": "lensrt.sweep:sweep_workload",
     "render": "lensrt.render.jobs:render_workload",
+    "bokeh-map": "lensrt.analysis.bokeh_job:bokeh_map_workload",
 }
 
 
