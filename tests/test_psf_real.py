@@ -177,7 +177,7 @@ def test_defocus_disc_rms_matches_the_closed_form_within_its_standard_error(samp
 
 
 def test_best_focus_minimises_the_axial_rms_spot():
-    from lensrt.analysis.focus import best_focus_z_mm
+    from lensrt.analysis.psf_focus import best_focus_z_mm
     from lensrt.analysis.raypsf import geometric_psf_at
     lens = singlet(conic=0.0)  # spherical aberration: best focus lies in front of the paraxial focus
     z_best, rms_best = best_focus_z_mm(lens, device="cpu")
@@ -203,7 +203,7 @@ def test_iris_blades_shape_the_diffraction_pupil():
 
 
 def test_sensor_grid_lands_on_its_targets():
-    from lensrt.analysis.rays import chief_ray_at
+    from lensrt.analysis.psf_rays import chief_ray_at
     from lensrt.loading import load_lens
     from lensrt.trace.aiming import field_point
     lens = load_lens("dgauss_50mm_f2")

@@ -51,7 +51,7 @@ from .grid import ImageGrid
 from .psf import PsfResult, diffraction_result
 from .psf_setup import PsfSetup
 from .raypsf import FieldGeometry, add_mtf_estimates, prepare_field
-from .rays import field_xy_of
+from .psf_rays import field_xy_of
 from .wavefront import pupil_function_from_wavefront, trace_wavefronts
 
 __all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet"]

@@ -80,7 +80,7 @@ class ChiefTable:
 @lru_cache(maxsize=16)
 def _table(lens: Lens, plane_z_mm: float, h_max: float, n: int, device: str | None) -> ChiefTable:
     from ..trace.aiming import field_point
-    from .rays import chief_ray_at
+    from .psf_rays import chief_ray_at
     if lens.fields.max_radial <= 0:
         raise LensrtError("the lens file declares only the axial field: off-axis points cannot be named",
                           hint="add a field to the lens file ([fields])")

@@ -211,10 +211,10 @@ def _ee_radius_jackknife(h: np.ndarray, off: np.ndarray, grid: ImageGrid, frac: 
     total = float(tot_b.sum())
     H = flat_b.sum(axis=0)
     psf = H.reshape(grid.shape) / (total * area)
-    full = radius_for_energy(psf, grid, frac, relative=False, supersample=4, tol_mm=1e-3 * grid.pitch_mm)
     gx, gy = (v.ravel() for v in grid.mesh_mm())
     c = (float(H @ gx / H.sum()), float(H @ gy / H.sum()))
     rings = _Rings(grid, c, 4)
+    full = radius_for_energy(psf, grid, frac, relative=False, supersample=4, tol_mm=1e-3 * grid.pitch_mm)
     w = rings.fractions(full)
     d = 0.25 * grid.pitch_mm
     lo = max(full - d, 0.0)

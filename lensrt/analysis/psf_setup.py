@@ -30,7 +30,7 @@ class PsfSetup:
     lens : Lens
     spectrum : SpectrumChoice
     focus : dict
-        From :func:`lensrt.analysis.focus.focus_plane`; ``focus["z_mm"]`` is the observation plane.
+        From :func:`lensrt.analysis.psf_focus.focus_plane`; ``focus["z_mm"]`` is the observation plane.
     method : {"geometric", "diffraction", "auto"}
         ``auto`` chooses per field point (see :mod:`lensrt.analysis.diffpsf`).
     rays : int
@@ -135,7 +135,7 @@ class PsfSetup:
 def make_setup(lens: Lens, spectrum: SpectrumChoice | None = None, focus: str | dict | None = None,
                device: str | None = None, **options: Any) -> PsfSetup:
     """A :class:`PsfSetup` with the focus plane resolved (best focus is searched once, here)."""
-    from .focus import focus_plane
+    from .psf_focus import focus_plane
     spec = lens_spectrum(lens) if spectrum is None else spectrum
     foc = focus if isinstance(focus, dict) else focus_plane(lens, focus, device)
     return PsfSetup(lens, spec, foc, **options)

@@ -45,7 +45,7 @@ from .grid import ImageGrid
 from .mtf import mtf_estimate, tangential_angle_rad
 from .psf import PsfResult, geometric_psf
 from .psf_setup import PsfSetup
-from .rays import chief_ray_at, field_xy_of, pupil_grid_rays, trace_pupil_rays
+from .psf_rays import chief_ray_at, field_xy_of, pupil_grid_rays, trace_pupil_rays
 
 __all__ = ["StreamTotals", "geometric_psf_at", "prepare_field", "FieldGeometry", "round_seed", "psf_window",
            "add_mtf_estimates"]

@@ -30,7 +30,7 @@ sphere is S_P - n' s (n' the image-space index). The chief ray has v ~ 0, s = R.
 
 The pupil function
 ------------------
-Rays start on an m x m grid over the real pupil's box (:mod:`lensrt.analysis.rays`)
+Rays start on an m x m grid over the real pupil's box (:mod:`lensrt.analysis.psf_rays`)
 and are placed at normalised pupil positions p = -(d_xy - d_chief,xy) / NA
 (:func:`lensrt.analysis.pupil.pupil_coordinates_from_directions`), NA the
 smallest scale that holds every valid ray (2 % margin). Rays that fail
@@ -55,7 +55,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from ..units import NM_PER_MM
 from .pupil import enclosing_na, pupil_coordinates_from_directions, pupil_from_rays
-from .rays import PupilRays, pupil_grid_rays
+from .psf_rays import PupilRays, pupil_grid_rays
 
 __all__ = ["ReferenceSphere", "RayWavefront", "reference_sphere", "opd_to_sphere_mm", "trace_wavefronts",
            "pupil_function_from_wavefront"]
@@ -180,7 +180,7 @@ def _amplitude(px: np.ndarray, py: np.ndarray, ok: np.ndarray, weight: np.ndarra
 def trace_wavefronts(lens: Lens, fp, box, wavelengths_nm: Sequence[float], plane_z_mm: float, m: int,
                      primary_nm: float | None = None, device: str | None = None) -> list[RayWavefront]:
     """Trace an m x m ray grid over ``box`` at each wavelength; OPDs to the common reference sphere."""
-    from .rays import chief_ray_at, trace_pupil_rays
+    from .psf_rays import chief_ray_at, trace_pupil_rays
     wls = [float(v) for v in wavelengths_nm]
     prim = float(primary_nm if primary_nm is not None else lens.wavelengths.primary_nm)
     chief_all = chief_ray_at(lens, fp, [prim] + wls, plane_z_mm, device)

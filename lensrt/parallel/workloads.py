@@ -28,6 +28,8 @@ WorkloadFactory = Callable[[str, int], Job]
 WORKLOADS: dict[str, str | WorkloadFactory] = {
     "sweep": "lensrt.sweep:sweep_workload",
     "psf-map": "lensrt.analysis.psf_map:psf_map_workload",
+    "render": "lensrt.render.jobs:render_workload",
+    "bokeh-map": "lensrt.analysis.bokeh_job:bokeh_map_workload",
 }
 
 

@@ -1,0 +1,471 @@
+"""Bokeh sources through the real lens: placement by the real chief ray, pupil boxes, windows, streaming.
+
+Used by :mod:`lensrt.analysis.bokeh`; everything here works on many sources at
+once (vectorised float64 host work and batched store-kernel traces), so that a
+map of hundreds of sources costs a handful of kernel launches before the
+stream launch.
+
+* :func:`object_heights_for_image` -- where to put a point source at depth s
+  so that its real chief ray (through the centre of the real stop, primary
+  wavelength) meets the sensor plane at a given height: Newton on the aim
+  point for the chief ray inside a secant iteration on the object height
+  (steps into heights that have no chief ray are halved back toward the axis:
+  strongly distorting lenses), vectorised over heights and depths. A
+  rotationally symmetric lens maps azimuths one to one, so one radial solve
+  serves every azimuth.
+* :func:`pupil_boxes` -- the box of each source's *real* (vignetted) entrance
+  pupil, exactly as :func:`lensrt.trace.stream.pupil_box` builds it (a
+  128 x 128 grid over everything that passes surface 1, then 64 x 64 over what
+  passed -- maps use 64 and 48; every aperture and the iris; the shortest, a
+  middle and the longest wavelength), but for all sources in one trace per
+  wavelength and pass; the
+  passing rays are traced to the sensor plane, which gives each source's
+  *footprint* (the bounding box of its blur spot) for free.
+* :func:`stream_windows` -- one stream launch for many sources, each binned
+  into its own histogram layer: a window of the frame's pixel grid around its
+  footprint. Each source is scaled to sensor illuminance by its own pupil box
+  and distance, so sources of different depths and vignetting share one launch.
+
+Pixel values are CIE XYZ with Y the illuminance on the sensor in lux (lm/m^2)
+for sources of ``intensity_cd`` candela; no glass absorption or Fresnel loss
+(the tracer does not model them).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.model import Iris, Lens
+from ..units import MM_PER_M
+
+__all__ = ["Frame", "object_heights_for_image", "pupil_boxes", "stream_windows", "SourceOut",
+           "WINDOW_MARGIN", "DISC_THRESHOLD"]
+
+#: windows extend the traced footprint by this fraction of its size on every side (plus 2 px)
+WINDOW_MARGIN = 0.04
+#: "in the disc": pixels at or above this fraction of the 99th percentile of the source's lit pixels
+DISC_THRESHOLD = 0.1
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A pixel grid on the sensor plane, in sensor orientation.
+
+    Pixel (iy, ix) covers x in [x0 + ix p, x0 + (ix + 1) p), y in [y0 + iy p, y0 + (iy + 1) p)
+    (mm; iy counts up from the lowest y). ``lensrt.analysis.bokeh`` turns it upright for pictures.
+    """
+
+    nx: int
+    ny: int
+    pitch_mm: float
+    x0_mm: float
+    y0_mm: float
+
+    @property
+    def pixel_area_m2(self) -> float:
+        return (self.pitch_mm / MM_PER_M) ** 2
+
+
+# ---- rays from object points (vectorised over sources) ------------------------------------
+
+def _rays_from_points(obj: np.ndarray, aim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from object points ``obj`` (n, 3) through ``aim`` (n, 3), starting on the sphere
+    through the first vertex centred on the object point (as lensrt.trace.aiming does)."""
+    v = aim - obj
+    dist = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
+    d = v / dist
+    r0 = np.sqrt(np.einsum("ij,ij->i", obj, obj))[:, None]
+    back = (np.einsum("ij,ij->i", aim, aim - 2.0 * obj))[:, None] / (dist + r0)
+    return aim - back * d, d
+
+
+def _trace(lens: Lens, o: np.ndarray, d: np.ndarray, wl: float, device: str | None, **kw):
+    from ..trace import RayBatch, trace
+    return trace(lens, RayBatch(o, d, np.full(len(o), wl)), "float64", device, **kw)
+
+
+def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm, wavelength_nm: float,
+                             device: str | None = None, tol_mm: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+    """Object heights y (object points (0, y, -depth)) whose real chief rays meet the plane z =
+    ``plane_z_mm`` at (0, r); ``depth_mm`` and ``image_r_mm`` broadcast together. Also a mask of
+    converged solves.
+
+    y is negative for a lens that inverts the image. Rays are traced without clipping.
+    """
+    from ..trace.aiming import pupil_geometry
+    depth, r = np.broadcast_arrays(np.asarray(depth_mm, dtype=np.float64), np.asarray(image_r_mm, dtype=np.float64))
+    depth, r = depth.ravel().copy(), r.ravel().copy()
+    geom = pupil_geometry(lens)
+    stop, z_ep = lens.stop_index, geom.ep_z_mm
+    h_fd = 1e-6 * max(geom.ep_radius_mm, 1.0)
+
+    def chief(y: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Image height of the real chief ray of each object point (0, y, -s), and whether it was found."""
+        n = len(y)
+        obj = np.stack([np.zeros(n), y, -s], axis=1)
+
+        def rays(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return _rays_from_points(obj, np.stack([np.zeros(n), b, np.full(n, z_ep)], axis=1))
+
+        def at_stop(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, end=stop)
+            return res.position_mm[:, 1], res.ok
+
+        b = np.zeros(n)  # aim point (0, b) in the paraxial entrance-pupil plane; Newton to the stop centre
+        f0, ok = at_stop(b)
+        for _ in range(30):
+            if np.all(~ok | (np.abs(f0) < 1e-11)):
+                break
+            f1, ok1 = at_stop(b + h_fd)
+            slope = (f1 - f0) / h_fd
+            good = ok & ok1 & (slope != 0.0) & (np.abs(f0) >= 1e-11)
+            b = b - np.where(good, f0 / np.where(good, slope, 1.0), 0.0)
+            f0, ok_new = at_stop(b)
+            ok &= ok_new
+        ok &= np.abs(f0) < 1e-8
+        res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, plane_z_mm=plane_z_mm)
+        return res.position_mm[:, 1], ok & res.ok
+
+    y = np.zeros_like(r)
+    ok = np.ones(len(r), dtype=bool)
+    todo = r != 0.0
+    if not todo.any():
+        return y, ok
+    rt, st = r[todo], depth[todo]
+    # a probe near the axis gives each depth's scale; then secant steps on every height at once
+    probe = 1e-3 * (st + abs(z_ep))
+    hp, okp = chief(-probe, st)
+    if not np.all(okp & (hp != 0.0)):
+        bad = float(st[~(okp & (hp != 0.0))][0])
+        raise LensrtError(f"no real chief ray from a point {bad:g} mm in front of the lens reaches the sensor plane")
+    y0 = rt * (-probe / hp)
+    h0, ok0 = chief(y0, st)
+    for _ in range(20):  # a paraxial start with no chief ray (strong distortion): move it toward the axis
+        if ok0.all():
+            break
+        y0 = np.where(ok0, y0, 0.7 * y0)
+        hb, okb = chief(y0[~ok0], st[~ok0])
+        h0[~ok0], ok0[~ok0] = hb, okb
+    y1 = y0 * (1.0 + 1e-3)
+    h1, ok1 = chief(y1, st)
+    conv = ok1 & (np.abs(h1 - rt) <= tol_mm)
+    for _ in range(40):
+        good = ok0 & ok1 & (h1 != h0) & ~conv
+        if not good.any():
+            break
+        y2 = np.where(good, y1 - (h1 - rt) * (y1 - y0) / np.where(good, h1 - h0, 1.0), y1)
+        h2, ok2 = chief(y2, st)
+        for _ in range(12):  # a step into heights with no chief ray: halve it (strong distortion)
+            back = good & ~ok2
+            if not back.any():
+                break
+            y2 = np.where(back, 0.5 * (y1 + y2), y2)
+            h2b, ok2b = chief(y2[back], st[back])
+            h2[back], ok2[back] = h2b, ok2b
+        y0, h0, ok0 = np.where(good, y1, y0), np.where(good, h1, h0), np.where(good, ok1, ok0)
+        y1, h1, ok1 = np.where(good, y2, y1), np.where(good, h2, h1), np.where(good, ok2, ok1)
+        conv |= ok1 & (np.abs(h1 - rt) <= tol_mm)
+    y[todo] = y1
+    ok[todo] = conv
+    return y, ok
+
+
+# ---- pupil boxes of many sources ------------------------------------------------------------
+
+def _aim_frames(lens: Lens, obj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Aim-plane centre (the paraxial EP centre) and per source the beam axis w and basis e1, e2."""
+    from ..trace.aiming import beam_basis, pupil_geometry
+    c = np.array([0.0, 0.0, pupil_geometry(lens).ep_z_mm])
+    v = c[None, :] - obj
+    w = v / np.linalg.norm(v, axis=1, keepdims=True)
+    e1, e2 = beam_basis(w)
+    return c, w, e1, e2
+
+
+def _surface1_boxes(lens: Lens, obj: np.ndarray, c: np.ndarray, w: np.ndarray, e1: np.ndarray,
+                    e2: np.ndarray) -> np.ndarray:
+    """(S, 4) boxes a0, a1, b0, b1 in each aim plane that hold every ray passing surface 1."""
+    s1 = lens.surfaces[0]
+    sd = s1.semi_diameter_mm
+    if sd is None:  # pragma: no cover - load_lens fills semi-diameters
+        raise LensrtError("bokeh sources need the first surface's clear semi-diameter")
+    phi = np.linspace(0.0, 2.0 * np.pi, 181)
+    rim = np.concatenate([np.stack([sd * np.cos(phi), sd * np.sin(phi), np.full_like(phi, z)], axis=1)
+                          for z in (0.0, float(s1.sag(min(sd, s1.max_semi_diameter_mm))))])
+    v = rim[None, :, :] - obj[:, None, :]  # (S, M, 3)
+    along = np.einsum("smk,sk->sm", v, w)
+    dist = np.einsum("sk,sk->s", c[None, :] - obj, w)
+    bad = np.any(along <= 0.0, axis=1) | (dist <= 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        proj = obj[:, None, :] + v * (dist[:, None] / along)[:, :, None] - c[None, None, :]
+    a = np.einsum("smk,sk->sm", proj, e1)
+    b = np.einsum("smk,sk->sm", proj, e2)
+    pad = 0.02 * (a.max(axis=1) - a.min(axis=1) + b.max(axis=1) - b.min(axis=1))
+    out = np.stack([a.min(axis=1) - pad, a.max(axis=1) + pad, b.min(axis=1) - pad, b.max(axis=1) + pad], axis=1)
+    out[bad] = np.array([-10.0 * sd, 10.0 * sd, -10.0 * sd, 10.0 * sd])
+    return out
+
+
+def _grid_pass(lens: Lens, obj: np.ndarray, c: np.ndarray, e1: np.ndarray, e2: np.ndarray, box: np.ndarray,
+               n: int, wls: list[float], plane_z_mm: float, trace_kw: dict, device: str | None):
+    """Trace an n x n grid over each source's box at every wavelength.
+
+    Returns (lo, hi, cell, footprint): per source the min/max aim coordinates (a, b) of the
+    passing grid points (inf/-inf when none passed), the cell size (a, b) and the footprint
+    x_min, x_max, y_min, y_max of the passing rays on the plane.
+    """
+    S = len(obj)
+    t = (np.arange(n) + 0.5) / n
+    ga = box[:, 0:1] + t[None, :] * (box[:, 1:2] - box[:, 0:1])  # (S, n)
+    gb = box[:, 2:3] + t[None, :] * (box[:, 3:4] - box[:, 2:3])
+    A = np.repeat(ga, n, axis=1)  # (S, n*n): rays of source k are the k-th row
+    B = np.tile(gb, (1, n))
+    src = np.repeat(np.arange(S), n * n)
+    pts = c[None, :] + A.reshape(-1, 1) * e1[src] + B.reshape(-1, 1) * e2[src]
+    o, d = _rays_from_points(obj[src], pts)
+    ok = np.zeros((S, n * n), dtype=bool)
+    foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
+    for wl in wls:
+        res = _trace(lens, o, d, wl, device, plane_z_mm=plane_z_mm, **trace_kw)
+        got = res.ok.reshape(S, n * n)
+        ok |= got
+        for k in (0, 1):
+            v = res.position_mm[:, k].reshape(S, n * n)
+            foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
+            foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
+    lo = np.stack([np.where(ok, A, np.inf).min(axis=1), np.where(ok, B, np.inf).min(axis=1)], axis=1)
+    hi = np.stack([np.where(ok, A, -np.inf).max(axis=1), np.where(ok, B, -np.inf).max(axis=1)], axis=1)
+    cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
+    return lo, hi, cell, foot
+
+
+def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """The passing region's bounds padded by 1.5 cells, within ``box``; unchanged where nothing passed."""
+    lit = np.isfinite(lo[:, 0])
+    out = box.copy()
+    out[:, 0] = np.where(lit, np.maximum(lo[:, 0] - 1.5 * cell[:, 0], box[:, 0]), box[:, 0])
+    out[:, 1] = np.where(lit, np.minimum(hi[:, 0] + 1.5 * cell[:, 0], box[:, 1]), box[:, 1])
+    out[:, 2] = np.where(lit, np.maximum(lo[:, 1] - 1.5 * cell[:, 1], box[:, 2]), box[:, 2])
+    out[:, 3] = np.where(lit, np.minimum(hi[:, 1] + 1.5 * cell[:, 1], box[:, 3]), box[:, 3])
+    return out
+
+
+def pupil_boxes(lens: Lens, obj: np.ndarray, wavelengths_nm: Sequence[float], plane_z_mm: float, *,
+                iris: Iris | None = None, stop_radius_mm: float | None = None, device: str | None = None,
+                coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0) -> tuple[list, np.ndarray]:
+    """Real pupil boxes of the object points ``obj`` (S, 3) and their footprints on the plane.
+
+    ``min_cells_across_pupil`` raises ``coarse`` (up to 128) until the coarse grid has that
+    many cells across the paraxial entrance pupil's diameter.
+
+    Returns (boxes, footprint): a :class:`lensrt.trace.stream.PupilBox` per source
+    (area 0 when nothing passes) and (S, 4) footprint bounds x_min, x_max, y_min, y_max
+    (mm; NaN when nothing passes) of the passing grid rays on the plane z = ``plane_z_mm``.
+    """
+    from ..trace.stream import PupilBox
+    obj = np.atleast_2d(np.asarray(obj, dtype=np.float64))
+    c, w, e1, e2 = _aim_frames(lens, obj)
+    wls = sorted({float(v) for v in wavelengths_nm})
+    kw = {"iris": iris, "stop_radius_mm": stop_radius_mm}
+    box1 = _surface1_boxes(lens, obj, c, w, e1, e2)
+    if min_cells_across_pupil:
+        # a front element much larger than the pupil (wide angles, fisheyes): more coarse cells, so
+        # the coarse pass has several across the paraxial pupil (up to 128, the stream's own count)
+        from ..trace.aiming import pupil_geometry
+        width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
+        need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
+        coarse = max(coarse, min(128, need))
+    lo, hi, cell, foot = _grid_pass(lens, obj, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
+    lit = np.isfinite(lo[:, 0])
+    box2 = _shrink(box1, lo, hi, cell)
+    lo2, hi2, cell2, foot2 = _grid_pass(lens, obj, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device)
+    lit2 = np.isfinite(lo2[:, 0])
+    final = _shrink(box2, lo2, hi2, cell2)  # a sliver the fine grid missed keeps the coarse box
+    foot = np.where(lit2[:, None], foot2, foot)
+    boxes = []
+    for k in range(len(obj)):
+        a0, a1, b0, b1 = (float(v) for v in final[k]) if lit[k] else (0.0, 0.0, 0.0, 0.0)
+        boxes.append(PupilBox(tuple(float(v) for v in c), tuple(float(v) for v in w[k]),
+                              tuple(float(v) for v in e1[k]), tuple(float(v) for v in e2[k]), a0, a1, b0, b1))
+    foot[~lit] = np.nan
+    return boxes, foot
+
+
+# ---- streaming many sources into windows of one frame -------------------------------------
+
+@dataclass
+class SourceOut:
+    """One source's contribution: a window of the frame (sensor orientation) and its statistics.
+
+    ``xyz`` (3, wy, wx) is CIE XYZ in lux, ``var_y`` (wy, wx) the variance of Y (lux^2) by the
+    method in ``stats["noise_method"]``; both None when no ray reached the sensor plane.
+    The window's pixel (0, 0) is frame pixel (``iy0``, ``ix0``).
+    """
+
+    index: int
+    ix0: int
+    iy0: int
+    xyz: np.ndarray | None
+    var_y: np.ndarray | None
+    stats: dict
+    #: (batches, 3, wy, wx) XYZ of each batch (lux, the batch's own estimate of the window) when kept
+    batch_xyz: np.ndarray | None = None
+
+
+def _window(foot: np.ndarray, frame: Frame) -> tuple[int, int, int, int] | None:
+    """(ix0, ix1, iy0, iy1) frame pixels covering a footprint plus margin, clipped to the frame."""
+    if not np.all(np.isfinite(foot)):
+        return None
+    p = frame.pitch_mm
+    fx0, fx1 = (foot[0] - frame.x0_mm) / p, (foot[1] - frame.x0_mm) / p
+    fy0, fy1 = (foot[2] - frame.y0_mm) / p, (foot[3] - frame.y0_mm) / p
+    m = WINDOW_MARGIN * max(fx1 - fx0, fy1 - fy0) + 2.0
+    ix0, ix1 = max(int(math.floor(fx0 - m)), 0), min(int(math.ceil(fx1 + m)), frame.nx)
+    iy0, iy1 = max(int(math.floor(fy0 - m)), 0), min(int(math.ceil(fy1 + m)), frame.ny)
+    if ix1 <= ix0 or iy1 <= iy0:
+        return None
+    return ix0, ix1, iy0, iy1
+
+
+def disc_noise(y: np.ndarray, var_y: np.ndarray) -> tuple[float, int]:
+    """Median per-pixel relative standard error of Y over the disc, and the disc's pixel count.
+
+    The disc: pixels at or above :data:`DISC_THRESHOLD` of the 99th percentile of the lit pixels.
+    """
+    lit = y[y > 0]
+    if lit.size == 0:
+        return math.nan, 0
+    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
+    rel = np.sqrt(np.maximum(var_y[disc], 0.0)) / y[disc]
+    return float(np.median(rel)), int(disc.sum())
+
+
+def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarray, frame: Frame,
+                   plane_z_mm: float, light, rays_per_source: int, *, intensity_cd=1.0,
+                   iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
+                   seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
+                   batch_noise: bool = False, hist_budget_bytes: int = 96 << 20) -> list[SourceOut]:
+    """Stream every source into its own window of ``frame`` (module docstring); one record per source.
+
+    Sources go into stream launches in groups whose histograms (3 channels per window, int64)
+    fit ``hist_budget_bytes``; launch g uses the seed ``hash(seed, g)``. ``batch_noise`` keeps
+    per-batch histograms and gives each pixel's variance by batch means (else the Poisson
+    estimate, see :func:`poisson_var_y`). ``intensity_cd`` is one luminous intensity (cd) for
+    all sources or one per source.
+    """
+    from ..trace.aiming import FieldPoint
+    from ..trace.stream import Grid, StreamSource, stream
+    obj = np.atleast_2d(np.asarray(obj, dtype=np.float64))
+    inten = np.broadcast_to(np.asarray(intensity_cd, dtype=np.float64), (len(obj),))
+    outs: list[SourceOut | None] = [None] * len(obj)
+    wins: dict[int, tuple[int, int, int, int]] = {}
+    for k in range(len(obj)):
+        win = _window(footprint[k], frame) if boxes[k].area_mm2 > 0 else None
+        if win is None:
+            outs[k] = SourceOut(k, 0, 0, None, None, {"rays": 0, "reached_sensor": False,
+                                                         "why": "no ray reaches the frame" if boxes[k].area_mm2 > 0
+                                                         else "fully vignetted"})
+        else:
+            wins[k] = win
+    # groups of sources (in order of window size) whose histograms fit the budget
+    order = sorted(wins, key=lambda k: ((wins[k][1] - wins[k][0]) * (wins[k][3] - wins[k][2]), k))
+    groups: list[list[int]] = []
+    cur: list[int] = []
+    wx = wy = 0
+    mult = (batches + 1) if batch_noise else 1
+    for k in order:
+        nwx, nwy = max(wx, wins[k][1] - wins[k][0]), max(wy, wins[k][3] - wins[k][2])
+        if cur and (len(cur) + 1) * nwx * nwy * 3 * 8 * mult > hist_budget_bytes:
+            groups.append(cur)
+            cur, nwx, nwy = [], wins[k][1] - wins[k][0], wins[k][3] - wins[k][2]
+        cur.append(k)
+        wx, wy = nwx, nwy
+    if cur:
+        groups.append(cur)
+    spectrum, channels = light.spectrum(), light.channels()
+    p = frame.pitch_mm
+    for g, members in enumerate(groups):
+        gx = max(wins[k][1] - wins[k][0] for k in members)
+        gy = max(wins[k][3] - wins[k][2] for k in members)
+        sources = []
+        for j, k in enumerate(members):
+            ix0, _, iy0, _ = wins[k]
+            centre = (frame.x0_mm + (ix0 + 0.5 * gx) * p, frame.y0_mm + (iy0 + 0.5 * gy) * p)
+            sources.append(StreamSource(FieldPoint(False, None, tuple(float(v) for v in obj[k])), boxes[k],
+                                        float(plane_z_mm), centre, j, "isotropic"))
+        gseed = int(np.random.SeedSequence([int(seed), g]).generate_state(1)[0]) & 0x7FFFFFFF
+        res = stream(lens, sources, Grid(gx, gy, p), int(rays_per_source), spectrum=spectrum, channels=channels,
+                     sampler=sampler, seed=gseed, batches=batches, precision=precision, device=device,
+                     iris=iris, stop_radius_mm=stop_radius_mm, batch_histograms=batch_noise)
+        share = res.seconds / len(members)
+        for j, k in enumerate(members):
+            outs[k] = _source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
+                                  batch_noise, share, gseed)
+    return [o for o in outs if o is not None]
+
+
+def poisson_var_y(y_raw: np.ndarray, rays_landed: int, kappa_y: float) -> np.ndarray:
+    """Poisson estimate of the variance of each pixel's raw Y sum (same units as ``y_raw`` squared).
+
+    A pixel's sum is ~Poisson(n) rays of weight w: Var = n E[w^2] = kappa E[w] * sum, with
+    E[w] = (all landed Y weight) / (rays landed) and kappa = E[w^2] / E[w]^2 of the spectral
+    sampling (:attr:`BokehLight.kappa`; the geometric weights of a point source vary by
+    far less than that and are taken as constant). Assumes every pixel sees the source's
+    mean spectrum: at strongly coloured rims it is approximate.
+    """
+    if rays_landed <= 0:
+        return np.zeros_like(y_raw)
+    mean_w = float(y_raw.sum()) / rays_landed
+    return kappa_y * mean_w * y_raw
+
+
+def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.ndarray, box, frame: Frame,
+                light, intensity_cd: float, batch_noise: bool, seconds: float, seed: int) -> SourceOut:
+    ix0, ix1, iy0, iy1 = win
+    gy, gx = res.histogram.shape[2], res.histogram.shape[3]
+    raw = res.histogram[j]  # (3, gy, gx)
+    n = res.rays_per_source
+    dist = float(np.dot(np.asarray(box.centre) - obj, np.asarray(box.axis)))
+    # lux per unit of raw weight: I_v / E[t_Y] x (box area / (rays dist^2) sr per unit geometric weight) / pixel area
+    scale = intensity_cd / float(light.mean_t[1]) * box.area_mm2 / (n * dist * dist) / frame.pixel_area_m2
+    counts = res.status_counts(j)
+    landed = counts["OK"] - counts["OUTSIDE_GRID"]
+    var_p = poisson_var_y(raw[1], landed, float(light.kappa[1])) * scale * scale
+    var_b = batch_xyz = None
+    if batch_noise and res.batch_histograms is not None:
+        bh = res.batch_histograms[j]  # (B, 3, gy, gx)
+        var_b = bh.shape[0] * bh[:, 1].var(axis=0, ddof=1) * scale * scale
+        batch_xyz = (bh * (scale * bh.shape[0])).astype(np.float32)
+    xyz = raw * scale
+    noise_p, disc_px = disc_noise(xyz[1], var_p)
+    trans, trans_se = res.transmission(j)
+    area, area_se = res.transmitted_area_mm2(j)
+    cen, cen_se = res.centroid(j)
+    rms, rms_se = res.rms_radius(j)
+    sum_w = float(res.batch_stats[j][:, 1].sum())
+    stats = {
+        "rays": int(n), "reached_sensor": True, "seed": int(seed), "seconds": float(seconds),
+        "intensity_cd": float(intensity_cd),
+        "object_mm": [float(v) for v in obj], "distance_to_pupil_mm": dist,
+        "pupil_box_mm2": float(box.area_mm2),
+        "transmission": float(trans), "transmission_stderr": float(trans_se),
+        "pupil_area_mm2": float(area), "pupil_area_stderr_mm2": float(area_se),
+        "solid_angle_sr": float(area) / (dist * dist),
+        "centroid_mm": [float(v) for v in cen], "centroid_stderr_mm": [float(v) for v in cen_se],
+        "rms_radius_mm": float(rms), "rms_radius_stderr_mm": float(rms_se),
+        "off_window_fraction": float(res.off_grid_weight(j).sum() / sum_w) if sum_w > 0 else 0.0,
+        "luminous_flux_lm": float(xyz[1].sum() * frame.pixel_area_m2),
+        "window_px": [int(ix0), int(iy0), int(gx), int(gy)],
+        "disc_pixels": disc_px, "noise_poisson": noise_p, "status_counts": counts,
+    }
+    if var_b is not None:
+        stats["noise_batch"] = disc_noise(xyz[1], var_b)[0]
+    stats["noise"] = stats["noise_batch"] if var_b is not None else noise_p
+    stats["noise_method"] = (f"batch means over {res.batches} batches" if var_b is not None
+                             else "Poisson estimate from the ray weights")
+    var = var_b if var_b is not None else var_p
+    return SourceOut(k, ix0, iy0, xyz.astype(np.float32), var.astype(np.float32), stats, batch_xyz)
