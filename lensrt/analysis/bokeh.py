@@ -49,6 +49,7 @@ from .bokeh_focus import BlurPrediction, Focus, focus_lens, gaussian_blur, stop_
 from .bokeh_trace import Frame, object_heights_for_image, pupil_boxes, stream_windows
 
 __all__ = ["Focus", "focus_lens", "BlurPrediction", "gaussian_blur", "BokehImage", "bokeh_spot", "bokeh_map",
+           "SpotPlan", "prepare_spot",
            "map_sources", "spot_source", "sensor_frame", "stop_radius_for_f_number", "Frame", "INTENSITY_SCALINGS",
            "near_far_depths_mm", "bokeh_near_far"]
 
@@ -134,11 +135,15 @@ class BokehImage:
     @property
     def noise(self) -> dict:
         """Per-pixel relative standard error of Y in the discs: median over sources of each
-        source's median over its disc pixels, the largest source value, and the method."""
+        source's median over its disc pixels, the largest source value, the largest RMS over a
+        disc (what a target error is compared with), and the method."""
         vals = [r["noise"] for r in self.sources if r.get("reached_sensor") and math.isfinite(r.get("noise", math.nan))]
+        rms = [r["noise_rms"] for r in self.sources
+               if r.get("reached_sensor") and math.isfinite(r.get("noise_rms", math.nan))]
         methods = sorted({r["noise_method"] for r in self.sources if r.get("reached_sensor")})
         return {"rel_stderr_median": float(np.median(vals)) if vals else None,
                 "rel_stderr_max": float(np.max(vals)) if vals else None,
+                "rel_stderr_rms_max": float(np.max(rms)) if rms else None,
                 "method": "; ".join(methods) + (f"; disc = pixels >= 10 % of the source's 99th-percentile Y"
                                                 if methods else "")}
 
@@ -292,19 +297,27 @@ def _nice_pitch_mm(extent_mm: float, n: int) -> float:
     return 10 ** (k + 1) / 1000.0  # pragma: no cover
 
 
-def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", intensity_cd: float = 1.0,
-               pixel_um: float | None = None, window_px: int | None = None, rays: int = 1_000_000,
-               iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
-               seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
-               batch_noise: bool = True) -> BokehImage:
-    """The bokeh of one point source (``source`` from :func:`spot_source`) in a window around it.
+@dataclass
+class SpotPlan:
+    """One point source ready to stream: its real pupil box and footprint, the window's frame and
+    the set-up (:func:`prepare_spot`; used by :func:`bokeh_spot` and the convergence study)."""
 
-    The window covers the traced footprint of the blur spot plus a margin; ``pixel_um``
-    defaults to a 1-2-5 pitch that puts about 200 pixels across the spot; ``window_px``
-    fixes a square window of that many pixels centred on the spot. The noise level is by
-    batch means over the ``batches`` independent batches (``batch_noise``, while their
-    histograms fit in 1 GiB), else the Poisson estimate.
-    """
+    setup: Any
+    light: Any
+    obj: np.ndarray
+    boxes: list
+    footprint: np.ndarray
+    frame: Frame
+    batch_noise: bool
+    box_seconds: float
+
+
+def prepare_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", intensity_cd: float = 1.0,
+                 pixel_um: float | None = None, window_px: int | None = None, rays: int = 1_000_000,
+                 iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
+                 batches: int = 32, precision: str = "float32", device: str | None = None,
+                 batch_noise: bool = True) -> SpotPlan:
+    """Pupil box, footprint and window of one source (see :func:`bokeh_spot` for the window rules)."""
     from .bokeh_job import BokehSetup, box_wavelengths
     from .bokeh_spectrum import bokeh_light
     t0 = time.perf_counter()
@@ -314,7 +327,6 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
     obj = np.array([source["object_mm"]], dtype=np.float64)
     boxes, foot = pupil_boxes(lens, obj, box_wavelengths(probe, lt), focus.sensor_z_mm, iris=iris,
                               stop_radius_mm=stop_radius_mm, device=device)
-    t_box = time.perf_counter() - t0
     if boxes[0].area_mm2 <= 0 or not np.all(np.isfinite(foot[0])):
         raise LensrtError("no ray from this source gets through the lens (fully vignetted)",
                           hint="move the source toward the axis")
@@ -334,10 +346,42 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
     frame = Frame(nx, ny, pitch, cx - 0.5 * nx * pitch, cy - 0.5 * ny * pitch)
     if batch_noise and nx * ny * 3 * 8 * (batches + 1) > _BATCH_HIST_LIMIT_BYTES:
         batch_noise = False  # per-batch histograms would not fit: the Poisson estimate instead
-    setup = replace(probe, frame=frame)
-    outs = stream_windows(lens, obj, boxes, foot, frame, focus.sensor_z_mm, lt, int(rays),
-                          intensity_cd=intensity_cd, iris=iris, stop_radius_mm=stop_radius_mm, sampler=sampler,
-                          seed=seed, batches=batches, precision=precision, device=device, batch_noise=batch_noise)
+    setup = replace(probe, frame=frame, batch_noise=batch_noise)
+    return SpotPlan(setup, lt, obj, boxes, foot, frame, batch_noise, time.perf_counter() - t0)
+
+
+def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", intensity_cd: float = 1.0,
+               pixel_um: float | None = None, window_px: int | None = None, rays: int = 1_000_000,
+               iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
+               seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
+               batch_noise: bool = True, target_error: float | None = None,
+               time_budget_s: float | None = None) -> BokehImage:
+    """The bokeh of one point source (``source`` from :func:`spot_source`) in a window around it.
+
+    The window covers the traced footprint of the blur spot plus a margin; ``pixel_um``
+    defaults to a 1-2-5 pitch that puts about 200 pixels across the spot; ``window_px``
+    fixes a square window of that many pixels centred on the spot. The noise level is by
+    batch means over the ``batches`` independent batches (``batch_noise``, while their
+    histograms fit in 1 GiB), else the Poisson estimate.
+
+    ``target_error`` (e.g. 0.02) and ``time_budget_s`` make the run progressive: rays are added
+    in doubling rounds until the RMS over the disc of the per-pixel relative standard error of
+    Y (``noise_rms``) is at most the target, or before the next round would overrun the budget
+    (seconds of tracing); ``rays`` is the cap (:func:`lensrt.analysis.bokeh_trace.stream_windows`).
+    """
+    for name, v in (("target_error", target_error), ("time_budget_s", time_budget_s)):
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            raise LensrtError(f"{name} {v!r} must be a positive number")
+    t0 = time.perf_counter()
+    plan = prepare_spot(lens, focus, source, light=light, intensity_cd=intensity_cd, pixel_um=pixel_um,
+                        window_px=window_px, rays=rays, iris=iris, stop_radius_mm=stop_radius_mm, sampler=sampler,
+                        batches=batches, precision=precision, device=device, batch_noise=batch_noise)
+    frame = plan.frame
+    nx, ny = frame.nx, frame.ny
+    outs = stream_windows(lens, plan.obj, plan.boxes, plan.footprint, frame, focus.sensor_z_mm, plan.light,
+                          int(rays), intensity_cd=intensity_cd, iris=iris, stop_radius_mm=stop_radius_mm,
+                          sampler=sampler, seed=seed, batches=batches, precision=precision, device=device,
+                          batch_noise=plan.batch_noise, target_error=target_error, time_budget_s=time_budget_s)
     xyz = np.zeros((3, ny, nx))
     var = np.zeros((ny, nx))
     o = outs[0]
@@ -353,8 +397,12 @@ def bokeh_spot(lens: Lens, focus: Focus, source: dict, *, light: str = "D65", in
             batch_xyz = np.zeros((o.batch_xyz.shape[0], 3, ny, nx), dtype=np.float32)
             batch_xyz[:, :, o.iy0:y1, o.ix0:x1] = o.batch_xyz[:, :, :y1 - o.iy0, :x1 - o.ix0]
     seconds = time.perf_counter() - t0
-    return BokehImage(xyz, var, frame, [rec], int(rec.get("rays", 0)), seconds, setup.settings(),
-                      {"box_seconds": t_box, "stream_seconds": float(rec.get("seconds", 0.0))}, int(seed), batch_xyz)
+    settings = plan.setup.settings()
+    if target_error is not None or time_budget_s is not None:
+        settings.update({"target_error": target_error, "time_budget_s": time_budget_s})
+    return BokehImage(xyz, var, frame, [rec], int(rec.get("rays", 0)), seconds, settings,
+                      {"box_seconds": plan.box_seconds, "stream_seconds": float(rec.get("seconds", 0.0))},
+                      int(seed), batch_xyz)
 
 
 def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), depths_mm: Sequence[float] = (1000.0,),
@@ -362,14 +410,19 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
               light: str = "D65", intensity_cd: float = 1.0, intensity_scaling: str = "distance2",
               rays: int = 1_000_000, iris: Iris | None = None, stop_radius_mm: float | None = None,
               sampler: str = "sobol", seed: int = 0, batches: int = 32, precision: str = "float32", executor=None,
-              device: str | None = None, sources_per_item: int = 32, progress=None) -> BokehImage:
+              device: str | None = None, sources_per_item: int = 32, progress=None,
+              target_error: float | None = None) -> BokehImage:
     """A bokeh map: point sources on a ``grid`` (cols, rows) over the sensor at each depth, in one
     image of ``pixels`` on a sensor of ``sensor_mm`` (see :func:`map_sources`).
 
     Runs as a :class:`lensrt.parallel.Job` on ``executor`` (default: this process on
     ``device``); the image is the same for any number of devices. The noise level is the
     Poisson estimate (batch histograms of a full frame would cost batches x its memory).
+    ``target_error``: add rays (doubling rounds, ``rays`` the cap) until every source's RMS
+    relative standard error of Y over its disc is at most this.
     """
+    if target_error is not None and not (target_error > 0 and math.isfinite(target_error)):
+        raise LensrtError(f"target_error {target_error!r} must be a positive number")
     from ..parallel import LocalExecutor
     from .bokeh_job import BokehSetup, bokeh_job
     t0 = time.perf_counter()
@@ -381,7 +434,7 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
                           intensity_scaling=intensity_scaling)
     t_place = time.perf_counter() - t0
     setup = BokehSetup(lens, focus, frame, light, intensity_cd, iris, stop_radius_mm, int(rays), sampler,
-                       batches, precision, False)
+                       batches, precision, False, target_error=target_error)
     job = bokeh_job(setup, sources, seed, sources_per_item)
     ex = LocalExecutor(device) if executor is None else executor
     result = ex.run(job, progress=progress)

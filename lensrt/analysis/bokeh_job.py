@@ -48,6 +48,9 @@ class BokehSetup:
     #: is much wider than the pupil: 16 cells across it) then 48 x 48 rays per source (host work grows
     #: with them); :func:`lensrt.trace.stream.pupil_box` and spots use 128 and 64
     box_grid: tuple[int, int] = (64, 48)
+    #: progressive: add rays until every source's disc noise (RMS relative standard error of Y) is at
+    #: most this (``rays_per_source`` is then the cap)
+    target_error: float | None = None
 
     def iris_used(self) -> Iris:
         return self.lens.iris if self.iris is None else self.iris
@@ -68,7 +71,7 @@ class BokehSetup:
                 "stop_radius_mm": self.stop_radius_used(), "rays_per_source": self.rays_per_source,
                 "sampler": self.sampler, "batches": self.batches, "precision": self.precision,
                 "pixel_pitch_um": self.frame.pitch_mm * 1000.0, "pixels": [self.frame.nx, self.frame.ny],
-                "pupil_box_grids": list(self.box_grid),
+                "pupil_box_grids": list(self.box_grid), "target_error": self.target_error,
                 "emitter": "isotropic point source",
                 "units": "CIE 1931 XYZ (2 deg); Y = illuminance on the sensor in lux"}
 
@@ -100,7 +103,7 @@ def _run(item, prepared: dict, device: str) -> dict:
                           setup.rays_per_source, intensity_cd=item.params["intensity_cd"], iris=setup.iris,
                           stop_radius_mm=setup.stop_radius_mm, sampler=setup.sampler, seed=item.seed,
                           batches=setup.batches, precision=setup.precision, device=device,
-                          batch_noise=setup.batch_noise)
+                          batch_noise=setup.batch_noise, target_error=setup.target_error)
     return {"outs": outs, "first": int(item.params["first"]), "box_seconds": t_box,
             "seconds": time.perf_counter() - t0}
 

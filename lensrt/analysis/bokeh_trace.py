@@ -25,6 +25,13 @@ stream launch.
   into its own histogram layer: a window of the frame's pixel grid around its
   footprint. Each source is scaled to sensor illuminance by its own pupil box
   and distance, so sources of different depths and vignetting share one launch.
+  With a target error or a time budget the launch becomes rounds (the first of
+  at most 2^16 rays per source, then each doubling the total) until every
+  source's noise measure -- the RMS over its disc of the per-pixel relative
+  standard error of Y -- is at most the target, the time budget would be
+  overrun, or ``rays_per_source`` is reached. Round r has its own seed; batch b of
+  every round joins batch b of the total (the stream's per-batch sums simply
+  add), so batch means over the batches stay valid, as for progressive PSFs.
 
 Pixel values are CIE XYZ with Y the illuminance on the sensor in lux (lm/m^2)
 for sources of ``intensity_cd`` candela; no glass absorption or Fresnel loss
@@ -33,7 +40,8 @@ for sources of ``intensity_cd`` candela; no glass absorption or Fresnel loss
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -43,7 +51,7 @@ from ..prescription.model import Iris, Lens
 from ..units import MM_PER_M
 
 __all__ = ["Frame", "object_heights_for_image", "pupil_boxes", "stream_windows", "SourceOut",
-           "WINDOW_MARGIN", "DISC_THRESHOLD"]
+           "WINDOW_MARGIN", "DISC_THRESHOLD", "disc_noise", "disc_noise_rms"]
 
 #: windows extend the traced footprint by this fraction of its size on every side (plus 2 px)
 WINDOW_MARGIN = 0.04
@@ -344,18 +352,39 @@ def disc_noise(y: np.ndarray, var_y: np.ndarray) -> tuple[float, int]:
     return float(np.median(rel)), int(disc.sum())
 
 
+def disc_noise_rms(y: np.ndarray, var_y: np.ndarray) -> float:
+    """RMS over the disc (as :func:`disc_noise`) of the per-pixel relative standard error of Y: the
+    error measure of a target error (what the RMS relative error against the truth estimates)."""
+    lit = y[y > 0]
+    if lit.size == 0:
+        return math.nan
+    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
+    return float(np.sqrt(np.mean(np.maximum(var_y[disc], 0.0) / (y[disc] * y[disc]))))
+
+
+def _merge_rounds(a, b):
+    """Two stream results of the same sources and grid as one: every per-batch sum adds up."""
+    bh = None if a.batch_histograms is None else a.batch_histograms + b.batch_histograms
+    return replace(a, histogram=a.histogram + b.histogram, rays_per_source=a.rays_per_source + b.rays_per_source,
+                   batch_stats=a.batch_stats + b.batch_stats, batch_counts=a.batch_counts + b.batch_counts,
+                   seconds=a.seconds + b.seconds, launches=a.launches + b.launches, batch_histograms=bh)
+
+
 def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarray, frame: Frame,
                    plane_z_mm: float, light, rays_per_source: int, *, intensity_cd=1.0,
                    iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
                    seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
-                   batch_noise: bool = False, hist_budget_bytes: int = 96 << 20) -> list[SourceOut]:
+                   batch_noise: bool = False, hist_budget_bytes: int = 96 << 20, target_error: float | None = None,
+                   time_budget_s: float | None = None) -> list[SourceOut]:
     """Stream every source into its own window of ``frame`` (module docstring); one record per source.
 
     Sources go into stream launches in groups whose histograms (3 channels per window, int64)
     fit ``hist_budget_bytes``; launch g uses the seed ``hash(seed, g)``. ``batch_noise`` keeps
     per-batch histograms and gives each pixel's variance by batch means (else the Poisson
     estimate, see :func:`poisson_var_y`). ``intensity_cd`` is one luminous intensity (cd) for
-    all sources or one per source.
+    all sources or one per source. ``target_error`` (relative, e.g. 0.02) / ``time_budget_s``
+    make each group progressive (module docstring); ``rays_per_source`` is then the cap, and
+    each record says ``rounds`` and ``stop_reason``.
     """
     from ..trace.aiming import FieldPoint
     from ..trace.stream import Grid, StreamSource, stream
@@ -398,13 +427,43 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
             sources.append(StreamSource(FieldPoint(False, None, tuple(float(v) for v in obj[k])), boxes[k],
                                         float(plane_z_mm), centre, j, "isotropic"))
         gseed = int(np.random.SeedSequence([int(seed), g]).generate_state(1)[0]) & 0x7FFFFFFF
-        res = stream(lens, sources, Grid(gx, gy, p), int(rays_per_source), spectrum=spectrum, channels=channels,
-                     sampler=sampler, seed=gseed, batches=batches, precision=precision, device=device,
-                     iris=iris, stop_radius_mm=stop_radius_mm, batch_histograms=batch_noise)
+        progressive = target_error is not None or time_budget_s is not None
+        n_next = int(rays_per_source)
+        if progressive:
+            n_next = min(n_next, max(1 << 16, batches * 256))
+        res, r, reason, t0 = None, 0, "rays", time.perf_counter()
+        while True:
+            rseed = gseed if r == 0 else int(np.random.SeedSequence([int(seed), g, r]).generate_state(1)[0]) & 0x7FFFFFFF
+            got = stream(lens, sources, Grid(gx, gy, p), max(batches, (n_next // batches) * batches), spectrum=spectrum,
+                         channels=channels, sampler=sampler, seed=rseed, batches=batches, precision=precision,
+                         device=device, iris=iris, stop_radius_mm=stop_radius_mm, batch_histograms=batch_noise)
+            res = got if res is None else _merge_rounds(res, got)
+            r += 1
+            if not progressive:
+                break
+            if target_error is not None:
+                worst = max(_source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
+                                        batch_noise, 0.0, gseed).stats["noise_rms"] for j, k in enumerate(members))
+                if worst <= target_error:
+                    reason = "target_error"
+                    break
+            n_next = min(res.rays_per_source, int(rays_per_source) - res.rays_per_source)  # double the total
+            if time_budget_s is not None:
+                rate = res.rays_per_source / max(time.perf_counter() - t0, 1e-9)
+                n_next = min(n_next, int(0.8 * (time_budget_s - (time.perf_counter() - t0)) * rate))
+                if n_next < batches * 64:
+                    reason = "time_budget"
+                    break
+            if n_next < batches:
+                reason = "rays"
+                break
         share = res.seconds / len(members)
         for j, k in enumerate(members):
             outs[k] = _source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
                                   batch_noise, share, gseed)
+            if progressive:
+                outs[k].stats.update({"rounds": r, "stop_reason": reason, "target_error": target_error,
+                                      "time_budget_s": time_budget_s})
     return [o for o in outs if o is not None]
 
 
@@ -468,4 +527,13 @@ def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.nda
     stats["noise_method"] = (f"batch means over {res.batches} batches" if var_b is not None
                              else "Poisson estimate from the ray weights")
     var = var_b if var_b is not None else var_p
+    stats["noise_rms"] = disc_noise_rms(xyz[1], var)
+    # the luminous flux in the window with its standard error: batch means over the batches' window
+    # sums, else the Poisson variances of the pixels added up (independent counts)
+    if batch_xyz is not None:
+        flux_b = batch_xyz[:, 1].astype(np.float64).sum(axis=(1, 2)) * frame.pixel_area_m2
+        stats["luminous_flux_stderr_lm"] = float(flux_b.std(ddof=1) / math.sqrt(len(flux_b)))
+    else:
+        stats["luminous_flux_stderr_lm"] = float(math.sqrt(max(float(var_p.sum()), 0.0)) * frame.pixel_area_m2)
+    stats["solid_angle_stderr_sr"] = float(area_se) / (dist * dist)
     return SourceOut(k, ix0, iy0, xyz.astype(np.float32), var.astype(np.float32), stats, batch_xyz)

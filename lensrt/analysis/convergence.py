@@ -1,31 +1,110 @@
-"""Error against run time for geometric PSFs: samplers and precisions compared (``lensrt psf --converge``).
+"""Error against run time: a Monte Carlo quantity at growing sample counts, measured against a reference.
 
-For one field point the RMS spot radius is estimated at growing ray counts
-N = 2^k with each sampler (plain random, stratified, scrambled Sobol', R2) and
-precision, with the same grid and seed. Each run reports its value, its
-jackknife standard error over the batches, and its trace seconds (the stream
-kernel's wall-clock time); the error against a reference -- a Sobol' float64
-run with ``reference_factor`` times the largest N -- is reported beside it.
-Slopes are least-squares fits of log(standard error) against log(seconds)
-and against log(rays) (:func:`lensrt.stats.fit_loglog_slope`): about -0.5 for
-plain Monte Carlo; stratified and low-discrepancy sampling fall faster (down
-to about -0.75 for a pupil with sharp edges), which is what they buy.
-Seconds include fixed launch overheads, so at small N the slope against
-seconds is shallower than against rays.
+:func:`converge` runs a :class:`Quantity` (an RMS spot radius, an MTF value, a relative
+illumination, a bokeh or render pixel region; see :mod:`.convergence_quantities` and
+:mod:`lensrt.render.convergence`) at sample counts N_1 < N_2 < ... with each sampler and
+precision, ``repeats`` times with independent seeds per point, and measures
+
+* the **RMS error** over the repeats against a reference value,
+  ``sqrt(mean_k (v_k - ref)^2)`` -- one run's |error| is too noisy to fit a slope to;
+* beside it the **RMS reported standard error** ``sqrt(mean_k se_k^2)`` (batch means or the
+  jackknife, whatever the quantity reports) and the **expected RMS error**
+  ``sqrt(rms_se^2 + se_ref^2)``: a high-sample reference has an error of its own, common to all
+  repeats. Their ratio should be about 1 (with R repeats it lies within
+  ``sqrt(chi2_R(0.025) / R)`` .. ``sqrt(chi2_R(0.975) / R)`` 95 % of the time);
+* the Monte Carlo **seconds** (the kernel's or the passes' wall-clock time, without fixed set-up;
+  a discarded warm-up run per sampler and precision keeps kernel loading out of the clock).
+
+The reference is a **closed form** where the quantity has one for this lens (the quantity says
+which, and why not otherwise), else a **high-sample run** (Sobol' or the quantity's best sampler,
+float64 where it has a choice, ``reference`` samples, its own seed). Points whose expected error
+is dominated by the reference's (``se_ref > rms_se / 3``) are flagged ``reference_limited`` and
+left out of the error slopes.
+
+Slopes are least-squares fits of log(RMS error) against log(seconds) and log(samples)
+(:func:`lensrt.stats.fit_loglog_slope`): about -0.5 for plain Monte Carlo. **Gains** compare each
+sampler with plain random sampling of the same precision at the largest count: the variance
+ratio (how many times more random samples the same error would need) and the efficiency ratio
+(variance x seconds: the same, for run time).
 """
 from __future__ import annotations
 
 import math
-from typing import Sequence
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
-from ..stats import fit_loglog_slope
-from .fields import FieldSpec
-from .grid import ImageGrid
-from .psf_setup import PsfSetup
+from ..errors import LensrtError
+from ..stats import Estimate, fit_loglog_slope
 
-__all__ = ["converge_psf", "default_ray_counts"]
+__all__ = ["Reference", "Quantity", "converge", "repeat_seed", "default_counts", "default_ray_counts",
+           "converge_psf", "REFERENCE_LIMIT"]
+
+#: a point is reference-limited when the reference's standard error exceeds this fraction of its own
+REFERENCE_LIMIT = 1.0 / 3.0
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The value errors are measured against: a closed form (stderr 0) or a high-sample run."""
+
+    value: float
+    stderr: float
+    samples: int
+    seconds: float
+    kind: str  # "closed form" or "high-sample run"
+    description: str
+
+    def to_dict(self) -> dict:
+        return {"value": float(self.value), "stderr": float(self.stderr), "samples": int(self.samples),
+                "seconds": float(self.seconds), "kind": self.kind, "description": self.description}
+
+
+class Quantity(Protocol):
+    """A scalar Monte Carlo quantity that :func:`converge` can study.
+
+    Attributes: ``name`` (e.g. "psf-rms"), ``label`` (what and where, for titles), ``unit`` of
+    the values, ``display_unit`` and ``display_scale`` (values x scale for tables and plots),
+    ``sample_unit`` ("rays", "paths per pixel"), the ``samplers`` and ``precisions`` it supports,
+    ``min_samples`` (smallest usable count) and ``reference_sampler`` / ``reference_precision``.
+    """
+
+    name: str
+    label: str
+    unit: str
+    display_unit: str
+    display_scale: float
+    sample_unit: str
+    samplers: tuple[str, ...]
+    precisions: tuple[str, ...]
+    min_samples: int
+    reference_sampler: str
+    reference_precision: str
+
+    def run(self, samples: int, sampler: str, precision: str, seed: int) -> Estimate:
+        """One run: a scalar Estimate whose ``seconds`` are the Monte Carlo work only."""
+
+    def closed_form(self) -> tuple[Reference | None, str]:
+        """The exact value where this lens and quantity have one, else (None, why not)."""
+
+
+def repeat_seed(seed: int, *keys: int) -> int:
+    """An independent 31-bit seed for (seed, keys...) (point index, repeat, ...)."""
+    return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, *[int(k) for k in keys]])
+               .generate_state(1, np.uint32)[0]) & 0x7FFFFFFF
+
+
+def default_counts(max_samples: int, min_samples: int, n_points: int = 6) -> list[int]:
+    """At most ``n_points`` powers of two spread evenly (in log) from ``min_samples`` up to ``max_samples``."""
+    hi = max(int(max_samples), int(min_samples))
+    k_hi = int(math.floor(math.log2(hi)))
+    k_lo = int(math.ceil(math.log2(max(int(min_samples), 1))))
+    if k_lo >= k_hi:
+        return [1 << k_hi]
+    ks = np.unique(np.round(np.linspace(k_lo, k_hi, max(2, int(n_points)))).astype(int))
+    return [1 << int(k) for k in ks]
 
 
 def default_ray_counts(max_rays: int, batches: int, n_points: int = 7) -> list[int]:
@@ -36,40 +115,143 @@ def default_ray_counts(max_rays: int, batches: int, n_points: int = 7) -> list[i
     return [1 << k for k in range(k_lo, k_hi + 1)]
 
 
-def converge_psf(setup: PsfSetup, f: FieldSpec, samplers: Sequence[str] = ("random", "stratified", "sobol"),
-                 precisions: Sequence[str] = ("float32", "float64"), ray_counts: Sequence[int] | None = None,
-                 reference_factor: int = 8, seed: int = 0, device: str | None = None) -> dict:
-    """The convergence study of the module docstring; JSON-ready dict with ``runs``, ``slopes``, ``reference``."""
-    from .raypsf import _rms_rel_error, prepare_field, psf_window, run_stream
-    geom = prepare_field(setup, f, device)
-    pitch_um, pixels, _ = psf_window(setup, geom, device)
-    grid = ImageGrid.centred((pixels, pixels), pitch_um, geom.reference_mm)
-    counts = list(ray_counts) if ray_counts else default_ray_counts(setup.rays, setup.batches)
-    base = setup.with_(target_error=None, time_budget_s=None)
-    ref_setup = base.with_(sampler="sobol", precision="float64", rays=int(reference_factor * max(counts)))
-    tot, _ = run_stream(ref_setup, geom, grid, seed + 1_000_003, device)
-    ref_value, ref_rel = _rms_rel_error(tot.moments)
-    ref_rays = int(tot.rays)
+def _resolve_reference(q: Quantity, reference: Any, counts: Sequence[int], seed: int) -> Reference:
+    """``reference``: None/"auto" (closed form if any, else a run with 16 x the largest count),
+    "closed" (closed form or an error), or a sample count."""
+    if reference in (None, "auto", "closed"):
+        ref, why = q.closed_form()
+        if ref is not None:
+            return ref
+        if reference == "closed":
+            raise LensrtError(f"{q.name}: no closed form here ({why})", hint="give --reference N (samples)")
+        n_ref = 16 * max(counts)
+    else:
+        n_ref = int(reference)
+        if n_ref < max(counts):
+            raise LensrtError(f"the reference ({n_ref} {q.sample_unit}) must have at least the largest count "
+                              f"({max(counts)})", hint="a reference should have 8-16 x the largest count")
+    e = q.run(n_ref, q.reference_sampler, q.reference_precision, repeat_seed(seed, 999_983))
+    return Reference(float(e.value), float(e.stderr), int(e.samples), float(e.seconds), "high-sample run",
+                     f"{e.samples} {q.sample_unit}, {q.reference_sampler}, {q.reference_precision}, {e.method}")
+
+
+def _point(vals: np.ndarray, ses: np.ndarray, secs: np.ndarray, samples: int, ref: Reference) -> dict:
+    err = vals - ref.value
+    rms_err = float(np.sqrt(np.mean(err ** 2)))
+    rms_se = float(np.sqrt(np.mean(ses ** 2)))
+    expected = math.hypot(rms_se, ref.stderr)
+    r = len(vals)
+    return {"samples": int(samples), "seconds": float(np.mean(secs)), "repeats": r,
+            "value_mean": float(np.mean(vals)),
+            "bias": float(np.mean(err)), "bias_stderr": float(np.std(err, ddof=1) / math.sqrt(r)) if r > 1 else None,
+            "rms_error": rms_err, "rms_stderr": rms_se, "expected_rms_error": expected,
+            "error_ratio": rms_err / expected if expected > 0 else None,
+            "reference_limited": bool(ref.stderr > REFERENCE_LIMIT * rms_se),
+            "values": [float(v) for v in vals], "stderrs": [float(v) for v in ses]}
+
+
+def _slope(x: Sequence[float], y: Sequence[float]) -> float | None:
+    try:
+        return fit_loglog_slope(x, y)
+    except ValueError:
+        return None
+
+
+def converge(q: Quantity, counts: Sequence[int], samplers: Sequence[str] | None = None,
+             precisions: Sequence[str] | None = None, repeats: int = 8, seed: int = 0, reference: Any = None,
+             progress: Callable[[int, int], None] | None = None) -> dict:
+    """The convergence study of the module docstring; a JSON-ready dict.
+
+    Keys: ``quantity``, ``label``, ``unit``, ``display_unit``, ``display_scale``, ``sample_unit``,
+    ``reference`` (:class:`Reference` as a dict), ``counts``, ``repeats``, ``seed``, ``runs`` (one
+    row per sampler, precision and count: samples, mean seconds, RMS error, RMS reported standard
+    error, expected RMS error, their ratio, bias, the repeats' values and standard errors),
+    ``slopes`` (per sampler and precision: RMS error and RMS standard error against seconds and
+    samples), ``gains`` (against random sampling of the same precision) and ``seconds``.
+    """
+    t0 = time.perf_counter()
+    samplers = list(samplers or q.samplers)
+    precisions = list(precisions or q.precisions)
+    bad = [s for s in samplers if s not in q.samplers] + [p for p in precisions if p not in q.precisions]
+    if bad:
+        raise LensrtError(f"{q.name} cannot run {', '.join(bad)}",
+                          hint=f"samplers: {', '.join(q.samplers)}; precisions: {', '.join(q.precisions)}")
+    counts = sorted({int(n) for n in counts})
+    if not counts or counts[0] < q.min_samples:
+        raise LensrtError(f"{q.name}: sample counts must be at least {q.min_samples} {q.sample_unit}")
+    if repeats < 1:
+        raise LensrtError("repeats must be at least 1")
+    ref = _resolve_reference(q, reference, counts, seed)
     runs, slopes = [], []
+    total = len(samplers) * len(precisions) * len(counts) * repeats
+    done = 0
     for prec in precisions:
         for samp in samplers:
+            q.run(counts[0], samp, prec, repeat_seed(seed, 999_979))  # warm-up: kernel loads stay out of the clock
             pts = []
-            for n in counts:
-                tot, _ = run_stream(base.with_(sampler=samp, precision=prec, rays=int(n)), geom, grid, seed, device)
-                value, rel = _rms_rel_error(tot.moments)
-                pts.append({"rays": tot.rays, "seconds": tot.trace_seconds, "value_mm": value,
-                            "stderr_mm": rel * value, "error_mm": abs(value - ref_value)})
-                runs.append({"sampler": samp, "precision": prec, **pts[-1]})
-            sec = [p["seconds"] for p in pts]
-            se = [p["stderr_mm"] for p in pts]
-            err = [p["error_mm"] for p in pts]
-            slopes.append({"sampler": samp, "precision": prec,
-                           "slope_stderr_vs_seconds": fit_loglog_slope(sec, se),
-                           "slope_stderr_vs_rays": fit_loglog_slope([p["rays"] for p in pts], se),
-                           "slope_error_vs_seconds": fit_loglog_slope(sec, err) if np.all(np.asarray(err) > 0)
-                           else None})
-    return {"quantity": "rms_radius_mm", "field": f.to_dict(), "reference_mm": list(geom.reference_mm),
-            "grid": grid.to_dict(), "ray_counts": counts, "batches": setup.batches, "seed": seed,
-            "reference": {"value_mm": ref_value, "stderr_mm": ref_rel * ref_value, "rays": ref_rays,
-                          "sampler": "sobol", "precision": "float64"},
-            "runs": runs, "slopes": slopes}
+            for i, n in enumerate(counts):
+                es = []
+                for k in range(repeats):
+                    es.append(q.run(n, samp, prec, repeat_seed(seed, i, k)))
+                    done += 1
+                    if progress is not None:
+                        progress(done, total)
+                p = _point(np.array([float(e.value) for e in es]), np.array([float(e.stderr) for e in es]),
+                           np.array([e.seconds for e in es]), es[0].samples, ref)
+                p.update({"sampler": samp, "precision": prec, "stderr_method": es[0].method})
+                pts.append(p)
+            runs.extend(pts)
+            fit = [p for p in pts if not p["reference_limited"]]
+            slopes.append({"sampler": samp, "precision": prec, "points": len(fit),
+                           "error_vs_seconds": _slope([p["seconds"] for p in fit], [p["rms_error"] for p in fit]),
+                           "error_vs_samples": _slope([p["samples"] for p in fit], [p["rms_error"] for p in fit]),
+                           "stderr_vs_seconds": _slope([p["seconds"] for p in pts], [p["rms_stderr"] for p in pts]),
+                           "stderr_vs_samples": _slope([p["samples"] for p in pts], [p["rms_stderr"] for p in pts])})
+    gains = []
+    for prec in precisions:
+        rnd = [x for x in runs if x["sampler"] == "random" and x["precision"] == prec]
+        base = rnd[-1] if rnd else None
+        for samp in samplers:
+            last = [x for x in runs if x["sampler"] == samp and x["precision"] == prec][-1]
+            g = {"sampler": samp, "precision": prec, "samples": last["samples"], "variance_ratio": None,
+                 "efficiency_ratio": None}
+            if base is not None and last["rms_error"] > 0:
+                g["variance_ratio"] = (base["rms_error"] / last["rms_error"]) ** 2
+                g["efficiency_ratio"] = g["variance_ratio"] * base["seconds"] / max(last["seconds"], 1e-12)
+            gains.append(g)
+    return {"quantity": q.name, "label": q.label, "unit": q.unit, "display_unit": q.display_unit,
+            "display_scale": q.display_scale, "sample_unit": q.sample_unit, "reference": ref.to_dict(),
+            "counts": counts, "repeats": int(repeats), "seed": int(seed), "samplers": samplers,
+            "precisions": precisions, "runs": runs, "slopes": slopes, "gains": gains,
+            "seconds": time.perf_counter() - t0}
+
+
+def converge_psf(setup, f, samplers: Sequence[str] = ("random", "stratified", "sobol"),
+                 precisions: Sequence[str] = ("float32", "float64"), ray_counts: Sequence[int] | None = None,
+                 reference_factor: int = 8, seed: int = 0, device: str | None = None, repeats: int = 1) -> dict:
+    """Error against run time of the RMS spot radius at field ``f`` (``lensrt psf --converge``).
+
+    :func:`converge` on :class:`lensrt.analysis.convergence_quantities.PsfRms` with ray counts up to
+    ``setup.rays``, a reference of ``reference_factor`` x the largest count (Sobol', float64) or the
+    closed form where the lens has one. Besides :func:`converge`'s keys, ``runs`` carry ``rays``,
+    ``value_mm``, ``stderr_mm``, ``error_mm`` (the first repeat's) and ``slopes`` carry
+    ``slope_stderr_vs_seconds``, ``slope_stderr_vs_rays``, ``slope_error_vs_seconds``.
+    """
+    from .convergence_quantities import PsfRms
+    q = PsfRms(setup, f, device)
+    counts = list(ray_counts) if ray_counts else default_ray_counts(setup.rays, setup.batches)
+    ref, _ = q.closed_form()
+    data = converge(q, counts, samplers, precisions, repeats=repeats, seed=seed,
+                    reference=None if ref is not None else int(reference_factor * max(counts)))
+    for r in data["runs"]:
+        r.update({"rays": r["samples"], "value_mm": r["values"][0], "stderr_mm": r["stderrs"][0],
+                  "error_mm": abs(r["values"][0] - data["reference"]["value"])})
+    for s in data["slopes"]:
+        s.update({"slope_stderr_vs_seconds": s["stderr_vs_seconds"], "slope_stderr_vs_rays": s["stderr_vs_samples"],
+                  "slope_error_vs_seconds": s["error_vs_seconds"]})
+    rf = data["reference"]
+    data["reference"].update({"value_mm": rf["value"], "stderr_mm": rf["stderr"], "rays": rf["samples"],
+                              "sampler": q.reference_sampler, "precision": q.reference_precision})
+    data.update({"field": f.to_dict(), "reference_mm": list(q.geom.reference_mm), "grid": q.grid.to_dict(),
+                 "ray_counts": data["counts"], "batches": setup.batches})
+    return data

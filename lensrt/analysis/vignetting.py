@@ -45,7 +45,7 @@ from ..stats import Estimate, batch_means, jackknife
 from .pupils import pupil_frame, pupil_outline, stop_only_lens
 from .rays import chief_batch, field_spec, object_field_point, trace64
 
-__all__ = ["Vignetting", "vignetting", "mapping_factor", "RI_DEFINITION"]
+__all__ = ["Vignetting", "vignetting", "mapping_factor", "relative_illumination_at", "RI_DEFINITION"]
 
 RI_DEFINITION = ("relative illumination E(theta)/E(0) of a uniform Lambertian object: real pupil cross-section "
                  "A(theta)/A(0) (stream kernel, every aperture) times the real chief-ray mapping factor "
@@ -122,9 +122,11 @@ class Vignetting:
 
 
 def _per_batch_sums(lens: Lens, object_values: np.ndarray, wavelength_nm: float, rays: int, batches: int, seed: int,
-                    sampler: str, device: str | None) -> tuple[np.ndarray, np.ndarray, int, float]:
+                    sampler: str, device: str | None, precision: str = "float64"
+                    ) -> tuple[np.ndarray, np.ndarray, int, float, float]:
     """Stream the real pupils: per-batch weight sums (S, B), the box factor to turn a mean weight into an
-    area (mm^2) or projected solid angle (sr), rays per source and seconds."""
+    area (mm^2) or projected solid angle (sr), rays per source, seconds (all) and the stream kernel's
+    seconds."""
     from ..trace.sampling import spectrum_discrete
     from ..trace.stream import Grid, stream, stream_source
     fps = [object_field_point(lens, float(v)) for v in object_values]
@@ -132,7 +134,7 @@ def _per_batch_sums(lens: Lens, object_values: np.ndarray, wavelength_nm: float,
     sources = [stream_source(lens, field=fp, centre_mm=(0.0, 0.0), wavelengths_nm=[wavelength_nm], device=device)
                for fp in fps]
     res = stream(lens, sources, Grid(1, 1, 1.0), rays, spectrum=spectrum_discrete([wavelength_nm], [1.0]),
-                 sampler=sampler, seed=seed, batches=batches, precision="float64", device=device)
+                 sampler=sampler, seed=seed, batches=batches, precision=precision, device=device)
     n_b = res.rays_per_source // res.batches
     factor = np.array(res.pupil_area_mm2, dtype=np.float64) / n_b
     for k, fp in enumerate(fps):
@@ -140,7 +142,32 @@ def _per_batch_sums(lens: Lens, object_values: np.ndarray, wavelength_nm: float,
             c, w, _, _ = pupil_frame(lens, fp)
             dist = float((c - np.asarray(fp.point_mm)) @ w)
             factor[k] /= dist * dist
-    return res.batch_stats[:, :, 1], factor, res.rays_per_source, time.perf_counter() - t0
+    return res.batch_stats[:, :, 1], factor, res.rays_per_source, time.perf_counter() - t0, float(res.seconds)
+
+
+def _ri_estimate(s_all: np.ndarray, f_all: np.ndarray, i: int, m: float, samples: int, seconds: float,
+                 batches: int) -> Estimate:
+    """Relative illumination of source ``i`` against source 0 (the axis): jackknife over the batches."""
+    pair = np.stack([s_all[i], s_all[0]], axis=1)
+    v, se = jackknife(pair, lambda t: (t[0] * f_all[i]) / (t[1] * f_all[0]) * m)
+    return Estimate(float(v), float(se), samples, seconds, f"jackknife over {batches} batches", "")
+
+
+def relative_illumination_at(lens: Lens, object_value: float, wavelength_nm: float | None = None, *,
+                             rays: int = 1 << 16, batches: int = 32, seed: int = 0, sampler: str = "sobol",
+                             precision: str = "float64", mapping: float | None = None,
+                             device: str | None = None) -> Estimate:
+    """Relative illumination (flux method) at one field value (rad, or mm for a near object) alone.
+
+    The Monte Carlo part of :func:`vignetting` for one field: the real pupil at the field and on
+    the axis (``rays`` each), times the mapping factor (``mapping``, else computed here). The
+    estimate's ``seconds`` are the stream kernel's (what error against run time needs).
+    """
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    m = float(mapping_factor(lens, np.array([object_value]), wl, device)[0][0]) if mapping is None else float(mapping)
+    s_all, f_all, n, _, kernel_s = _per_batch_sums(lens, np.array([0.0, float(object_value)]), wl, rays, batches,
+                                                   seed, sampler, device, precision)
+    return _ri_estimate(s_all, f_all, 1, m, 2 * n, kernel_s, batches)
 
 
 def vignetting(lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: float | None = None, *,
@@ -162,8 +189,8 @@ def vignetting(lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: flo
         raise LensrtError("field values for vignetting must not be negative")
     labels = [(f"{math.degrees(v):.2f} deg" if math.isinf(lens.object_distance_mm) else f"{v:.3f} mm") for v in obj]
     pts = np.concatenate([[0.0], obj])
-    s_all, f_all, n, sec = _per_batch_sums(lens, pts, wl, rays, batches, seed, sampler, device)
-    s_stop, f_stop, _, sec2 = _per_batch_sums(stop_only_lens(lens), pts, wl, rays, batches, seed, sampler, device)
+    s_all, f_all, n, sec, _ = _per_batch_sums(lens, pts, wl, rays, batches, seed, sampler, device)
+    s_stop, f_stop, _, sec2, _ = _per_batch_sums(stop_only_lens(lens), pts, wl, rays, batches, seed, sampler, device)
     seconds = sec + sec2
     per = seconds / (2 * len(pts))
     jk = f"jackknife over {batches} batches"
@@ -179,9 +206,7 @@ def vignetting(lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: flo
         pair = np.stack([s_all[i], s_stop[i]], axis=1)
         v, se = jackknife(pair, lambda t, i=i: (t[0] * f_all[i]) / (t[1] * f_stop[i]) if t[1] > 0 else 0.0)
         frac.append(Estimate(float(v), float(se), 2 * n, 2 * per, jk, ""))
-        pair = np.stack([s_all[i], s_all[0]], axis=1)
-        v, se = jackknife(pair, lambda t, i=i, k=k: (t[0] * f_all[i]) / (t[1] * f_all[0]) * m[k])
-        ri.append(Estimate(float(v), float(se), 2 * n, 2 * per, jk, ""))
+        ri.append(_ri_estimate(s_all, f_all, i, float(m[k]), 2 * n, 2 * per, batches))
     ri_xp = np.full(len(obj), np.nan)
     if exit_pupil:
         sol = []

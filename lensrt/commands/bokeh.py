@@ -66,6 +66,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     m.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     m.add_argument("--batches", type=int, default=32, help="independent batches for standard errors (default 32)")
     m.add_argument("--precision", choices=("float32", "float64"), default="float32")
+    m.add_argument("--target-error", type=float, default=None, metavar="E",
+                   help="add rays (doubling rounds, --rays the cap) until the RMS over each disc of the per-pixel "
+                        "relative standard error of Y is at most E (e.g. 0.05)")
+    m.add_argument("--time-budget", type=float, default=None, metavar="S",
+                   help="one spot: stop adding rays before the next round would overrun S seconds of tracing")
     w = p.add_argument_group("output")
     w.add_argument("--out", default=".", metavar="DIR", help="output folder (default: here)")
     w.add_argument("--name", default=None, help="file name stem (default bokeh or bokeh_map)")
@@ -162,11 +167,18 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         raise LensrtError(f"--rays {args.rays:g} must be at least --batches ({args.batches}) and --batches >= 2")
     if not (math.isfinite(args.source_m) and args.source_m > 0):
         raise LensrtError(f"--source-m {args.source_m:g} must be a positive distance in m")
+    for name in ("target_error", "time_budget"):
+        v = getattr(args, name)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise LensrtError(f"--{name.replace('_', '-')} {v:g} must be positive")
     common = dict(light=args.spectrum, intensity_cd=args.intensity_cd, rays=rays, iris=iris, stop_radius_mm=stop_r,
-                  sampler=args.sampler, seed=args.seed, batches=args.batches, precision=args.precision)
+                  sampler=args.sampler, seed=args.seed, batches=args.batches, precision=args.precision,
+                  target_error=args.target_error)
     if args.map:
         if args.field_deg or args.object_mm or args.image_mm:
             raise LensrtError("--map places its own sources: drop --field-deg/--object-mm/--image-mm")
+        if args.time_budget is not None:
+            raise LensrtError("--time-budget applies to one spot", hint="use --target-error (per source) for a map")
         fmt = sensor_format(args.sensor)
         if args.pixels:
             pixels = _grid(args.pixels, "--pixels")
@@ -189,7 +201,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         src = spot_source(lens, focus, args.source_m * MM_PER_M, field_deg=field, object_mm=obj, image_mm=im,
                           device=device)
         img = bokeh_spot(lens, focus, src, pixel_um=args.pixel_um, window_px=args.window_px, device=device,
-                         **common)
+                         time_budget_s=args.time_budget, **common)
         name = args.name or "bokeh"
         extra = {}
         if field is None and obj is None and im is None:
@@ -230,13 +242,16 @@ def _report(d: dict, lens: Any) -> str:
                      f"{r['object_mm'][1]:.4g}) mm: pupil transmission {r['transmission']:.4f} +- "
                      f"{r['transmission_stderr']:.2g}, centroid ({r['centroid_mm'][0]:.5f}, {r['centroid_mm'][1]:.5f}) "
                      f"mm, RMS radius {r['rms_radius_mm'] * 1000:.5g} +- {r['rms_radius_stderr_mm'] * 1000:.2g} um")
+        lines.append(f"luminous flux on the sensor {r['luminous_flux_lm']:.5g} +- "
+                     f"{r['luminous_flux_stderr_lm']:.2g} lm; {r['rays']:.4g} rays, {r['seconds']:.3g} s of tracing"
+                     + (f", {r['rounds']} rounds (stopped by {r['stop_reason']})" if "rounds" in r else ""))
         if "gaussian_blur_diameter_mm" in d:
             lines.append(f"Gaussian blur disc {d['gaussian_blur_diameter_mm'] * 1000:.5g} um (defocus "
                          f"{d['paraxial_defocus_mm']:+.4f} mm); 2 sqrt(2) x RMS radius "
                          f"{2 * math.sqrt(2) * r['rms_radius_mm'] * 1000:.5g} um")
     nz = d["noise"]
-    noise = (f"{nz['rel_stderr_median']:.3g} median, {nz['rel_stderr_max']:.3g} worst source"
-             if nz["rel_stderr_median"] is not None else "n/a")
+    noise = (f"{nz['rel_stderr_median']:.3g} median, {nz['rel_stderr_max']:.3g} worst source, RMS over a disc "
+             f"{nz['rel_stderr_rms_max']:.3g} worst" if nz["rel_stderr_median"] is not None else "n/a")
     lines.append(f"{d['rays']:.4g} rays in {d['seconds']:.3g} s ({(d['rays_per_second'] or 0):.3g} rays/s); "
                  f"noise (per-pixel relative standard error of Y in the discs): {noise} ({nz['method']})")
     if "files" in d:

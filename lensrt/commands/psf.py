@@ -91,8 +91,10 @@ def _converge(args: argparse.Namespace, setup, f, dev) -> int:
         print_json(data)
         return 0
     ref = data["reference"]
+    how = ("closed form: " + ref["description"] if ref["kind"] == "closed form"
+           else f"{ref['rays']:.3g} rays, sobol float64")
     emit(f"{setup.lens.name}: RMS spot radius at field {f.label}; reference {ref['value_mm'] * 1e3:.5f} +- "
-         f"{ref['stderr_mm'] * 1e3:.2g} um ({ref['rays']:.3g} rays, sobol float64)")
+         f"{ref['stderr_mm'] * 1e3:.2g} um ({how}); lensrt converge repeats each point for RMS errors")
     rows = [[r["sampler"], r["precision"], r["rays"], r["seconds"], r["value_mm"] * 1e3, r["stderr_mm"] * 1e3,
              r["error_mm"] * 1e3] for r in data["runs"]]
     emit(format_table(rows, ["sampler", "precision", "rays", "seconds", "RMS (um)", "stderr (um)", "|error| (um)"],

@@ -185,26 +185,7 @@ def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
 
 
 def plot_convergence(path: str | Path, data: dict, title: str = "") -> Path:
-    """Standard error against trace seconds, log-log, one line per sampler and precision
-    (``lensrt.analysis.convergence.converge_psf`` output), with a slope -1/2 guide."""
-    fig = _figure(6.4, 4.4)
-    ax = fig.add_subplot()
-    styles = {"float32": "-", "float64": "--"}
-    samplers = sorted({r["sampler"] for r in data["runs"]}, key=["random", "stratified", "sobol", "r2"].index)
-    colours = {s: f"C{i}" for i, s in enumerate(samplers)}
-    for sl in data["slopes"]:
-        pts = [r for r in data["runs"] if r["sampler"] == sl["sampler"] and r["precision"] == sl["precision"]]
-        t = [p["seconds"] for p in pts]
-        e = [p["stderr_mm"] * UM_PER_MM for p in pts]
-        ax.loglog(t, e, styles.get(sl["precision"], "-"), color=colours[sl["sampler"]], marker="o", ms=3,
-                  label=f"{sl['sampler']} {sl['precision']}: slope {sl['slope_stderr_vs_seconds']:.2f}")
-    first = [r for r in data["runs"] if r["sampler"] == samplers[0]]
-    if first:
-        t0, e0 = first[0]["seconds"], first[0]["stderr_mm"] * UM_PER_MM
-        tt = np.array([t0, max(r["seconds"] for r in data["runs"])])
-        ax.loglog(tt, e0 * (tt / t0) ** -0.5, color="0.6", lw=1, ls=":", label="slope -1/2")
-    ax.set(xlabel="trace time (s)", ylabel="standard error of the RMS radius (um)",
-           title=title or "Error against run time")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    return _save(fig, path)
+    """Error against run time of ``lensrt.analysis.convergence.converge_psf`` (or ``converge``) output:
+    :func:`lensrt.io.plots_convergence.plot_error_vs_time`."""
+    from .plots_convergence import plot_error_vs_time
+    return plot_error_vs_time(path, data, title)
