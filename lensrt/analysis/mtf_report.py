@@ -113,7 +113,8 @@ def mtf_against_field(results: Sequence[PsfResult]) -> dict:
     """S and T MTF at the reference frequencies against image height |reference point| (sorted by it).
 
     Returns ``{"freqs_cpmm", "image_height_mm", "sagittal", "tangential", "sagittal_stderr",
-    "tangential_stderr"}`` (arrays (n_field, n_freq)), ready for :func:`lensrt.io.plots_psf.plot_mtf_vs_field`.
+    "tangential_stderr"}`` (arrays (n_field, n_freq)), ready for :func:`lensrt.io.plots_psf.plot_mtf_vs_field`,
+    and ``samples`` and ``seconds`` (n_field) of each field's estimates.
     """
     rows = [r for r in results if "mtf_sagittal" in r.estimates]
     if not rows:
@@ -125,7 +126,9 @@ def mtf_against_field(results: Sequence[PsfResult]) -> dict:
     pick = lambda key, attr: np.array([np.atleast_1d(getattr(rows[i].estimates[key], attr)) for i in order])  # noqa: E731
     return {"freqs_cpmm": np.asarray(freqs, dtype=np.float64), "image_height_mm": h[order],
             "sagittal": pick("mtf_sagittal", "value"), "tangential": pick("mtf_tangential", "value"),
-            "sagittal_stderr": pick("mtf_sagittal", "stderr"), "tangential_stderr": pick("mtf_tangential", "stderr")}
+            "sagittal_stderr": pick("mtf_sagittal", "stderr"), "tangential_stderr": pick("mtf_tangential", "stderr"),
+            "samples": np.array([int(rows[i].estimates["mtf_sagittal"].samples) for i in order], dtype=np.int64),
+            "seconds": np.array([float(rows[i].estimates["mtf_sagittal"].seconds) for i in order])}
 
 
 def _peak(z: np.ndarray, v: np.ndarray) -> float:
@@ -139,7 +142,8 @@ def through_focus(setup: PsfSetup, f: FieldSpec, dz_mm: Sequence[float], freqs_c
 
     ``method`` "geometric" or "diffraction" (default: the setup's, "auto" resolved at the nominal plane).
     Returns ``{"focus_mm" (shifts), "plane_z_mm", "freqs_cpmm", "sagittal", "tangential" (n_focus, n_freq),
-    "best_focus_mm": {"sagittal", "tangential"} (shifts, per frequency), "method", "samples", "seconds"}``.
+    "best_focus_mm": {"sagittal", "tangential"} (shifts, per frequency), "method", "samples", "seconds"}``;
+    geometric runs add ``sagittal_stderr`` and ``tangential_stderr`` (jackknife over the batches).
     """
     import time
     from .raypsf import prepare_field
@@ -158,8 +162,9 @@ def through_focus(setup: PsfSetup, f: FieldSpec, dz_mm: Sequence[float], freqs_c
         method = "geometric" if choice == "geometric" else "diffraction"
     tang = tangential_angle_rad(geom.reference_mm)
     angles = {"sagittal": tang + 0.5 * math.pi, "tangential": tang}
+    stderr = None
     if method == "geometric":
-        sag, tan, samples = _through_focus_geometric(setup, geom, dz, fr, angles, seed, device)
+        sag, tan, samples, stderr = _through_focus_geometric(setup, geom, dz, fr, angles, seed, device)
     else:
         from .diffpsf import _sampled_pupils, pupil_mtf_function
         pupils, _, _, _ = _sampled_pupils(setup, wset)
@@ -173,6 +178,8 @@ def through_focus(setup: PsfSetup, f: FieldSpec, dz_mm: Sequence[float], freqs_c
     out = {"focus_mm": dz, "plane_z_mm": setup.plane_z_mm + dz, "freqs_cpmm": fr, "sagittal": sag,
            "tangential": tan, "method": method, "field": f.to_dict(), "reference_mm": list(geom.reference_mm),
            "samples": int(samples), "seconds": time.perf_counter() - t0}
+    if stderr is not None:  # jackknife over the batches (NaN where per-batch histograms did not fit)
+        out["sagittal_stderr"], out["tangential_stderr"] = stderr["sagittal"], stderr["tangential"]
     out["best_focus_mm"] = {k: np.array([_peak(dz, out[k][:, j]) for j in range(fr.size)])
                             for k in ("sagittal", "tangential")}
     return out
@@ -183,7 +190,7 @@ def _through_focus_geometric(setup: PsfSetup, geom, dz: np.ndarray, fr: np.ndarr
     """One stream call, one source (and histogram layer) per plane, all on one grid shape."""
     from ..trace.stream import Grid, StreamSource, stream
     from .grid import ImageGrid
-    from .mtf import mtf_along
+    from .mtf import mtf_along, mtf_estimate
     from .raypsf import psf_window
     halves = []
     for z in (dz.min(), 0.0, dz.max()):
@@ -199,17 +206,25 @@ def _through_focus_geometric(setup: PsfSetup, geom, dz: np.ndarray, fr: np.ndarr
         c = (geom.reference_mm[0] + z * dc[0] / dc[2], geom.reference_mm[1] + z * dc[1] / dc[2])
         sources.append(StreamSource(geom.fp, geom.box, setup.plane_z_mm + float(z), c, k, "lambertian"))
     n_rays = max(setup.batches * 64, int(setup.rays))
+    # per-batch histograms of every plane (for jackknife standard errors) while they fit in 256 MiB
+    per_batch = setup.batches * len(dz) * pixels * pixels * 8 <= (256 << 20)
     res = stream(setup.lens, sources, Grid(pixels, pixels, pitch_mm), n_rays,
                  spectrum=setup.spectrum.trace_spectrum(), sampler=setup.sampler, seed=int(seed),
-                 batches=setup.batches, precision=setup.precision, device=device)
+                 batches=setup.batches, precision=setup.precision, device=device, batch_histograms=per_batch)
     grid = ImageGrid.centred((pixels, pixels), pitch_mm * 1000.0, geom.reference_mm)
-    sag, tan = [], []
+    sag, tan, se = [], [], {"sagittal": [], "tangential": []}
     for k in range(len(dz)):
         img = res.image(k)[::-1, :]  # rows top-down
         if not img.sum() > 0:
             raise LensrtError(f"no light on the PSF grid at focus shift {dz[k]:g} mm")
         fk = fr[fr <= 0.5 / grid.pitch_mm]
-        pad = fr.size - fk.size
-        sag.append(np.concatenate([mtf_along(img, grid, fk, angles["sagittal"], binned=True), np.full(pad, np.nan)]))
-        tan.append(np.concatenate([mtf_along(img, grid, fk, angles["tangential"], binned=True), np.full(pad, np.nan)]))
-    return np.array(sag), np.array(tan), res.rays_total
+        pad = np.full(fr.size - fk.size, np.nan)
+        sag.append(np.concatenate([mtf_along(img, grid, fk, angles["sagittal"], binned=True), pad]))
+        tan.append(np.concatenate([mtf_along(img, grid, fk, angles["tangential"], binned=True), pad]))
+        for name in se:
+            if per_batch:
+                e = mtf_estimate(res.batch_histograms[k, :, 0, ::-1, :], grid, fk, angles[name])
+                se[name].append(np.concatenate([np.atleast_1d(e.stderr), pad]))
+            else:
+                se[name].append(np.full(fr.size, np.nan))
+    return np.array(sag), np.array(tan), res.rays_total, {k: np.array(v) for k, v in se.items()}

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import LensrtError
-from ..stats import Estimate, ProgressiveRun, StopRule, jackknife
+from ..stats import Estimate, ProgressiveRun, StopRule, batch_means, jackknife
 from ..units import UM_PER_MM
 from .fields import FieldSpec
 from .grid import ImageGrid
@@ -126,9 +126,13 @@ class StreamTotals:
     rounds: int = 0
     device: str = ""
     box_area_mm2: float = 0.0
+    #: per-batch count of rays that reached the plane (status OK)
+    ok: np.ndarray | None = None
 
     def add(self, res) -> None:
         inp = res.psf_inputs(0)
+        n_ok = np.asarray(res.batch_stats[0][:, 0], dtype=np.float64)
+        self.ok = n_ok if self.ok is None else self.ok + n_ok
         self.hist += inp["hist"]
         self.moments += inp["moment_sums"]
         self.off_grid += inp["off_grid"]
@@ -289,6 +293,10 @@ def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | Non
                            samples=n, seconds=seconds, seed=int(seed), ee_fractions=setup.ee_fractions,
                            metadata=meta)
     add_mtf_estimates(result, tot.hist, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm)
+    # the fraction of the pupil box's rays that reach the plane, batch means over the (equal) batches
+    v, se = batch_means(tot.ok / (n / setup.batches))
+    result.estimates["transmission"] = Estimate(float(v), float(se), n, seconds,
+                                                f"batch means over {setup.batches} batches", "")
     total = time.perf_counter() - t0
     result.metadata["setup_seconds"] = seconds - tot.trace_seconds
     result.metadata["analysis_seconds"] = total - seconds

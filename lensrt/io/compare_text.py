@@ -138,7 +138,8 @@ def comparison_text(c: "Comparison") -> str:
     out += ["", format_table(rows, [okey, "unvignetted fraction", "rel. illumination",
                                     "RI exit pupil", "cos^4"], digits=4,
                              title=f"Vignetting and relative illumination at {p:g} nm ({vg.rays_per_field} Monte Carlo "
-                                   "rays per field and pupil; +- one standard error)")]
+                                   f"rays per field and pupil, {sum(e.seconds for e in vg.relative_illumination):.3g} s; "
+                                   f"+- one standard error, {vg.relative_illumination[0].method if vg.relative_illumination else ''})")]
     if c.spots:
         rows = [[sp.label, _est(sp.estimates["rms_radius_mm"], ".5f"),
                  _est(sp.estimates["rms_radius_centroid_mm"], ".5f"), sp.geometric_radius_mm,
@@ -146,7 +147,10 @@ def comparison_text(c: "Comparison") -> str:
         out += ["", format_table(rows, ["field", "RMS about chief_mm", "RMS about centroid_mm", "geometric radius_mm",
                                         "centroid y_mm"], digits=5,
                                  title="Spots on the image surface, polychromatic (lens weights), relative to the "
-                                       "primary chief ray")]
+                                       f"primary chief ray ({c.spots[0].estimates['rms_radius_mm'].samples} Monte Carlo "
+                                       f"rays per field, {c.spots[0].estimates['rms_radius_mm'].seconds:.3g} s for all"
+                                       f" fields; +- one standard error, {c.spots[0].estimates['rms_radius_mm'].method}; "
+                                       "geometric radius: the largest of a ray grid)")]
     for n in c.notes:
         out.append(f"note: {n}")
     return "\n".join(out)

@@ -108,6 +108,8 @@ class RenderResult:
     #: CPU time of this process (all threads) during the passes: on a shared machine, paths per CPU
     #: second measure the code when wall-clock seconds measure the neighbours too
     cpu_seconds: float = float("nan")
+    #: ``through_fraction`` with its standard error (batch means over passes; None with one pass)
+    through: Estimate | None = None
 
     def position_of(self, row, col) -> tuple[np.ndarray, np.ndarray]:
         """Sensor-plane (x_mm, y_mm) of (row, col) of this image (the camera's one map, shifted by the window)."""
@@ -142,6 +144,7 @@ class RenderResult:
                 "cpu_seconds": float(self.cpu_seconds),
                 "stop_reason": self.stop_reason, "unit": self.unit, "band_width_nm": self.band_width_nm,
                 "bands": int(self.irradiance.shape[2]), "through_lens_fraction": float(self.through_fraction),
+                "through_lens": self.through.to_dict() if self.through is not None else None,
                 "regions_Y_lux": {k: v.to_dict() for k, v in self.regions.items()},
                 "history": self.history, "setup_seconds": self.setup_seconds, "notes": self.notes,
                 "camera": self.camera.to_dict(), "plan": self.plan.to_dict()}
@@ -341,6 +344,10 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
                        acc.hits / max(spp_total * n_px, 1),
                        {**info["times"], "total_before_passes": t_loop - t_start}, notes, setup.window)
     res.cpu_seconds = cpu_seconds
+    if acc.passes >= 2:
+        v, se = batch_means(np.asarray(acc.pass_hits, dtype=np.float64) / (setup.spp_per_pass * n_px))
+        res.through = Estimate(float(v), float(se), spp_total * n_px, seconds, f"batch means over {acc.passes} passes",
+                               "")
     res.setup_seconds["pupil_pass_fraction_mean"] = float(np.mean(info["table"].pass_fraction[info["table"].areas_mm2 > 0]))
     return res
 

@@ -199,6 +199,7 @@ class PassSum:
     passes: int = 0
     hits: int = 0
     region_means: list = field(default_factory=list)   # per pass: Y mean per region
+    pass_hits: list = field(default_factory=list)      # per pass: paths that got through the lens
 
     def __post_init__(self) -> None:
         self.xyz1 = np.zeros((self.n_pixels, 3))
@@ -222,6 +223,7 @@ class PassSum:
         per-pass region means."""
         self.passes += 1
         self.hits += int(hits)
+        self.pass_hits.append(int(hits))
         yy = np.asarray(y, dtype=np.float64).reshape(self.shape) / self.spp_per_pass
         self.region_means.append([float(yy[r0:r1, c0:c1].mean()) for r0, r1, c0, c1 in region_slices(self.shape)])
 

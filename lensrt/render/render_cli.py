@@ -92,7 +92,10 @@ def run(args, scene, lens) -> int:
          f"stopped by {result.stop_reason}), {result.mode} on {result.device}")
     emit(f"  {result.samples:.4g} paths in {result.seconds:.3g} s = {result.samples_per_second:.3g} paths/s; "
          f"set-up {result.setup_seconds.get('total_before_passes', 0.0):.3g} s; wall {total:.3g} s")
-    if result.through_fraction == result.through_fraction:
+    if result.through is not None:
+        emit(f"  {100.0 * result.through.value:.2f} +- {100.0 * result.through.stderr:.2g} % of the paths got "
+             "through the lens")
+    elif result.through_fraction == result.through_fraction:
         emit(f"  {100.0 * result.through_fraction:.1f} % of the paths got through the lens")
     c = result.camera
     emit(f"  lens {c.lens.name}: f/{c.f_number:.3g} (working f/{c.working_f_number:.3g}), focus "
