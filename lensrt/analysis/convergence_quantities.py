@@ -241,7 +241,7 @@ class BokehRegion:
             raise LensrtError("the bokeh region lies outside the spot's window", hint="a smaller region")
         self.region_px = (iy[0], iy[1], ix[0], ix[1])  # frame rows (sensor orientation) and columns
         self.min_samples = 64 * self.batches
-        self.label = (f"bokeh: mean Y over {ix[1] - ix[0]} x {iy[1] - iy[0]} px at ({cx:.4g}, {cy:.4g}) mm, "
+        self.label = (f"bokeh: mean Y over {ix[1] - ix[0]} x {iy[1] - iy[0]} px at ({cx:.3f}, {cy:.3f}) mm, "
                       f"source {source['depth_mm'] / 1000.0:g} m")
 
     def run(self, samples: int, sampler: str, precision: str, seed: int) -> Estimate:
