@@ -51,6 +51,48 @@ def get_render_kernels() -> SimpleNamespace:
     trace_ray = sf.trace_ray
     medium_index = sf.medium_index
 
+    from ..trace.sampling import _i32
+    u32 = wp.uint32
+    K1, K2, K3, K4, K5, K6 = (_i32(v) for v in (0xE170893D, 0x0929EB3F, 0x6935FA69, 0x74DCB303, 0x9E501CC3,
+                                                 0xC860A3DF))
+
+    @wp.func(module=MODULE)
+    def permute_round(i: wp.uint32, p: wp.uint32, w: wp.uint32) -> wp.uint32:
+        # one round of Kensler's hash-based permutation ("Correlated multi-jittered sampling", Pixar 2013)
+        i = i ^ p
+        i = i * u32(K1)
+        i = i ^ (p >> u32(16))
+        i = i ^ ((i & w) >> u32(4))
+        i = i ^ (p >> u32(8))
+        i = i * u32(K2)
+        i = i ^ (p >> u32(23))
+        i = i ^ ((i & w) >> u32(1))
+        i = i * (u32(1) | (p >> u32(27)))
+        i = i * u32(K3)
+        i = i ^ ((i & w) >> u32(11))
+        i = i * u32(K4)
+        i = i ^ ((i & w) >> u32(2))
+        i = i * u32(K5)
+        i = i ^ ((i & w) >> u32(2))
+        i = i * u32(K6)
+        i = i & w
+        i = i ^ (i >> u32(5))
+        return i
+
+    @wp.func(module=MODULE)
+    def permute(k: int, n: int, p: wp.uint32) -> int:
+        # element k of a pseudo-random permutation of 0 .. n-1 chosen by p (cycle walking)
+        w = u32(n - 1)
+        w = w | (w >> u32(1))
+        w = w | (w >> u32(2))
+        w = w | (w >> u32(4))
+        w = w | (w >> u32(8))
+        w = w | (w >> u32(16))
+        i = permute_round(u32(k), p, w)
+        while i >= u32(n):
+            i = permute_round(i, p, w)
+        return int((i + p) % u32(n))
+
     @wp.func(module=MODULE)
     def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist: float) -> wp.vec4:
         # direction (unit, reversed frame: toward +z) from the sensor point to a point of the pupil
@@ -88,23 +130,26 @@ def get_render_kernels() -> SimpleNamespace:
         acc = wp.vec3(0.0, 0.0, 0.0)
         n_ok = int(0)
         # stratification within the pass: the pixel's paths take distinct cells of an ncx x ncy grid
-        # over the pixel and (independently offset) over the pupil box, and distinct strata of the
-        # wavelength sampler's [0, 1); a random cyclic offset keeps every path's sample uniform, so
-        # each pass stays an unbiased, independent estimate (as batch means need)
+        # over the pixel and over the pupil box, and distinct strata of the wavelength sampler's
+        # [0, 1), each dimension through its own random permutation (pbrt's padded stratified
+        # sampling): every path's sample stays uniform, so each pass is an unbiased, independent
+        # estimate (as batch means need), and the dimensions are not paired in lockstep (a pairing
+        # by one shift made a pass's error independent of its path count)
         ncx = wp.max(int(wp.floor(wp.sqrt(float(spp)))), 1)
         ncy = (spp + ncx - 1) // ncx
         ncell = ncx * ncy
-        off_pix = wp.min(int(wp.randf(st) * float(ncell)), ncell - 1)
-        off_pup = wp.min(int(wp.randf(st) * float(ncell)), ncell - 1)
+        p_pix = wp.uint32(wp.randi(st))
+        p_pup = wp.uint32(wp.randi(st))
+        p_lam = wp.uint32(wp.randi(st))
         for kk in range(spp):
             # 1. sensor point (x right, y up; the orientation lives in ax1, ay1)
-            cpx = (kk + off_pix) % ncell
+            cpx = permute(kk, ncell, p_pix)
             x = ax0 + ax1 * (float(col) + (float(cpx % ncx) + wp.randf(st)) / float(ncx) - 0.5)
             y = ay0 + ay1 * (float(row) + (float(cpx // ncx) + wp.randf(st)) / float(ncy) - 0.5)
-            cpu = (kk + off_pup) % ncell
+            cpu = permute(kk, ncell, p_pup)
             u0 = (float(cpu % ncx) + wp.randf(st)) / float(ncx)
             u1 = (float(cpu // ncx) + wp.randf(st)) / float(ncy)
-            ul = (float(kk) + wp.randf(st)) / float(spp)
+            ul = (float(permute(kk, spp, p_lam)) + wp.randf(st)) / float(spp)
             us = wp.vec3(wp.randf(st), wp.randf(st), wp.randf(st))
             # 2. wavelength
             lam = lam_fixed
