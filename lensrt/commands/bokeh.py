@@ -240,8 +240,8 @@ def _report(d: dict, lens: Any) -> str:
         r = d["sources"][0]
         lines.append(f"source at {r['depth_mm'] / 1000.0:g} m, object point ({r['object_mm'][0]:.4g}, "
                      f"{r['object_mm'][1]:.4g}) mm: pupil transmission {r['transmission']:.4f} +- "
-                     f"{r['transmission_stderr']:.2g}, centroid ({r['centroid_mm'][0]:.5f}, {r['centroid_mm'][1]:.5f}) "
-                     f"mm, RMS radius {r['rms_radius_mm'] * 1000:.5g} +- {r['rms_radius_stderr_mm'] * 1000:.2g} um")
+                     f"{r['transmission_stderr']:.2g}, centroid ({r['centroid_mm'][0]:.5f}, {r['centroid_mm'][1]:.5f}) +- "
+                     f"{max(r['centroid_stderr_mm']):.1g} mm, RMS radius {r['rms_radius_mm'] * 1000:.5g} +- {r['rms_radius_stderr_mm'] * 1000:.2g} um")
         lines.append(f"luminous flux on the sensor {r['luminous_flux_lm']:.5g} +- "
                      f"{r['luminous_flux_stderr_lm']:.2g} lm; {r['rays']:.4g} rays, {r['seconds']:.3g} s of tracing"
                      + (f", {r['rounds']} rounds (stopped by {r['stop_reason']})" if "rounds" in r else ""))
