@@ -113,3 +113,22 @@ def test_render_target_error_is_met():
         estimated.append(r.history[-1]["rel_error"])
     assert sum(a <= bound for a in achieved) >= 6, (achieved, bound)
     assert np.mean(achieved) == pytest.approx(np.mean(estimated), rel=0.15)
+
+
+def test_bokeh_cli_and_map_targets(capsys):
+    import json
+
+    from lensrt.analysis.bokeh import bokeh_map
+    from lensrt.cli import main
+    assert main(["bokeh", "--rays", "1e7", "--target-error", "0.15", "--pixel-um", "20", "--device", "cpu",
+                 "--no-files", "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)["sources"][0]
+    assert s["stop_reason"] == "target_error" and s["noise_rms"] <= 0.15 and s["rays"] < 10_000_000
+    assert main(["bokeh", "--map", "2x1", "--time-budget", "1", "--device", "cpu", "--no-files"]) == 2
+    assert "--time-budget applies to one spot" in capsys.readouterr().err
+    lens = load_lens("dgauss_50mm_f2")
+    img = bokeh_map(lens, focus_lens(lens, 2000.0), grid=(2, 1), depths_mm=[10000.0], pixels=(120, 80),
+                    rays=1 << 22, device="cpu", target_error=0.2)
+    assert len(img.sources) == 2 and img.settings["target_error"] == 0.2
+    for s in img.sources:  # maps: the Poisson estimate of each disc's noise
+        assert s["stop_reason"] == "target_error" and s["noise_rms"] <= 0.2 and s["rounds"] >= 1
