@@ -142,7 +142,7 @@ class StreamResult:
 
     def status_counts(self, source: int | None = None) -> dict[str, int]:
         """Rays per status (all sources, or one); ``OUTSIDE_GRID`` counts OK rays off the grid,
-        ``GRAZING`` OK rays that met a surface beyond 80 deg incidence (ill-conditioned)."""
+        ``GRAZING`` OK rays that met or left a surface beyond 80 deg (ill-conditioned)."""
         c = self.batch_counts.sum(axis=(0, 1)) if source is None else self.batch_counts[source].sum(axis=0)
         return {n: int(v) for n, v in zip(COUNT_NAMES, c)}
 
