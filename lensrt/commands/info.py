@@ -100,6 +100,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
     emit(lens.name or str(lens.path))
     emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
+    if d["image_virtual"]:
+        emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
+             f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
+             f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
     rows = [
         ("effective focal length f_E = 1/Phi", d["efl_mm"], "mm"),
         ("front / rear focal length f, f'", f"{_fmt(d['front_focal_length_mm'])} / {_fmt(d['rear_focal_length_mm'])}", "mm"),
