@@ -41,6 +41,8 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
     if object_distance_mm is not None and (math.isnan(object_distance_mm) or object_distance_mm <= 0):
         raise LensrtError(f"--object-distance-mm {object_distance_mm:g} must be positive",
                           hint="give the distance from the object to the first vertex in mm, or inf")
+    if wavelength_nm is not None:
+        lens.check_wavelengths(wavelength_nm)  # an ExtrapolationWarning where a glass's formula is extrapolated
     fo = first_order(lens, wavelength_nm, object_distance_mm)
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}

@@ -422,6 +422,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if n_b < 1:
         raise LensrtError(f"{rays_per_source} rays cannot fill {B} batches")
     spectrum = spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights) if spectrum is None else spectrum
+    lens.check_wavelengths([spectrum.wavelength_nm.min(), spectrum.wavelength_nm.max()])
     use_table = int(spectrum.mode == SPECTRUM_DISCRETE)
     table = index_table(lens, spectrum.wavelength_nm) if use_table else np.zeros((1, 1))
     if channels is None:
