@@ -141,13 +141,12 @@ def test_chief_ray_image_heights(device):
 def test_distortion(device):
     """Distortion at 10 and 14 deg against the listing's -0.4976 % and -1.0557 %.
 
-    lensrt's definition (the usual one): the real chief ray's height on the paraxial
-    image plane against the paraxial height f tan(theta). It gives -0.49589 % and
-    -1.05221 %: 0.0017 and 0.0035 percentage points from CODE V's printed values (a
-    relative difference of 0.35 % of the distortion at both fields). We do not know
-    the exact definition CODE V uses in ``ssp``: its numbers correspond to heights taken
-    0.100 mm behind the paraxial image plane. The test pins our values to 1e-4 and the
-    agreement with CODE V to its size.
+    The textbook definition used here: the real chief ray's height on the paraxial image
+    plane against the paraxial height f tan(theta). It gives -0.49589 % and -1.05221 %,
+    0.35 % (relative) from CODE V's printed values, because CODE V refers the reference
+    height to the defocused image surface along the real chief ray; that definition is
+    ``distortion_codev_percent`` of lensrt.analysis.distortion and matches the listing to
+    every printed digit (tests/test_analysis_codev.py). This test pins the textbook values.
     """
     lens = library_lens("codev_dblgauss_100mm_f2")
     d10, _ = _distortion_percent(lens, 10.0, device)

@@ -18,10 +18,30 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lens", metavar="FILE", help="use this lens instead of the scene's")
     p.add_argument("--preview", metavar="OUT.png",
                    help="write a quick pinhole view of the scene (no lens: layout and colours only)")
-    p.add_argument("--width", type=int, default=360, metavar="PX", help="--preview width in pixels (default 360)")
-    p.add_argument("--spp", type=int, default=16, help="--preview samples per pixel (default 16)")
+    p.add_argument("-o", "--output", metavar="PREFIX",
+                   help="output prefix: PREFIX.exr (spectral irradiance), PREFIX.png (preview), PREFIX.json, and "
+                        "with a sensor preset PREFIX_raw.exr and PREFIX_camera.png (default: the scene's name)")
+    p.add_argument("--width", type=int, default=None, metavar="PX",
+                   help="image width in pixels (default: the scene's; --preview: 360); rows keep the aspect ratio")
+    p.add_argument("--spp", type=int, default=None,
+                   help="samples (paths) per pixel (default: the scene's; --preview: 16)")
+    p.add_argument("--spp-per-pass", type=int, default=None, metavar="N",
+                   help="paths per pixel in each pass (default: spp / 8); passes give the standard errors")
+    p.add_argument("--time-budget", type=float, default=None, metavar="S",
+                   help="stop after the pass that reaches S seconds")
+    p.add_argument("--target-error", type=float, default=None, metavar="REL",
+                   help="stop when the RMS relative standard error of Y over lit pixels reaches REL (e.g. 0.02)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
+    p.add_argument("--focus", choices=("best", "paraxial"), default="best",
+                   help="best: least RMS spot on axis (default); paraxial: the paraxial image plane")
+    p.add_argument("--band-nm", type=float, default=10.0, metavar="NM",
+                   help="width of the output spectral bands (default 10 nm)")
+    p.add_argument("--window", default=None, metavar="R0,R1,C0,C1",
+                   help="render only these sensor pixels (rows R0..R1-1, columns C0..C1-1)")
     p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
-    p.add_argument("--json", action="store_true", help="with --plan or --list: one JSON object")
+    p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
+    from ._parallel import add_parallel_arguments
+    add_parallel_arguments(p)
     p.set_defaults(func=cmd_render)
 
 
@@ -84,9 +104,11 @@ def _preview(args: argparse.Namespace, scene) -> int:
     from PIL import Image
     from ..render.preview import preview_pinhole
     from ..render.spectra import srgb_encode, xyz_to_linear_srgb
-    if args.width < 1 or args.width > 8192 or args.spp < 2:
+    width = 360 if args.width is None else args.width
+    spp = 16 if args.spp is None else args.spp
+    if width < 1 or width > 8192 or spp < 2:
         raise LensrtError("--width must be 1-8192 and --spp at least 2")
-    est = preview_pinhole(scene, args.width, samples_per_pixel=args.spp, seed=scene.render.seed, device=args.device)
+    est = preview_pinhole(scene, width, samples_per_pixel=spp, seed=scene.render.seed, device=args.device)
     xyz = est.value
     white = float(np.percentile(xyz[..., 1], 99)) or 1.0
     rgb = srgb_encode(xyz_to_linear_srgb(xyz / white))

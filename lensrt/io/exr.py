@@ -6,9 +6,15 @@ integers as UINT; signed integers are refused). Layers follow the EXR naming con
 ``layer.channel`` (``"irradiance.550nm"``, ``"rgb.R"``). Metadata are written as string
 attributes (numbers with ``repr`` so they read back exactly, lists/dicts as JSON).
 
-Spectral images (the render stage's output, the sensor stage's input) use one layer with one
-channel per wavelength, ``<layer>.<wavelength>nm``, and the attributes ``lensrt:wavelength_nm``
-(JSON list) and ``lensrt:units``; :func:`write_spectral_exr` / :func:`read_spectral_exr`.
+Spectral images (the render stage's output, the sensor stage's input) follow the spectral
+OpenEXR layout of Fichet, Pacanowski & Wilkie, "An OpenEXR Layout for Spectral Images", JCGT
+10(3), 2021: one channel per wavelength named ``S0.<wavelength>nm`` with a comma as the decimal
+separator (``S0.550,000000nm``: the first Stokes component, i.e. unpolarised emissive data), the
+attribute ``spectralLayoutVersion = "1.0"`` and the units in ``emissiveUnits``
+(``"W.m^-2.nm^-1"`` for spectral irradiance); lensrt adds ``lensrt:wavelength_nm`` (JSON list)
+and ``lensrt:units`` (its own unit text). Extra non-spectral channels (an RGB preview) may sit
+beside them. :func:`read_spectral_exr` also reads lensrt's earlier layout
+(``<layer>.<wavelength>nm``). :func:`write_spectral_exr` / :func:`read_spectral_exr`.
 """
 from __future__ import annotations
 
@@ -20,7 +26,8 @@ import numpy as np
 
 from ..errors import LensrtError
 
-__all__ = ["write_exr", "read_exr", "write_image_exr", "write_spectral_exr", "read_spectral_exr"]
+__all__ = ["write_exr", "read_exr", "write_image_exr", "write_spectral_exr", "read_spectral_exr",
+           "spectral_channel_name", "FICHET_UNITS"]
 
 _STANDARD = {"channels", "compression", "dataWindow", "displayWindow", "lineOrder", "pixelAspectRatio",
              "screenWindowCenter", "screenWindowWidth", "type"}
@@ -117,32 +124,80 @@ def write_image_exr(path: str | Path, image: np.ndarray, names: tuple[str, ...] 
 
 
 def _wl_name(w: float) -> str:
+    """Old lensrt channel suffix (read only)."""
     return f"{w:g}nm"
 
 
+def spectral_channel_name(wavelength_nm: float) -> str:
+    """Fichet et al. (2021) emissive channel name: ``S0.550,000000nm``."""
+    return "S0." + f"{float(wavelength_nm):.6f}".replace(".", ",") + "nm"
+
+
+#: Fichet et al. (2021) unit strings of lensrt's unit texts
+FICHET_UNITS = {"W/(m^2 nm)": "W.m^-2.nm^-1", "W/m^2": "W.m^-2", "W/(m^2 sr nm)": "W.m^-2.sr^-1.nm^-1",
+                "W/(m^2 sr)": "W.m^-2.sr^-1"}
+
+
 def write_spectral_exr(path: str | Path, values: np.ndarray, wavelength_nm: np.ndarray, *, layer: str = "irradiance",
-                       units: str = "W/(m^2 nm)", metadata: Mapping[str, Any] | None = None) -> Path:
-    """Write a spectral image (rows, cols, n) as layer ``layer`` with one float32 channel per wavelength."""
+                       units: str = "W/(m^2 nm)", metadata: Mapping[str, Any] | None = None,
+                       extra_channels: Mapping[str, np.ndarray] | None = None) -> Path:
+    """Write a spectral image (rows, cols, n) in the Fichet et al. (2021) layout (module docstring).
+
+    ``layer`` names what the spectra are (``lensrt:layer``); ``extra_channels``: further 2-D
+    channels (e.g. ``R``, ``G``, ``B`` for viewers that do not read spectra).
+    """
     v = np.asarray(values)
     wl = np.asarray(wavelength_nm, dtype=np.float64).ravel()
     if v.ndim != 3 or v.shape[-1] != wl.size:
         raise LensrtError(f"spectral image must be (rows, cols, {wl.size}); got {v.shape}")
-    names = [_wl_name(w) for w in wl]
+    names = [spectral_channel_name(w) for w in wl]
     if len(set(names)) != len(names):
-        raise LensrtError("wavelengths must be distinct at 6 significant digits")
-    meta = {"lensrt:wavelength_nm": [float(w) for w in wl], "lensrt:units": units, "lensrt:layer": layer,
+        raise LensrtError("wavelengths must be distinct at 1e-6 nm")
+    meta = {"spectralLayoutVersion": "1.0", "emissiveUnits": FICHET_UNITS.get(units, units),
+            "lensrt:wavelength_nm": [float(w) for w in wl], "lensrt:units": units, "lensrt:layer": layer,
             **(metadata or {})}
-    return write_exr(path, {f"{layer}.{n}": v[..., i].astype(np.float32) for i, n in enumerate(names)}, meta)
+    chans = {n: v[..., i].astype(np.float32) for i, n in enumerate(names)}
+    for k, a in (extra_channels or {}).items():
+        if k in chans:
+            raise LensrtError(f"extra channel {k!r} clashes with a spectral channel")
+        chans[str(k)] = np.asarray(a, dtype=np.float32)
+    return write_exr(path, chans, meta)
+
+
+def _parse_fichet(name: str) -> float | None:
+    """Wavelength (nm) of a Fichet emissive channel ``S0.<number><unit>`` (nm, um, m, Hz...), else None."""
+    import re
+    m = re.fullmatch(r"S0\.(\d*,?\d*(?:[eE][-+]?\d+)?)(Y|Z|E|P|T|G|M|k|h|da|d|c|m|u|n|p|f|a|z|y)?(m|Hz)", name)
+    if m is None:
+        return None
+    value = float(m.group(1).replace(",", "."))
+    if m.group(2) == "n" and m.group(3) == "m":
+        return value
+    scale = {"": 1.0, "m": 1e-3, "u": 1e-6, "n": 1e-9, "p": 1e-12, "c": 1e-2, "d": 1e-1, "k": 1e3, "M": 1e6,
+             "G": 1e9, "T": 1e12, "P": 1e15}.get(m.group(2) or "", None)
+    if scale is None:
+        return None
+    if m.group(3) == "Hz":
+        return 299792458.0 / (value * scale) * 1e9
+    return value * scale * 1e9
 
 
 def read_spectral_exr(path: str | Path, layer: str | None = None) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-    """Read a file written by :func:`write_spectral_exr`: (values (rows, cols, n), wavelength_nm (n,), metadata)."""
+    """Read a spectral EXR: (values (rows, cols, n), wavelength_nm (n,) increasing, metadata).
+
+    Fichet et al. (2021) files (``S0.*`` channels, from any writer) and lensrt's earlier layout
+    (``<layer>.<wavelength>nm`` with ``lensrt:wavelength_nm``) are both read.
+    """
     chans, meta = read_exr(path)
+    fichet = {w: k for k in chans if (w := _parse_fichet(k)) is not None}
+    if fichet:
+        wl = np.array(sorted(fichet), dtype=np.float64)
+        return np.stack([chans[fichet[w]] for w in wl], axis=-1).astype(np.float32), wl, meta
     try:
         wl = np.asarray(json.loads(meta["lensrt:wavelength_nm"]), dtype=np.float64)
     except (KeyError, ValueError, TypeError):
-        raise LensrtError("not a lensrt spectral EXR (no lensrt:wavelength_nm attribute)", path=path,
-                          hint="write it with lensrt.io.exr.write_spectral_exr") from None
+        raise LensrtError("not a spectral EXR (no S0.<wavelength>nm channels, no lensrt:wavelength_nm attribute)",
+                          path=path, hint="write it with lensrt.io.exr.write_spectral_exr") from None
     layer = layer or meta.get("lensrt:layer", "irradiance")
     try:
         planes = [chans[f"{layer}.{_wl_name(w)}"] for w in wl]

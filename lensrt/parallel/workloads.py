@@ -27,6 +27,7 @@ WorkloadFactory = Callable[[str, int], Job]
 #: name -> "module:attribute" (or the factory itself)
 WORKLOADS: dict[str, str | WorkloadFactory] = {
     "sweep": "lensrt.sweep:sweep_workload",
+    "render": "lensrt.render.jobs:render_workload",
 }
 
 

@@ -28,7 +28,9 @@ from .aiming import AIM_MODES, aim_rays, field_point, pupil_geometry
 from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
+from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
 from .surfaces import N_RECORD
+from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["RayBatch", "RayResult", "trace", "rays_from_pupil", "make_rays", "kernel_to_stop", "chief_ray"]
 
@@ -84,6 +86,8 @@ class RayResult:
     aimed: np.ndarray | None = field(default=None)
     #: smallest cos of the angles of incidence and refraction over the surfaces the ray refracted at
     min_cos_incidence: np.ndarray | None = None
+    #: the kernel variant that ran ('generic' or 'specialised', see lensrt.trace.variants)
+    kernel: str = "generic"
 
     @property
     def ok(self) -> np.ndarray:
@@ -117,7 +121,8 @@ def _check_wavelengths(wavelength_nm: np.ndarray) -> None:
 
 def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | None = None, *,
           clip: bool = True, end: int | None = None, record: bool = False, iris: Iris | None = None,
-          stop_radius_mm: float | None = None, plane_z_mm: float | None = None) -> RayResult:
+          stop_radius_mm: float | None = None, plane_z_mm: float | None = None,
+          kernel: str = "auto") -> RayResult:
     """Trace ``rays`` through ``lens`` with the store kernel.
 
     Parameters
@@ -139,6 +144,8 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
         Override the lens's iris and stop radius (mm).
     plane_z_mm : float, optional
         Trace to the plane z = plane_z_mm instead of the image surface.
+    kernel : {'auto', 'generic', 'specialised'}
+        Kernel variant (:mod:`lensrt.trace.variants`; records and early ends run the generic one).
     """
     from ..device import warp
     wp = warp()
@@ -164,13 +171,25 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     surface = wp.empty(n, dtype=wp.int32, device=dev)
     rec = wp.zeros((n, end + 1, N_RECORD) if record else (1, 1, N_RECORD), dtype=real, device=dev)
     table = wp.zeros((1, 1), dtype=real, device=dev)
-    common = [packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz), int(record), table]
+    shape, consts = shape_and_constants(packed, clip)
+    variant = choose_kernel(kernel, dev, shape, n, possible=end == n_surf and not record)
+    if variant == "specialised":
+        sk = store_kernel(precision, shape, GPU_TUNING[precision] if dev.startswith("cuda") else DEFAULT_TUNING)
+        common = [params(sk, consts, dev), arr, real(plane_dz), table]
+    else:
+        common = [packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz), int(record),
+                  table]
     # on the CPU, large batches run as slices on the cores this process may use (no shared writes)
     workers = 1 if dev.startswith("cuda") or n < 4096 else _cpu_count()
     bounds = [n * w // workers for w in range(workers + 1)]
 
     def run(w: int) -> None:
-        if bounds[w + 1] > bounds[w]:
+        if bounds[w + 1] <= bounds[w]:
+            return
+        if variant == "specialised":
+            wp.launch(sk.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
+                      inputs=common + [bounds[w], out, status, surface])
+        else:
             wp.launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
                       inputs=common + [bounds[w], out, status, surface, rec])
 
@@ -189,7 +208,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     pos = np.stack([o[:, 0], o[:, 1], z], axis=1)
     records = rec.numpy().astype(np.float64) if record else None
     return RayResult(pos, o[:, 3:6], o[:, 6], st, sf, rays.wavelength_nm.copy(), precision, dev, seconds,
-                     records, rays.aimed.copy() if rays.aimed is not None else None, o[:, 7])
+                     records, rays.aimed.copy() if rays.aimed is not None else None, o[:, 7], variant)
 
 
 def kernel_to_stop(lens: Lens, device: str | None = None):

@@ -9,7 +9,12 @@ holding
   record (for ``lensrt ray``);
 * :func:`trace_stream` -- *stream* shape: rays generated, traced and accumulated
   in the kernel, each thread looping over many rays, no per-ray storage;
+* :func:`reduce_partial`, :func:`reduce_final` -- the per-thread stream slots summed on the
+  device in two stages, each in a fixed order (parallel, deterministic);
 * :func:`sample_square` -- the samplers alone, for tests.
+
+The lens-specialised variants of the store and stream kernels live in
+:mod:`.specialised` (one module per lens shape; :mod:`.variants` chooses).
 
 Nothing depends on the lens shape (the surface loop is dynamic), so a new lens
 never compiles anything; a module compiles on first use of its precision and is
@@ -293,6 +298,48 @@ def get_kernels(precision: str) -> SimpleNamespace:
             out_counts[g, j] = out_counts[g, j] + c
 
     @wp.kernel(module=mod, enable_backward=False)
+    def reduce_partial(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), T: int,
+                       chunk: int, n_chunks: int, part_stats: wp.array3d(dtype=wp.float64),
+                       part_counts: wp.array3d(dtype=wp.int64)):
+        # stage 1 of the device reduction: one thread per (source-batch g, column j, chunk c) sums
+        # the chunk's thread slots in a fixed order (deterministic, and parallel enough for a GPU)
+        tid = wp.tid()
+        c = tid % n_chunks
+        j = (tid // n_chunks) % (N_STATS_C + N_COUNTS_C)
+        g = tid // (n_chunks * (N_STATS_C + N_COUNTS_C))
+        t0 = g * T + c * chunk
+        t1 = g * T + wp.min(T, (c + 1) * chunk)
+        if j < N_STATS_C:
+            acc = wp.float64(0.0)
+            for t in range(t0, t1):
+                acc = acc + stats[t, j]
+            part_stats[g, j, c] = acc
+        else:
+            cnt = wp.int64(0)
+            for t in range(t0, t1):
+                cnt = cnt + counts[t, j - N_STATS_C]
+            part_counts[g, j - N_STATS_C, c] = cnt
+
+    @wp.kernel(module=mod, enable_backward=False)
+    def reduce_final(part_stats: wp.array3d(dtype=wp.float64), part_counts: wp.array3d(dtype=wp.int64),
+                     n_chunks: int, out_stats: wp.array2d(dtype=wp.float64),
+                     out_counts: wp.array2d(dtype=wp.int64)):
+        # stage 2: one thread per (g, column) adds the chunks' sums in order, into the running totals
+        tid = wp.tid()
+        j = tid % (N_STATS_C + N_COUNTS_C)
+        g = tid // (N_STATS_C + N_COUNTS_C)
+        if j < N_STATS_C:
+            acc = wp.float64(0.0)
+            for c in range(n_chunks):
+                acc = acc + part_stats[g, j, c]
+            out_stats[g, j] = out_stats[g, j] + acc
+        else:
+            cnt = wp.int64(0)
+            for c in range(n_chunks):
+                cnt = cnt + part_counts[g, j - N_STATS_C, c]
+            out_counts[g, j - N_STATS_C] = out_counts[g, j - N_STATS_C] + cnt
+
+    @wp.kernel(module=mod, enable_backward=False)
     def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=real)):
         i = wp.tid()
         bseed = sm.hash_u32(u32(seed))
@@ -302,5 +349,6 @@ def get_kernels(precision: str) -> SimpleNamespace:
         out[i, 1] = u1
 
     return SimpleNamespace(trace_store=trace_store, trace_stream=trace_stream, reduce_threads=reduce_threads,
+                           reduce_partial=reduce_partial, reduce_final=reduce_final,
                            sample_square=sample_square,
                            real=real, module=mod, surfaces=sf, sampling=sm)

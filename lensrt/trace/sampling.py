@@ -104,6 +104,36 @@ def _i32(x: int) -> int:
     return x - (1 << 32) if x >= (1 << 31) else x
 
 
+_REVERSE_BITS_SNIPPET = """
+#if defined(__CUDA_ARCH__)
+    return __brev(x);
+#else
+    uint32_t v = x;
+    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
+    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+    v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
+    v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
+    return (v >> 16) | (v << 16);
+#endif
+"""
+
+
+_NATIVE: dict = {}
+
+
+def _reverse_bits(wp: Any) -> Any:
+    """``reverse_bits(x: uint32) -> uint32``: one instruction on a GPU (__brev), five swap steps
+    elsewhere -- the same bits (a native snippet, defined once per process)."""
+    if "reverse_bits" not in _NATIVE:
+        # (the decorator must be spelled @wp.func_native for Warp to read the return type)
+        @wp.func_native(_REVERSE_BITS_SNIPPET)
+        def reverse_bits(x: wp.uint32) -> wp.uint32:
+            ...
+
+        _NATIVE["reverse_bits"] = reverse_bits
+    return _NATIVE["reverse_bits"]
+
+
 def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
     """Build the sampler ``@wp.func`` s for scalar type ``real`` in Warp module ``module``."""
     func = wp.func(module=module)
@@ -116,7 +146,7 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
     K_55555555 = _i32(0x55555555)
     K_6C50B47C = _i32(0x6C50B47C)
     K_7FEB352D = _i32(0x7FEB352D)
-    K_80000000 = _i32(0x80000000)
+    K_0000FFFF = _i32(0x0000FFFF)
     K_846CA68B = _i32(0x846CA68B)
     K_85EBCA6B = _i32(0x85EBCA6B)
     K_8D22F6E6 = _i32(0x8D22F6E6)
@@ -135,13 +165,7 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         x = x ^ (x >> u32(16))
         return x
 
-    @func
-    def reverse_bits(x: wp.uint32) -> wp.uint32:
-        x = ((x >> u32(1)) & u32(K_55555555)) | ((x & u32(K_55555555)) << u32(1))
-        x = ((x >> u32(2)) & u32(K_33333333)) | ((x & u32(K_33333333)) << u32(2))
-        x = ((x >> u32(4)) & u32(K_0F0F0F0F)) | ((x & u32(K_0F0F0F0F)) << u32(4))
-        x = ((x >> u32(8)) & u32(K_00FF00FF)) | ((x & u32(K_00FF00FF)) << u32(8))
-        return (x >> u32(16)) | (x << u32(16))
+    reverse_bits = _reverse_bits(wp)
 
     @func
     def laine_karras(x: wp.uint32, seed: wp.uint32) -> wp.uint32:
@@ -158,16 +182,21 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         return reverse_bits(laine_karras(reverse_bits(x), seed))
 
     @func
+    def sobol_dim1_reversed(i: wp.uint32) -> wp.uint32:
+        # the second Sobol' dimension (direction numbers v_1 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)),
+        # bit-reversed: its generator is the Pascal matrix mod 2, so output bit m is the parity of
+        # the bits j of i with m a bit-subset of j (Lucas) -- a superset sum over the 5 index bits
+        y = i
+        y = y ^ ((y >> u32(1)) & u32(K_55555555))
+        y = y ^ ((y >> u32(2)) & u32(K_33333333))
+        y = y ^ ((y >> u32(4)) & u32(K_0F0F0F0F))
+        y = y ^ ((y >> u32(8)) & u32(K_00FF00FF))
+        y = y ^ ((y >> u32(16)) & u32(K_0000FFFF))
+        return y
+
+    @func
     def sobol_dim1(i: wp.uint32) -> wp.uint32:
-        # second Sobol' dimension: direction numbers v_1 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)
-        v = u32(K_80000000)
-        r = u32(0)
-        while i != u32(0):
-            if (i & u32(1)) != u32(0):
-                r = r ^ v
-            i = i >> u32(1)
-            v = v ^ (v >> u32(1))
-        return r
+        return reverse_bits(sobol_dim1_reversed(i))
 
     @func
     def to_unit(x: wp.uint32) -> real:
@@ -178,15 +207,18 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
 
     @func
     def sobol_2d(i: wp.uint32, seed: wp.uint32):
+        # owen(reverse_bits(idx), s1) and owen(sobol_dim1(idx), s2), with owen = rev o LK o rev
+        # and rev o rev = id: the same points with fewer reversals
         idx = owen(i, hash_u32(seed))
         s1 = hash_u32(seed ^ u32(K_9E3779B9))
         s2 = hash_u32(s1)
-        return to_unit(owen(reverse_bits(idx), s1)), to_unit(owen(sobol_dim1(idx), s2))
+        return (to_unit(reverse_bits(laine_karras(idx, s1))),
+                to_unit(reverse_bits(laine_karras(sobol_dim1_reversed(idx), s2))))
 
     @func
     def sobol_1d(i: wp.uint32, seed: wp.uint32) -> real:
         idx = owen(i, hash_u32(seed))
-        return to_unit(owen(reverse_bits(idx), hash_u32(seed ^ u32(K_85EBCA6B))))
+        return to_unit(reverse_bits(laine_karras(idx, hash_u32(seed ^ u32(K_85EBCA6B)))))
 
     @func
     def r2_2d(i: wp.uint32, seed: wp.uint32):
@@ -264,6 +296,7 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
 
     ns = SimpleNamespace(hash_u32=hash_u32, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
+                         sobol_dim1_reversed=sobol_dim1_reversed,
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
                          unit_square=unit_square, box=box, concentric_disk=concentric_disk, sample_cdf=sample_cdf)
     return ns

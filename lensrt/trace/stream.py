@@ -44,12 +44,18 @@ from .kernels import COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
 from .surfaces import N_RECORD
+from .shape import describe
+from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
+from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "stream_source",
            "stream", "EMITTERS"]
 
 EMITTERS = ("lambertian", "isotropic")
 _EPOCH = 1 << 30
+#: threads per launch on a GPU (all sources and batches), per kernel variant: enough
+#: waves that the last one's idle tail stays small
+GPU_THREADS = {"generic": 1 << 18, "specialised": 1 << 18}
 
 
 @dataclass(frozen=True)
@@ -370,7 +376,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
            iris: Iris | None = None, stop_radius_mm: float | None = None, clip: bool = True,
            rays_per_launch: int | None = None, threads_per_batch: int | None = None,
            replicas: int | None = None, cpu_workers: int | None = None,
-           device_reduce: bool | None = None, batch_histograms: bool = False) -> StreamResult:
+           device_reduce: bool | None = None, batch_histograms: bool = False, kernel: str = "auto",
+           histogram: bool = True) -> StreamResult:
     """Trace ``rays_per_source`` Monte Carlo rays from each source and bin them (module docstring).
 
     Parameters
@@ -404,6 +411,11 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     batch_histograms : bool
         Keep one histogram per batch (``StreamResult.batch_histograms``, for per-pixel standard
         errors); memory grows by the number of batches.
+    kernel : {'auto', 'generic', 'specialised'}
+        Kernel variant (:mod:`lensrt.trace.variants`); ``extra["kernel"]`` says which ran.
+    histogram : bool
+        Bin the rays. False: counts and moments only (transmission, pupil areas, centroids,
+        RMS radii); the specialised kernel then skips the binning, and the histogram is zero.
     """
     from ..device import warp
     wp = warp()
@@ -421,6 +433,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     n_b = int(rays_per_source) // B
     if n_b < 1:
         raise LensrtError(f"{rays_per_source} rays cannot fill {B} batches")
+    shape, consts = shape_and_constants(packed, clip)
+    variant = choose_kernel(kernel, dev, shape, S * B * n_b)
+    want_hist = bool(histogram)
     spectrum = spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights) if spectrum is None else spectrum
     lens.check_wavelengths([spectrum.wavelength_nm.min(), spectrum.wavelength_nm.max()])
     use_table = int(spectrum.mode == SPECTRUM_DISCRETE)
@@ -437,7 +452,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if grid.nx < 1 or grid.ny < 1 or grid.pixel_mm <= 0 or grid.dy_mm <= 0:
         raise LensrtError("the histogram grid needs positive sizes")
     if threads_per_batch is None:
-        threads_per_batch = max(1, min((1 << 18) // (S * B), n_b // 64)) if is_gpu else 1
+        threads_per_batch = max(1, min(GPU_THREADS[variant] // (S * B), n_b // 64)) if is_gpu else 1
     T = int(threads_per_batch)
     n_threads = S * B * T
     if is_gpu:
@@ -465,9 +480,19 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     stats = wp.zeros((n_threads, N_STATS), dtype=wp.float64, device=dev)
     counts = wp.zeros((n_threads, N_COUNTS), dtype=wp.int64, device=dev)
     rec = wp.zeros((1, 1, N_RECORD), dtype=real, device=dev)
+    spec = None
+    if variant == "specialised":
+        spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, want_hist),
+                             GPU_TUNING[precision] if is_gpu else DEFAULT_TUNING)
+        pconst = params(spec, consts, dev)
     device_reduce = is_gpu if device_reduce is None else bool(device_reduce)
     dev_stats = wp.zeros((S * B, N_STATS), dtype=wp.float64, device=dev) if device_reduce else None
     dev_counts = wp.zeros((S * B, N_COUNTS), dtype=wp.int64, device=dev) if device_reduce else None
+    red_chunk = 64
+    n_chunks = -(-T // red_chunk)
+    if device_reduce:
+        part_stats = wp.zeros((S * B, N_STATS, n_chunks), dtype=wp.float64, device=dev)
+        part_counts = wp.zeros((S * B, N_COUNTS, n_chunks), dtype=wp.int64, device=dev)
     n_strata = int(math.isqrt(n_b))
     tot_stats = np.zeros((S, B, N_STATS))
     tot_counts = np.zeros((S, B, N_COUNTS), dtype=np.int64)
@@ -480,24 +505,35 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         while start < n_b:
             epoch, local = divmod(start, _EPOCH)
             count = min(chunk, n_b - start, _EPOCH - local)
-            common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src,
-                      int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
-                      chan_mode, n_chan, chan_arr, real(nm0), real(dnm),
-                      hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
-                      layers, 1 if workers > 1 else int(replicas), hb,
-                      code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
+            tail = [hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
+                    layers, 1 if workers > 1 else int(replicas), hb]
+            if spec is None:
+                common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src,
+                          int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
+                          chan_mode, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
+                          code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
+            else:
+                common = [pconst, src, spec_nm, spec_cdf, tab, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
+                          int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
 
             def run(w: int) -> None:
-                wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev,
-                          inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts, rec])
+                if spec is None:
+                    wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev,
+                              inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts, rec])
+                else:
+                    wp.launch(spec.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
+                              inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts])
 
             if pool is None:
                 run(0)
             else:
                 list(pool.map(run, range(workers)))
             launches += 1
-            if device_reduce:  # sum the threads' slots on the device, in a fixed order
-                wp.launch(k.reduce_threads, dim=S * B, device=dev, inputs=[stats, counts, T, dev_stats, dev_counts])
+            if device_reduce:  # sum the threads' slots on the device, in a fixed order (two stages)
+                wp.launch(k.reduce_partial, dim=S * B * (N_STATS + N_COUNTS) * n_chunks, device=dev,
+                          inputs=[stats, counts, T, red_chunk, n_chunks, part_stats, part_counts])
+                wp.launch(k.reduce_final, dim=S * B * (N_STATS + N_COUNTS), device=dev,
+                          inputs=[part_stats, part_counts, n_chunks, dev_stats, dev_counts])
             else:
                 tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
                 tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
@@ -509,6 +545,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         tot_stats = dev_stats.numpy().reshape(S, B, N_STATS)
         tot_counts = dev_counts.numpy().reshape(S, B, N_COUNTS)
     h = hist.numpy().reshape(replicas, layers, hb, n_chan, grid.ny, grid.nx).sum(axis=0)
+    if not want_hist:
+        h[...] = 0
     seconds = time.perf_counter() - t0
     per_batch = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
     histogram = h.sum(axis=1).astype(np.float64) / float(2**FIXED_POINT_BITS)
@@ -517,5 +555,6 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid, seconds, precision, dev,
                         sampler, int(seed), launches, per_batch if batch_histograms else None,
                         {"threads_per_batch": T, "replicas": int(replicas), "cpu_workers": workers,
+                         "kernel": variant, "shape": describe(shape),
                          "layers_of_sources": [s.layer for s in sources],
                          "stat_names": STAT_NAMES})

@@ -1,0 +1,200 @@
+"""The integrator's Warp kernels: camera paths sensor -> lens -> scene, and the exit-pupil probe.
+
+One Warp module, ``lensrt_render`` (float32), compiled on first use and cached on disk by Warp.
+It calls the tracer's own ``@wp.func`` surface code (:func:`lensrt.trace.surfaces.surface_funcs`,
+``trace_ray`` with the forward tracer's signature) on the lens mirrored by
+:func:`lensrt.trace.reverse.reversed_lens`, and the scene stage's ``scene_radiance``
+(:mod:`lensrt.render.scene_kernels`). Plan switches (spectral or one wavelength, meshes,
+shadow rays) are run-time values the kernel reads (the packed scene has no BVH when it has no
+meshes, no lights to sample when nothing is lit by them), so every plan uses this one compiled
+module.
+
+:func:`camera_pass` -- one thread per pixel, ``spp`` paths each, summed in a fixed order
+into that pixel's own slots (no atomics): the per-pass images are bit-identical for the same
+seed on the same device, whatever the launch is split into. Per path:
+
+1. a point uniformly in the pixel, mapped to the sensor plane by the affine form of
+   :meth:`lensrt.render.camera.SensorGrid.position_of` (the one image <-> sensor map);
+2. a wavelength from the plan's sampler (pdf p(lambda)), or the fixed wavelength;
+3. a point uniform in the exit-pupil box of the pixel's radial bin (pbrt-v4's bounds, in the
+   plane of the last vertex, computed for sensor points on +x and rotated to the pixel's
+   azimuth; pdf 1 / A_box);
+4. the ray from the sensor point to it, traced backward through the lens (surface code of the
+   forward tracer); a ray that is vignetted, misses or is totally reflected carries nothing;
+5. the scene radiance L along the ray leaving the front (one bounce, scene stage);
+6. the sensor-plane irradiance estimate E = L (n_image / n_object)^2 cos^4(theta) A_box /
+   (D^2 p(lambda)): E = int L cos(theta) d omega, with d omega = cos^3(theta) dA / D^2 for a
+   point dA of the plane at distance D (radiance / n^2 is conserved through an uncoated,
+   lossless lens: T = 1).
+"""
+# No ``from __future__ import annotations``: Warp reads the annotations as objects.
+
+from functools import lru_cache
+from types import SimpleNamespace
+
+__all__ = ["get_render_kernels", "MODULE"]
+
+MODULE = "lensrt_render"
+
+
+@lru_cache(maxsize=None)
+def get_render_kernels() -> SimpleNamespace:
+    """The render kernels (built and registered on first call)."""
+    from ..device import warp
+    from ..trace.status import OK
+    from ..trace.surfaces import surface_funcs
+    from . import scene_kernels as sk
+    wp = warp()
+    real = wp.float32
+    wp.set_module_options({"enable_backward": False}, module=MODULE)
+    sf = surface_funcs(wp, real, MODULE)
+    trace_ray = sf.trace_ray
+    medium_index = sf.medium_index
+
+    @wp.func(module=MODULE)
+    def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist: float) -> wp.vec4:
+        # direction (unit, reversed frame: toward +z) from the sensor point to a point of the pupil
+        # box rotated to the point's azimuth; w = cos(theta)
+        pa = box[0] + u0 * (box[1] - box[0])
+        pb = box[2] + u1 * (box[3] - box[2])
+        r = wp.sqrt(x * x + y * y)
+        c = float(1.0)
+        s = float(0.0)
+        if r > 0.0:
+            c = x / r
+            s = y / r
+        qx = c * pa - s * pb
+        qy = s * pa + c * pb
+        dx = qx - x
+        dy = qy - y
+        inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
+        return wp.vec4(dx * inv, dy * inv, rear_dist * inv, rear_dist * inv)
+
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def camera_pass(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
+                    n_surfaces: int, table: wp.array2d(dtype=real), rec: wp.array3d(dtype=real),
+                    sensor_z: float, rear_dist: float,
+                    width: int, ax0: float, ax1: float, ay0: float, ay1: float,
+                    boxes: wp.array(dtype=wp.vec4), inv_dr: float, n_bins: int,
+                    scn: sk.SceneData, spectral: int, lam_fixed: float, cdf: wp.array(dtype=float),
+                    band0: float, inv_band: float, n_bands: int,
+                    cmf: wp.array2d(dtype=float), km: float,
+                    spp: int, seed: int, pix_base: int,
+                    spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
+        pix = wp.tid() + pix_base
+        row = pix // width
+        col = pix - row * width
+        st = wp.rand_init(seed, pix)
+        acc = wp.vec3(0.0, 0.0, 0.0)
+        n_ok = int(0)
+        # stratification within the pass: the pixel's paths take distinct cells of an ncx x ncy grid
+        # over the pixel and (independently offset) over the pupil box, and distinct strata of the
+        # wavelength sampler's [0, 1); a random cyclic offset keeps every path's sample uniform, so
+        # each pass stays an unbiased, independent estimate (as batch means need)
+        ncx = wp.max(int(wp.floor(wp.sqrt(float(spp)))), 1)
+        ncy = (spp + ncx - 1) // ncx
+        ncell = ncx * ncy
+        off_pix = wp.min(int(wp.randf(st) * float(ncell)), ncell - 1)
+        off_pup = wp.min(int(wp.randf(st) * float(ncell)), ncell - 1)
+        for kk in range(spp):
+            # 1. sensor point (x right, y up; the orientation lives in ax1, ay1)
+            cpx = (kk + off_pix) % ncell
+            x = ax0 + ax1 * (float(col) + (float(cpx % ncx) + wp.randf(st)) / float(ncx) - 0.5)
+            y = ay0 + ay1 * (float(row) + (float(cpx // ncx) + wp.randf(st)) / float(ncy) - 0.5)
+            cpu = (kk + off_pup) % ncell
+            u0 = (float(cpu % ncx) + wp.randf(st)) / float(ncx)
+            u1 = (float(cpu // ncx) + wp.randf(st)) / float(ncy)
+            ul = (float(kk) + wp.randf(st)) / float(spp)
+            us = wp.vec3(wp.randf(st), wp.randf(st), wp.randf(st))
+            # 2. wavelength
+            lam = lam_fixed
+            pdf = float(1.0)
+            if spectral != 0:
+                lp = sk.sample_wavelength(cdf, scn.lam0, scn.dlam, ul)
+                lam = lp[0]
+                pdf = lp[1]
+            if pdf <= 0.0:
+                continue
+            # 3. pupil box of the radial bin
+            b = wp.min(int(wp.sqrt(x * x + y * y) * inv_dr), n_bins - 1)
+            box = boxes[b]
+            area = (box[1] - box[0]) * (box[3] - box[2])
+            if area <= 0.0:
+                continue
+            d = sensor_ray(x, y, box, u0, u1, rear_dist)
+            # 4. backward through the lens
+            w_um = lam * 1.0e-3
+            w2 = w_um * w_um
+            status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
+                surf, media, iris, n_surfaces, x, y, sensor_z, d[0], d[1], d[2], w2, table, -1,
+                n_surfaces, 1, 0.0, 0, rec, 0)
+            if status != OK:
+                continue
+            n_ok = n_ok + 1
+            # 5. into the scene (lens frame of the scene: z mirrored back)
+            rad = sk.scene_radiance(scn, wp.vec3(px, py, -pz), wp.normalize(wp.vec3(L, M, -N)), lam, us)
+            if rad <= 0.0:
+                continue
+            # 6. irradiance estimate
+            n_img = medium_index(media, 0, w2)
+            n_obj = medium_index(media, n_surfaces, w2)
+            c2 = d[3] * d[3]
+            e = rad * (n_img * n_img) / (n_obj * n_obj) * c2 * c2 * area / (rear_dist * rear_dist * pdf)
+            k = int(0)
+            if n_bands > 1:
+                k = wp.clamp(int((lam - band0) * inv_band), 0, n_bands - 1)
+            spec[pix * n_bands + k] = spec[pix * n_bands + k] + e * inv_band
+            fx = (lam - scn.lam0) / scn.dlam
+            if fx >= 0.0 and fx <= float(scn.n_lam - 1):
+                m = wp.min(int(fx), scn.n_lam - 2)
+                t = fx - float(m)
+                for c in range(3):
+                    acc[c] = acc[c] + e * km * ((1.0 - t) * cmf[c, m] + t * cmf[c, m + 1])
+        xyz[pix] = acc
+        hits[pix] = wp.int32(n_ok)
+
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def pupil_probe(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
+                    n_surfaces: int, table: wp.array2d(dtype=real), rec: wp.array3d(dtype=real),
+                    sensor_z: float, rear_dist: float, radii: wp.array(dtype=float),
+                    pts: wp.array(dtype=wp.vec2), lams: wp.array(dtype=float), n_pts: int, n_lam: int,
+                    tid_base: int, out: wp.array(dtype=wp.int32)):
+        tid = wp.tid() + tid_base
+        p = tid % n_pts
+        k = (tid // n_pts) % n_lam
+        i = tid // (n_pts * n_lam)
+        x = radii[i]
+        q = pts[i * n_pts + p]
+        dx = q[0] - x
+        dy = q[1]
+        inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
+        w_um = lams[k] * 1.0e-3
+        status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
+            surf, media, iris, n_surfaces, x, 0.0, sensor_z, dx * inv, dy * inv, rear_dist * inv, w_um * w_um,
+            table, -1, n_surfaces, 1, 0.0, 0, rec, 0)
+        out[tid] = wp.int32(status)
+
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def accumulate(src: wp.array(dtype=float), dst: wp.array(dtype=wp.float64)):
+        i = wp.tid()
+        dst[i] = dst[i] + wp.float64(src[i])
+
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def accumulate_moments(src: wp.array(dtype=wp.vec3), s1: wp.array2d(dtype=wp.float64),
+                           s2: wp.array2d(dtype=wp.float64)):
+        # per-pixel sums of the pass values and of their squares (exact in float64: bit-identical to the host)
+        i = wp.tid()
+        for c in range(3):
+            v = wp.float64(src[i][c])
+            s1[i, c] = s1[i, c] + v
+            s2[i, c] = s2[i, c] + v * v
+
+    @wp.kernel(module=MODULE, enable_backward=False)
+    def finalize(src: wp.array(dtype=wp.float64), inv_n: wp.float64, dst: wp.array(dtype=float)):
+        # the mean over all paths, as float32 (what the host would compute from the float64 sums)
+        i = wp.tid()
+        dst[i] = float(src[i] * inv_n)
+
+    return SimpleNamespace(camera_pass=camera_pass, pupil_probe=pupil_probe, accumulate=accumulate,
+                           accumulate_moments=accumulate_moments, finalize=finalize,
+                           module=MODULE, trace_ray=trace_ray)

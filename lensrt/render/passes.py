@@ -1,0 +1,255 @@
+"""Render passes: the picklable set-up of a render, its per-device preparation, one pass, and the reduction.
+
+A render is a sequence of *passes*; pass ``p`` traces ``spp_per_pass`` camera paths through every
+pixel with the Warp seed of work item ``p`` of the render's seed
+(:func:`lensrt.parallel.item_seed_sequence`), so it is the same image whichever device or
+worker runs it. Passes are summed in pass order in float64 (exact conversions of the float32
+pass images, one rounding per addition), on the device in a one-device run and on the host when
+passes come back from several devices (:class:`PassSum`): both give the same bits. The spread of
+the per-pass XYZ images gives each pixel's standard error by batch means
+(:func:`lensrt.stats.batch_means`); squares of float32 values are exact in float64, so these
+sums are bit-identical too.
+
+Everything here works for the camera-path integrator; :mod:`lensrt.render.splat` is the
+light-side path of point-source scenes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..parallel.work import WARP_SEED_MASK, item_seed_sequence
+from .camera import Camera
+from .plan import Plan
+
+__all__ = ["RenderSetup", "Prepared", "PassResult", "PassSum", "pass_seed", "prepare_setup", "render_pass",
+           "run_pass_item", "device_pass", "REGIONS"]
+
+#: image regions whose mean Y (and its standard error) every render reports: (name, row0, row1, col0, col1)
+#: as fractions of the image (the whole image first); the corners are 10 % x 10 % boxes
+REGIONS = (("image", 0.0, 1.0, 0.0, 1.0), ("centre", 0.45, 0.55, 0.45, 0.55), ("top left", 0.0, 0.1, 0.0, 0.1),
+           ("top right", 0.0, 0.1, 0.9, 1.0), ("bottom left", 0.9, 1.0, 0.0, 0.1),
+           ("bottom right", 0.9, 1.0, 0.9, 1.0))
+
+
+def pass_seed(seed: int, index: int) -> int:
+    """Warp seed of pass ``index`` of a render seeded ``seed`` (the seed of work item ``index``)."""
+    return int(item_seed_sequence(int(seed), int(index)).generate_state(1, dtype=np.uint32)[0]) & WARP_SEED_MASK
+
+
+@dataclass(frozen=True, eq=False)
+class RenderSetup:
+    """Everything a device needs to render passes (picklable: no device arrays)."""
+
+    scene: Any
+    camera: Camera
+    plan: Plan
+    pupil_boxes: np.ndarray          # (bins, 4) exit-pupil table
+    pupil_inv_dr: float
+    wavelength_cdf: np.ndarray       # over the grid intervals (spectral) or [0, 1]
+    band0_nm: float
+    band_width_nm: float
+    n_bands: int
+    spp_per_pass: int
+    seed: int
+    window: tuple[int, int, int, int] | None = None   # (row0, row1, col0, col1) of the sensor's pixels
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        if self.window is None:
+            return self.camera.sensor.shape
+        r0, r1, c0, c1 = self.window
+        return (r1 - r0, c1 - c0)
+
+    def affine(self) -> tuple[float, float, float, float]:
+        """The sensor map of :meth:`SensorGrid.affine`, shifted to the window's first row and column."""
+        x0, dx, y0, dy = self.camera.sensor.affine()
+        if self.window is None:
+            return x0, dx, y0, dy
+        return x0 + dx * self.window[2], dx, y0 + dy * self.window[0], dy
+
+    @property
+    def n_pixels(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    def band_centres_nm(self) -> np.ndarray:
+        if not self.plan.spectral:
+            return np.array([float(self.plan.wavelength_nm)])
+        return self.band0_nm + (np.arange(self.n_bands) + 0.5) * self.band_width_nm
+
+
+@dataclass
+class Prepared:
+    """A :class:`RenderSetup` on one device: the packed reversed lens and scene, the pupil boxes, the
+    wavelength CDF and colour-matching functions as device arrays, and the kernels."""
+
+    setup: RenderSetup
+    device: str
+    lens: Any            # PackedLens of the reversed lens (float32)
+    scene: Any           # PackedScene (keeps the wp.Mesh alive)
+    boxes: Any
+    cdf: Any
+    cmf: Any
+    table: Any
+    rec: Any
+    kernels: Any
+
+
+def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
+    """Pack the set-up for ``device`` (once per device; read-only afterwards)."""
+    from ..device import warp
+    from ..trace.pack import pack_lens
+    from ..trace.reverse import reversed_lens
+    from .integrator_kernels import get_render_kernels
+    from .scene_pack import pack_scene
+    from .spectra import cie_xyz_cmfs
+    wp = warp()
+    cam = setup.camera
+    rev = reversed_lens(cam.lens, 0.0)
+    packed = pack_lens(rev, "float32", device, stop_radius_mm=cam.stop_radius_mm)
+    scn = pack_scene(setup.scene, device)
+    return Prepared(setup, device, packed, scn,
+                    wp.array(setup.pupil_boxes.astype(np.float32), dtype=wp.vec4, device=device),
+                    wp.array(setup.wavelength_cdf.astype(np.float32), dtype=float, device=device),
+                    wp.array(cie_xyz_cmfs(setup.scene.grid).astype(np.float32), dtype=float, ndim=2, device=device),
+                    wp.zeros((1, 1), dtype=float, device=device), wp.zeros((1, 1, 9), dtype=float, device=device),
+                    get_render_kernels())
+
+
+@dataclass
+class DevicePass:
+    """One pass's device arrays: spectral sums (pixels * bands), XYZ sums (pixels), paths through the lens."""
+
+    spec: Any
+    xyz: Any
+    hits: Any
+
+
+def device_pass(prep: Prepared, index: int, out: DevicePass | None = None) -> DevicePass:
+    """Run pass ``index`` on ``prep.device`` into ``out`` (zeroed here; allocated when None)."""
+    from ..device import warp
+    from ..units import LUMINOUS_EFFICACY_LM_PER_W
+    from .pupil_table import launch_sliced
+    wp = warp()
+    s = prep.setup
+    dev = prep.device
+    n = s.n_pixels
+    if out is None:
+        out = DevicePass(wp.zeros(n * s.n_bands, dtype=float, device=dev), wp.zeros(n, dtype=wp.vec3, device=dev),
+                         wp.zeros(n, dtype=wp.int32, device=dev))
+    else:
+        out.spec.zero_()
+        out.xyz.zero_()
+        out.hits.zero_()
+    cam = s.camera
+    ax0, ax1, ay0, ay1 = s.affine()
+    plan = s.plan
+    lam_fixed = float(plan.wavelength_nm) if not plan.spectral else 0.0
+    inv_band = 1.0 / s.band_width_nm if plan.spectral else 1.0
+    common = [prep.lens.surf, prep.lens.media, prep.lens.iris, cam.lens.n_surfaces, prep.table, prep.rec,
+              float(cam.rear_vertex_z_mm - cam.sensor_z_mm), float(cam.rear_distance_mm),
+              int(s.shape[1]), ax0, ax1, ay0, ay1, prep.boxes, float(s.pupil_inv_dr),
+              int(s.pupil_boxes.shape[0]), prep.scene.data, int(plan.spectral), lam_fixed, prep.cdf,
+              float(s.band0_nm), float(inv_band), int(s.n_bands), prep.cmf, float(LUMINOUS_EFFICACY_LM_PER_W),
+              int(s.spp_per_pass), pass_seed(s.seed, index)]
+    launch_sliced(prep.kernels.camera_pass, n, lambda base: common + [int(base), out.spec, out.xyz, out.hits], dev)
+    return out
+
+
+@dataclass
+class PassResult:
+    """One pass on the host: float32 spectral sums (pixels * bands), XYZ sums (pixels, 3), paths through."""
+
+    index: int
+    spec: np.ndarray
+    xyz: np.ndarray
+    hits: int
+    seconds: float = 0.0
+
+
+def render_pass(prep: Prepared, index: int) -> PassResult:
+    """Run pass ``index`` and bring it to the host."""
+    import time
+    t0 = time.perf_counter()
+    dp = device_pass(prep, index)
+    return PassResult(index, dp.spec.numpy(), dp.xyz.numpy().astype(np.float32),
+                      int(dp.hits.numpy().astype(np.int64).sum()), time.perf_counter() - t0)
+
+
+def run_pass_item(item, prep: Prepared, device: str) -> PassResult:
+    """The ``run`` of a render Job: ``item.params`` is the global pass index."""
+    return render_pass(prep, int(item.params))
+
+
+@dataclass
+class PassSum:
+    """Sums over passes in pass order: float64 spectral sum, XYZ sums and sums of squares, region means.
+
+    ``add_spec=False`` when the spectral sum is kept on the device (one-device runs)."""
+
+    n_pixels: int
+    n_bands: int
+    shape: tuple[int, int]
+    spp_per_pass: int
+    spec: np.ndarray | None = None
+    xyz1: np.ndarray = field(default=None)  # type: ignore[assignment]
+    xyz2: np.ndarray = field(default=None)  # type: ignore[assignment]
+    passes: int = 0
+    hits: int = 0
+    region_means: list = field(default_factory=list)   # per pass: Y mean per region
+
+    def __post_init__(self) -> None:
+        self.xyz1 = np.zeros((self.n_pixels, 3))
+        self.xyz2 = np.zeros((self.n_pixels, 3))
+
+    def add(self, xyz: np.ndarray, hits: int, spec: np.ndarray | None = None) -> None:
+        """Fold in one pass (XYZ sums of its paths per pixel, paths through the lens, spectral sums)."""
+        x = np.asarray(xyz, dtype=np.float32).reshape(self.n_pixels, 3).astype(np.float64)
+        self.xyz1 += x
+        self.xyz2 += x * x          # squares of float32 values are exact in float64
+        if spec is not None:
+            s = np.asarray(spec, dtype=np.float32).reshape(-1).astype(np.float64)
+            if self.spec is None:
+                self.spec = s
+            else:
+                self.spec += s
+        self.add_counts(x[:, 1], hits)
+
+    def add_counts(self, y: np.ndarray, hits: int) -> None:
+        """Count one pass whose per-pixel sums are kept elsewhere (on the device): its Y sums give the
+        per-pass region means."""
+        self.passes += 1
+        self.hits += int(hits)
+        yy = np.asarray(y, dtype=np.float64).reshape(self.shape) / self.spp_per_pass
+        self.region_means.append([float(yy[r0:r1, c0:c1].mean()) for r0, r1, c0, c1 in region_slices(self.shape)])
+
+    @property
+    def samples_per_pixel(self) -> int:
+        return self.passes * self.spp_per_pass
+
+    def xyz_mean(self) -> np.ndarray:
+        """Per-pixel XYZ (rows, cols, 3): the mean over all paths."""
+        return (self.xyz1 / max(self.samples_per_pixel, 1)).reshape(self.shape + (3,))
+
+    def xyz_stderr(self) -> np.ndarray:
+        """Per-pixel standard error of :meth:`xyz_mean` by batch means over passes (inf with one pass)."""
+        p = self.passes
+        if p < 2:
+            return np.full(self.shape + (3,), np.inf)
+        m = self.spp_per_pass
+        mean = self.xyz1 / p
+        var = np.maximum(self.xyz2 - p * mean * mean, 0.0) / (p - 1)
+        return (np.sqrt(var / p) / m).reshape(self.shape + (3,))
+
+
+def region_slices(shape: tuple[int, int]) -> list[tuple[int, int, int, int]]:
+    """Pixel boxes (row0, row1, col0, col1) of :data:`REGIONS` for an image of ``shape`` (at least one pixel)."""
+    rows, cols = shape
+    out = []
+    for _, a, b, c, d in REGIONS:
+        r0 = min(int(a * rows), rows - 1)
+        c0 = min(int(c * cols), cols - 1)
+        out.append((r0, max(r0 + 1, int(round(b * rows))), c0, max(c0 + 1, int(round(d * cols)))))
+    return out
