@@ -77,15 +77,17 @@ def _identical(a, b, stats: bool = True) -> None:
         assert a.rms_radius(1) == b.rms_radius(1) and a.transmission(0) == b.transmission(0)
 
 
-@pytest.mark.parametrize("precision", ["float32", "float64"])
-def test_stream_bit_identical_over_workers_and_outputs(sources, precision, device):
-    a = _stream(sources, device, precision=precision)
+@pytest.mark.parametrize("precision,kernel", [("float32", "generic"), ("float64", "generic"),
+                                              ("float32", "specialised")])
+def test_stream_bit_identical_over_workers_and_outputs(sources, precision, kernel, device):
+    a = _stream(sources, device, precision=precision, kernel=kernel)
+    assert a.extra["kernel"] == kernel
     assert a.histogram.shape == (2, 3, 20, 20) and a.histogram.sum() > 0
-    _identical(a, _stream(sources, device, precision=precision))
-    _identical(a, _stream(sources, device, precision=precision, batch_histograms=True))
+    _identical(a, _stream(sources, device, precision=precision, kernel=kernel))
+    _identical(a, _stream(sources, device, precision=precision, kernel=kernel, batch_histograms=True))
     if device == "cpu":  # host threads, each with its own histogram replica
         for workers in (1, 2, 3):
-            _identical(a, _stream(sources, device, precision=precision, cpu_workers=workers))
+            _identical(a, _stream(sources, device, precision=precision, kernel=kernel, cpu_workers=workers))
 
 
 def test_stream_launch_split_and_threads_per_batch(sources, device):

@@ -15,7 +15,8 @@ Stated tolerances: float64 kernel = reference tracer (status, surface; values to
 1e-12 relative) on every 10th ray; float32 against float64 per ray:
 ``2e-4 mm + 2e-6 x L / N'`` (L the optical path, N' the final z direction cosine:
 :func:`stability_cases.f32_ray_bound_mm`) for rays not flagged grazing; at most 1 % of rays may change status between precisions (none did in 1000
-lenses). CI runs 50 derandomized examples; ``-m slow`` runs 400.
+lenses). CI runs 50 derandomized examples with the generic kernels; ``-m slow`` runs 400, and 8
+with the lens-specialised kernels (large GPU runs use those; one compile per lens shape).
 """
 from __future__ import annotations
 
@@ -34,10 +35,10 @@ SETTINGS = dict(deadline=None, derandomize=True, suppress_health_check=[HealthCh
                                                                          HealthCheck.filter_too_much])
 
 
-def _check(lens, seed: int) -> None:
+def _check(lens, seed: int, kernel: str = "auto") -> None:
     rays = random_rays(lens, 150, 50, seed)
     n = len(rays)
-    res = {p: trace(lens, rays, p, "cpu") for p in ("float64", "float32")}
+    res = {p: trace(lens, rays, p, "cpu", kernel=kernel) for p in ("float64", "float32")}
     for r in res.values():
         # no NaN or inf reaches an output, whatever happened to the ray
         assert finite(r.position_mm, r.direction, r.opl_mm, r.min_cos_incidence)
@@ -73,6 +74,14 @@ def test_random_prescriptions(lens, seed):
 @given(random_lens_strategy(), st.integers(0, 2**31 - 1))
 def test_random_prescriptions_many(lens, seed):
     _check(lens, seed)
+
+
+@pytest.mark.slow
+@settings(max_examples=8, **SETTINGS)
+@given(random_lens_strategy(), st.integers(0, 2**31 - 1))
+def test_random_prescriptions_specialised_kernel(lens, seed):
+    """The lens-specialised kernels (compiled per lens shape, ~2 s each on the CPU: few examples)."""
+    _check(lens, seed, kernel="specialised")
 
 
 def test_the_generator_makes_valid_varied_lenses():

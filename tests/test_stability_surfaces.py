@@ -176,8 +176,9 @@ def _hemisphere_entry(n: float = 1.5, radius_mm: float = 10.0):
                   Surface(thickness_mm=20.0, semi_diameter_mm=30.0))
 
 
+@pytest.mark.parametrize("kernel", ["generic", "specialised"])
 @pytest.mark.parametrize("precision,tol_dir", [("float64", 1e-12), ("float32", 1e-6)])
-def test_hemisphere_exit_snell_and_total_internal_reflection(precision, tol_dir, device):
+def test_hemisphere_exit_snell_and_total_internal_reflection(precision, tol_dir, kernel, device):
     """Collimated rays at height h leave the hemisphere at sin I = h / R, sin I' = n h / R;
     beyond h_c = R / n they are totally reflected at surface 2 (index 1)."""
     n, R = 1.5, 10.0
@@ -186,7 +187,7 @@ def test_hemisphere_exit_snell_and_total_internal_reflection(precision, tol_dir,
                         np.linspace(h_c * (1 + 1e-5), R * (1 - 1e-6), 40)])
     o, d = collimated(h)
     lens = _hemisphere_exit(n, R)
-    res = trace(lens, RayBatch(o, d, WL_D), precision, device)
+    res = trace(lens, RayBatch(o, d, WL_D), precision, device, kernel=kernel)
     assert finite(res.position_mm, res.direction, res.opl_mm)
     below = h < h_c
     assert np.all(res.status[below] == OK)
@@ -209,7 +210,7 @@ def test_hemisphere_exit_snell_and_total_internal_reflection(precision, tol_dir,
     assert leaves_steep.sum() >= 2
     assert np.all(res.grazing[below][leaves_steep]) and not np.any(res.grazing[below][leaves_ok])
     # the ray along the rim (h = R) meets the sphere tangentially: TIR or MISSED, never NaN
-    rim = trace(lens, RayBatch(*collimated(np.array([R])), WL_D), precision, device)
+    rim = trace(lens, RayBatch(*collimated(np.array([R])), WL_D), precision, device, kernel=kernel)
     assert rim.status[0] in (TIR, MISSED) and finite(rim.position_mm, rim.direction)
 
 

@@ -9,8 +9,9 @@
   in both precisions and in the reference, never NaN.
 * Extrapolation is reported: :meth:`Lens.check_wavelengths` issues an ExtrapolationWarning, and
   the entry points that take wavelengths call it -- loading a lens (its own wavelengths),
-  ``lensrt ray`` / ``info`` / ``sweep --wavelength-nm``, and ``trace.stream`` (the spectrum's
-  extent, which PSF, bokeh and render runs go through). Exactly at a range end: no warning.
+  ``lensrt ray`` / ``info`` / ``sweep`` / ``compare --wavelength-nm``, ``trace.stream`` (the
+  spectrum's extent: PSF, bokeh, light-splat renders) and camera-path renders (the scene's
+  spectral grid). Exactly at a range end: no warning.
 """
 from __future__ import annotations
 
@@ -135,3 +136,17 @@ def test_stream_warns_for_a_spectrum_beyond_the_glass_data(device):
     with warnings.catch_warnings():
         warnings.simplefilter("error", ExtrapolationWarning)
         stream(lens, [src], Grid(8, 8, 0.05), 1 << 10, precision="float32", device=device)
+
+
+def test_compare_and_render_warn_when_extrapolating():
+    """``lensrt compare --wavelength-nm`` and renders (their spectral grid, 380-780 nm in the
+    built-in scenes) check the lens's glasses too."""
+    from lensrt.commands.compare import compare_report
+    from lensrt.render.integrator import RenderOptions, prepare_render
+    from lensrt.render.scene import load_scene
+    lens = load_lens("codev_dblgauss_100mm_f2")
+    with pytest.warns(ExtrapolationWarning, match="extrapolated at 300 nm"):
+        compare_report(lens, (), (300.0,), rays=64, spot_rays=64, device="cpu")
+    cdgm = lens.replace_surface(0, material=find_glass("H-ZF52"))  # CDGM data start at 404.7 nm
+    with pytest.warns(ExtrapolationWarning, match="H-ZF52.*extrapolated at 380"):
+        prepare_render(load_scene("default"), cdgm, RenderOptions(width=8, pupil_bins=8), device="cpu")
