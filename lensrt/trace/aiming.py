@@ -52,6 +52,11 @@ __all__ = ["AIM_MODES", "FieldPoint", "PupilGeometry", "field_point", "pupil_geo
 
 AIM_MODES = ("paraxial", "chief", "real")
 
+#: continuation in field for rays that Newton's method cannot aim directly: base steps from the
+#: axis to the field, and how often a step may be halved for a ray that loses the path
+_CONTINUATION_STEPS = 8
+_CONTINUATION_HALVINGS = 4
+
 #: to_stop(origins (n, 3), directions (n, 3), wavelength_nm (n,)) -> (x (n,), y (n,), ok (n,) bool):
 #: where each ray meets the stop surface (stop frame), traced without clipping
 ToStop = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -136,10 +141,24 @@ def _field_point_object(lens: Lens, radial: float, ca: float, sa: float) -> Fiel
 
 
 def field_point(lens: Lens, hx: float, hy: float) -> FieldPoint:
-    """The field point named by normalised field coordinates (module docstring)."""
+    """The field point named by normalised field coordinates (module docstring).
+
+    An angle field with a finite object names the object point whose chief ray
+    makes that angle with the axis through the centre of the paraxial entrance
+    pupil (Zemax's and CODE V's definition, and the paraxial chief ray of
+    :func:`lensrt.paraxial.first_order.field_slope_and_height`): the point at
+    height -tan(angle) (object distance + z_EP), below the axis for a positive angle.
+    """
     h = math.hypot(hx, hy)
     ca, sa = (hx / h, hy / h) if h > 0.0 else (0.0, 1.0)  # exact zeros on the axes
     radial = _radial_to_object(lens, h * lens.fields.max_radial)
+    if lens.fields.kind == "angle" and not math.isinf(lens.object_distance_mm):
+        if abs(radial) >= 0.5 * math.pi:
+            raise LensrtError(f"field angle {math.degrees(radial):g} deg cannot come from an object plane at "
+                              f"{lens.object_distance_mm:g} mm", hint="field angles of a finite object are below 90 deg")
+        from ..paraxial import first_order
+        ep_z = first_order(lens).entrance_pupil_z_mm
+        radial = -math.tan(radial) * (lens.object_distance_mm + ep_z)
     return _field_point_object(lens, radial, ca, sa)
 
 
@@ -165,12 +184,17 @@ def pupil_geometry(lens: Lens) -> PupilGeometry:
 def beam_basis(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal e1, e2 perpendicular to unit ``w`` (..., 3): x and y rotated minimally onto w.
 
-    Smooth for every direction but exactly -z; on axis e1 = x, e2 = y.
+    Smooth for every direction but -z, where e1 = x, e2 = -y (a beam from straight behind);
+    on axis e1 = x, e2 = y.
     """
     wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
-    f = 1.0 / (1.0 + wz)
+    back = 1.0 + wz <= 1e-12
+    f = 1.0 / np.where(back, 1.0, 1.0 + wz)
     e1 = np.stack([1.0 - wx * wx * f, -wx * wy * f, -wx], axis=-1)
     e2 = np.stack([-wx * wy * f, 1.0 - wy * wy * f, -wy], axis=-1)
+    if np.any(back):
+        e1 = np.where(back[..., None], np.array([1.0, 0.0, 0.0]), e1)
+        e2 = np.where(back[..., None], np.array([0.0, -1.0, 0.0]), e2)
     return e1, e2
 
 
@@ -336,20 +360,39 @@ def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: 
     ab, ok = _newton(residual_for(target, wl, fp), ab0, scale)
     if ok.all():
         return ab, ok
-    # continuation: walk the field (and pupil) up from the axis for the rays that failed
+    # continuation: walk the field (and pupil) up from the axis for the rays that failed. Each
+    # step starts from the linear extrapolation of the ray's last two solutions; a step that a ray
+    # cannot follow (a fisheye near 90 deg, where few starts reach the stop) is halved for that
+    # ray, at most _CONTINUATION_HALVINGS times, before the ray is given up
     bad = np.nonzero(~ok)[0]
-    cur = np.zeros((len(bad), 2))
-    steps = 8
-    for k in range(1, steps + 1):
-        f = k / steps
-        res = residual_for(target[bad] * f, wl[bad], _scaled_field(fp, f))
-        cur_new, ok_k = _newton(res, cur, scale, max_iter=20)
-        if not ok_k.any():  # nothing follows the path: give up on these rays
-            return ab, ok
-        keep = np.nonzero(ok_k)[0]  # continue with the rays still on the path
-        bad, cur = bad[keep], cur_new[keep]
-    ab[bad] = cur
-    ok[bad] = True
+    m = len(bad)
+    f_at, ab_at = np.zeros(m), np.zeros((m, 2))
+    f_prev, ab_prev = np.full(m, np.nan), np.zeros((m, 2))
+    step = np.full(m, 1.0 / _CONTINUATION_STEPS)
+    alive = np.ones(m, dtype=bool)
+    while True:
+        act = np.nonzero(alive & (f_at < 1.0))[0]
+        if len(act) == 0:
+            break
+        f_next = np.minimum(f_at[act] + step[act], 1.0)
+        for fv in np.unique(f_next):
+            g = act[f_next == fv]
+            start = ab_at[g].copy()
+            known = np.isfinite(f_prev[g])
+            if known.any():
+                k = g[known]
+                slope = (ab_at[k] - ab_prev[k]) / (f_at[k] - f_prev[k])[:, None]
+                start[known] += slope * (fv - f_at[k])[:, None]
+            res = residual_for(target[bad[g]] * fv, wl[bad[g]], _scaled_field(fp, float(fv)))
+            new, ok_g = _newton(res, start, scale, max_iter=20)
+            good, fail = g[ok_g], g[~ok_g]
+            f_prev[good], ab_prev[good] = f_at[good], ab_at[good]
+            f_at[good], ab_at[good] = fv, new[ok_g]
+            step[fail] *= 0.5
+            alive[fail] = step[fail] >= 0.99 / (_CONTINUATION_STEPS * 2**_CONTINUATION_HALVINGS)
+    done = alive & (f_at >= 1.0)
+    ab[bad[done]] = ab_at[done]
+    ok[bad[done]] = True
     return ab, ok
 
 

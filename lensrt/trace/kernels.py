@@ -60,7 +60,7 @@ SRC_COLS = 28
 STAT_NAMES = ("n_ok", "sum_w", "sum_wx", "sum_wy", "sum_wxx", "sum_wyy", "sum_wxy", "sum_w_grid")
 N_STATS = len(STAT_NAMES)
 #: per-thread counts: one per ray status, then OK rays that fell outside the grid, then OK rays
-#: that met a surface at grazing incidence (> GRAZING_INCIDENCE_DEG)
+#: that met or left a surface at a grazing angle (> GRAZING_INCIDENCE_DEG, incidence or refraction)
 COUNT_NAMES = STATUS_NAMES + ("OUTSIDE_GRID", "GRAZING")
 N_COUNTS = len(COUNT_NAMES)
 

@@ -165,8 +165,9 @@ def _build_trace(wp, real, module, shape, table, Consts):
     # ---------------------------------------------------------------- pieces
     @func
     def quadric_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one, nearer the
-        # axis when both are); q / A is divided out only where it is on the vertex branch
+        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one; when both
+        # are, the one where the ray crosses toward the surface's +z side: t1 when B >= 0);
+        # q / A is divided out only where it is on the vertex branch
         F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
         B = N - c * (x * L + y * M + kp1 * z * N)
         A = c * (L * L + M * M + kp1 * N * N)
@@ -177,14 +178,10 @@ def _build_trace(wp, real, module, shape, table, Consts):
         u = c * kp1
         t1 = F / wp.where(q != real(0.0), q, real(1.0))
         v1 = real_roots and q != real(0.0) and u * (z + t1 * N) < real(1.0)
-        px1 = x + t1 * L
-        py1 = y + t1 * M
         lhs = u * (z * A + q * N)  # u (z + (q / A) N) < 1, multiplied by A
         v2 = real_roots and A != real(0.0) and wp.where(A > real(0.0), lhs < A, lhs > A)
         t2 = lazy_div(v2, q, A)
-        px2 = x + t2 * L
-        py2 = y + t2 * M
-        use2 = v2 and ((not v1) or px2 * px2 + py2 * py2 < px1 * px1 + py1 * py1)
+        use2 = v2 and ((not v1) or B < real(0.0))
         t = wp.where(use2, t2, wp.where(v1, t1, real(0.0)))
         return v1 or v2, t
 
@@ -197,14 +194,15 @@ def _build_trace(wp, real, module, shape, table, Consts):
     @func
     def refract_unit(L: real, M: real, N: real, nx: real, ny: real, nz: real, mu: real):
         # surfaces.refract with the ratio mu = n1 / n2 given, no angles, the result renormalised
-        # by unit_near_one; returns total internal reflection, L', M', N', cos I
+        # by unit_near_one; returns total internal reflection, L', M', N', min(cos I, cos I')
         ci = L * nx + M * ny + N * nz
         sg = wp.where(ci < real(0.0), real(-1.0), real(1.0))
         cos_i = ci * sg
         k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        g = wp.sqrt(wp.max(k, real(0.0))) - mu * cos_i
+        cos_r = wp.sqrt(wp.max(k, real(0.0)))
+        g = cos_r - mu * cos_i
         L2, M2, N2 = unit_near_one(mu * L + g * sg * nx, mu * M + g * sg * ny, mu * N + g * sg * nz)
-        return k < real(0.0), L2, M2, N2, cos_i
+        return k < real(0.0), L2, M2, N2, wp.where(k < real(0.0), cos_i, wp.min(cos_i, cos_r))
 
     # per-surface helpers that need the surface's constants at fixed offsets: built per surface
     def make_sag(i: int):
@@ -351,7 +349,8 @@ def _build_trace(wp, real, module, shape, table, Consts):
     def trace_fast(P: Consts, x0: real, y0: real, z0: real, L0: real, M0: real, N0: real, w2: real,
                    index_table: wp.array2d(dtype=real), row: int, plane_dz: real):
         """Trace one ray (surfaces.trace_ray with end = n_surfaces, no record); returns status,
-        surface, x, y, z (frame of the last surface met), L, M, N, opl, smallest cos(incidence)."""
+        surface, x, y, z (frame of the last surface met), L, M, N, opl, smallest cos of the angles of
+        incidence and refraction."""
         norm = wp.sqrt(L0 * L0 + M0 * M0 + N0 * N0)
         good = norm > real(0.0) and wp.isfinite(norm) and wp.isfinite(x0 + y0 + z0)
         x = x0
@@ -407,6 +406,8 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     nz = nz * ninv
             else:
                 st, t, nx, ny, nz = wp.static(asphere_fns[i])(P, x, y, z, L, M, N)
+            # met from behind (from the medium after it): no sequential path (surfaces.trace_ray)
+            st = wp.where(st == int(OK) and L * nx + M * ny + N * nz < real(0.0), int(MISSED), st)
             hit = alive and st == int(OK)
             status = wp.where(alive and not hit, st, status)
             where = wp.where(alive and not hit, i, where)
@@ -441,9 +442,9 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     valid = n2 > real(0.0)
                     status = wp.where(passed and not valid, int(INVALID), status)
                     where = wp.where(passed and not valid, i, where)
-                    tir, L2, M2, N2, cos_i = refract_unit(L, M, N, nx, ny, nz, mu)
+                    tir, L2, M2, N2, cos_ir = refract_unit(L, M, N, nx, ny, nz, mu)
                     go = passed and valid
-                    min_cos = wp.where(go, wp.min(min_cos, cos_i), min_cos)
+                    min_cos = wp.where(go, wp.min(min_cos, cos_ir), min_cos)
                     status = wp.where(go and tir, int(TIR), status)
                     where = wp.where(go and tir, i, where)
                     go = go and not tir

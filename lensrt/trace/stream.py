@@ -148,7 +148,7 @@ class StreamResult:
 
     def status_counts(self, source: int | None = None) -> dict[str, int]:
         """Rays per status (all sources, or one); ``OUTSIDE_GRID`` counts OK rays off the grid,
-        ``GRAZING`` OK rays that met a surface beyond 80 deg incidence (ill-conditioned)."""
+        ``GRAZING`` OK rays that met or left a surface beyond 80 deg (ill-conditioned)."""
         c = self.batch_counts.sum(axis=(0, 1)) if source is None else self.batch_counts[source].sum(axis=0)
         return {n: int(v) for n, v in zip(COUNT_NAMES, c)}
 
@@ -437,6 +437,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     variant = choose_kernel(kernel, dev, shape, S * B * n_b)
     want_hist = bool(histogram)
     spectrum = spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights) if spectrum is None else spectrum
+    lens.check_wavelengths([spectrum.wavelength_nm.min(), spectrum.wavelength_nm.max()])
     use_table = int(spectrum.mode == SPECTRUM_DISCRETE)
     table = index_table(lens, spectrum.wavelength_nm) if use_table else np.zeros((1, 1))
     if channels is None:
