@@ -8,13 +8,14 @@ histograms/counts over launch splits for every sampler):
 * streams: histograms (int64 fixed point), per-batch status counts and per-batch moment sums,
   repeated, with 1, 2 or 3 CPU worker threads, with or without per-batch histograms, with two
   sources on two layers, a continuous spectrum and spectral channels, in both precisions;
-* histograms and status counts also over different launch splits and threads per batch.
+* all of those also over different launch splits (moment sums are summed per slot -- a fixed run
+  of rays of one source and batch -- and the slots added in slot order), and for a source traced
+  alone or together with others when it carries its own seed and index (PSF maps group fields).
 
-What is not bit-identical, and how close it is: the per-batch *moment sums* (float64) over a
-different launch split or a different number of threads per batch -- each thread's partial
-sums are added in another grouping -- agree to 1e-15 relative (observed 3e-16: one or two ulp).
-The defaults fix both for a device (CPU: one thread per batch, launches of 2^22 rays), so the
-same call on the same device is bit-identical.
+What is not bit-identical, and how close it is: the per-batch *moment sums* (float64) with a
+different number of slots per batch (``threads_per_batch``: each slot's partial sums are added in
+another grouping) agree to 1e-15 relative (observed 3e-16: one or two ulp). The default slot
+layout depends on the rays per batch only.
 """
 from __future__ import annotations
 
@@ -91,17 +92,38 @@ def test_stream_bit_identical_over_workers_and_outputs(sources, precision, kerne
 
 
 def test_stream_launch_split_and_threads_per_batch(sources, device):
-    """Histograms and counts: bit-identical. Moment sums: to 1e-15 relative (module docstring);
-    the same split twice: bit-identical."""
+    """Launch splits: bit-identical, moment sums included. Another number of slots per batch:
+    histograms and counts bit-identical, moment sums to 1e-15 relative (module docstring)."""
     a = _stream(sources, device, threads_per_batch=4)
-    for kw in (dict(rays_per_launch=1000), dict(rays_per_launch=16 * 77), dict(threads_per_batch=2),
-               dict(threads_per_batch=4, device_reduce=True)):
+    for kw in (dict(rays_per_launch=1000), dict(rays_per_launch=16 * 77), dict(device_reduce=True)):
+        b = _stream(sources, device, threads_per_batch=4, **kw)
+        _identical(a, b)
+    split = _stream(sources, device, threads_per_batch=4, rays_per_launch=1000)
+    assert split.launches > a.launches
+    default = _stream(sources, device)
+    _identical(default, _stream(sources, device, rays_per_launch=500))
+    for kw in (dict(threads_per_batch=2), dict()):
         b = _stream(sources, device, **kw)
         _identical(a, b, stats=False)
         np.testing.assert_allclose(b.batch_stats, a.batch_stats, rtol=1e-15, atol=0)
-        _identical(b, _stream(sources, device, **kw))
-    split = _stream(sources, device, threads_per_batch=4, rays_per_launch=1000)
-    assert split.launches > a.launches
+
+
+def test_source_alone_or_in_a_group_gives_the_same_bits(sources, device):
+    """A source with its own seed and index traces the same rays whatever shares the launch: its
+    histogram layer, counts and moment sums are the same bits alone and in a group (own bin sizes)."""
+    from dataclasses import replace
+    own = [replace(s, seed=100 + j, rng_index=0, layer=j, pixel_mm=0.008 + 0.004 * j)
+           for j, s in enumerate(sources)]
+    together = _stream(own, device, batch_histograms=True)
+    for j, s in enumerate(own):
+        alone = _stream([replace(s, layer=0)], device, batch_histograms=True, seed=999)
+        assert np.array_equal(alone.histogram[0], together.histogram[j])
+        assert np.array_equal(alone.batch_histograms[0], together.batch_histograms[j])
+        assert np.array_equal(alone.batch_counts[0], together.batch_counts[j])
+        assert np.array_equal(alone.batch_stats[0], together.batch_stats[j])
+        assert alone.bins(0)["pixel_mm"] == together.bins(j)["pixel_mm"] == s.pixel_mm
+    # the group is not the two sources with the call's seed
+    assert not np.array_equal(together.histogram, _stream(sources, device, batch_histograms=True).histogram)
 
 
 def test_aiming_is_deterministic():

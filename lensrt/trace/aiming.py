@@ -48,7 +48,7 @@ from .reference import trace_reference
 from .status import OK
 
 __all__ = ["AIM_MODES", "FieldPoint", "PupilGeometry", "field_point", "pupil_geometry", "beam_basis",
-           "ray_through_point", "aim_rays", "reference_to_stop", "ToStop"]
+           "ray_through_point", "rays_through_points", "aim_rays", "chief_rays", "reference_to_stop", "ToStop"]
 
 AIM_MODES = ("paraxial", "chief", "real")
 
@@ -216,6 +216,79 @@ def ray_through_point(fp: FieldPoint, points_mm: np.ndarray) -> tuple[np.ndarray
     # step back from the aim point to the sphere |p - o| = |o|, without cancellation
     back = (np.sum(a * a, axis=1, keepdims=True) - 2.0 * (a @ o)[:, None]) / (dist + r0)
     return a - back * d, d
+
+
+def rays_through_points(fps, points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from field point ``fps[k]`` through ``points_mm[k]`` (n, 3), each row its own field point:
+    (origins, directions), as :func:`ray_through_point` gives them one field point at a time."""
+    a = np.atleast_2d(np.asarray(points_mm, dtype=np.float64))
+    inf = np.array([fp.infinite for fp in fps], dtype=bool)
+    d = np.empty_like(a)
+    o = np.empty_like(a)
+    if inf.any():
+        di = np.array([fp.direction for fp in fps if fp.infinite], dtype=np.float64)
+        ai = a[inf]
+        o[inf] = ai - np.sum(ai * di, axis=1, keepdims=True) * di
+        d[inf] = di
+    if (~inf).any():
+        ob = np.array([fp.point_mm for fp in fps if not fp.infinite], dtype=np.float64)
+        af = a[~inf]
+        v = af - ob
+        dist = np.linalg.norm(v, axis=1, keepdims=True)
+        df = v / dist
+        r0 = np.linalg.norm(ob, axis=1, keepdims=True)
+        back = (np.sum(af * af, axis=1, keepdims=True) - 2.0 * np.sum(af * ob, axis=1, keepdims=True)) / (dist + r0)
+        o[~inf] = af - back * df
+        d[~inf] = df
+    return o, d
+
+
+def aim_frames(fps, geom: PupilGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per field point: the centre C of the aim plane (the paraxial entrance pupil's centre, shared),
+    the beam axis w (n, 3) and the plane's basis e1, e2 (n, 3) -- :func:`_aim_frame` for many."""
+    c = np.array([0.0, 0.0, geom.ep_z_mm])
+    w = np.empty((len(fps), 3))
+    for k, fp in enumerate(fps):
+        if fp.infinite:
+            w[k] = fp.direction
+        else:
+            v = c - np.asarray(fp.point_mm, dtype=np.float64)
+            w[k] = v / np.linalg.norm(v)
+    e1, e2 = beam_basis(w)
+    return c, w, e1, e2
+
+
+def chief_rays(lens: Lens, fps, wavelength_nm: float | np.ndarray, to_stop: ToStop | None = None,
+               geometry: PupilGeometry | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Real chief rays (through the centre of the real stop) of many field points at once:
+    (origins, directions, aimed), one row per field point.
+
+    The Newton iteration of :func:`aim_rays` (``aim="real"``, pupil (0, 0)) runs on every field point
+    together, so the rays to the stop are traced in a few batched calls; a field point it cannot aim
+    directly falls back to :func:`aim_rays` alone (continuation in field).
+    """
+    fps = list(fps)
+    n = len(fps)
+    geom = pupil_geometry(lens) if geometry is None else geometry
+    wl = np.broadcast_to(np.asarray(wavelength_nm, dtype=np.float64), (n,)).copy()
+    to_stop = reference_to_stop(lens) if to_stop is None else to_stop
+    c, _, e1, e2 = aim_frames(fps, geom)
+
+    def residual(ab: np.ndarray, rows: np.ndarray):
+        pts = c + ab[:, :1] * e1[rows] + ab[:, 1:2] * e2[rows]
+        o, d = rays_through_points([fps[r] for r in rows], pts)
+        x, y, ok = to_stop(o, d, wl[rows])
+        r = np.stack([x, y], axis=1)
+        r[~ok] = 0.0
+        return r, ok
+
+    scale = max(geom.ep_radius_mm, geom.stop_radius_mm)
+    ab, ok = _newton(residual, np.zeros((n, 2)), scale)
+    o, d = rays_through_points(fps, c + ab[:, :1] * e1 + ab[:, 1:2] * e2)
+    for k in np.nonzero(~ok)[0]:  # continuation in field, one field point at a time
+        ok_k = aim_rays(lens, fps[k], np.zeros(1), np.zeros(1), wl[k], "real", to_stop, geom)
+        o[k], d[k], ok[k] = ok_k[0][0], ok_k[1][0], ok_k[2][0]
+    return o, d, ok
 
 
 def reference_to_stop(lens: Lens) -> ToStop:

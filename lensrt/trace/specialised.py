@@ -26,7 +26,7 @@ only where the result is unchanged to rounding:
 * Sellmeier terms share one division: sum b_j w^2 / d_j = w^2 (sum b_j prod_{k != j} d_k) / prod d_j;
 * the N-blade iris test uses the blades' normals (the largest projection of the
   point on them) instead of an arctangent and a cosine;
-* per-thread ray counts are int32 (a thread never traces 2^31 rays in one launch).
+* per-slot ray counts are int32 (a slot never holds 2^31 rays).
 
 Kernels are built on first use of a (precision, shape, options) key and cached
 in-process (``lru_cache``) and on disk (Warp's module cache, by content hash);
@@ -522,24 +522,25 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
     channels = bool(opts.channels)
     histogram = bool(opts.histogram)
     (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
-     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY) = (SRC[k] for k in SRC)
+     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY, _IDX, _IDY, _WSCALE) = (SRC[k] for k in SRC)
     assert N_STATS == 8 and N_COUNTS == 8
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
-    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real),
+    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
                           index_table: wp.array2d(dtype=real),
                           n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
-                          hist: wp.array(dtype=wp.int64), nx: int, ny: int, inv_dx: real, inv_dy: real,
+                          hist: wp.array(dtype=wp.int64), nx: int, ny: int,
                           n_layers: int, n_rep: int, hist_batches: int,
-                          seed: int, epoch: int, n_batches: int, threads_per_batch: int,
+                          epoch: int, n_batches: int, n_slots: int, slot_rays: int,
                           start: int, count: int, n_strata: int, tid_base: int, rep_base: int,
                           stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64)):
+        # one thread per slot (kernels.trace_stream's contract)
         tid = wp.tid() + tid_base
-        T = threads_per_batch
-        src = tid // (n_batches * T)
-        batch = (tid // T) % n_batches
-        lane = tid % T
+        q = tid % n_slots
+        g = tid // n_slots
+        src = g // n_batches
+        batch = g % n_batches
         rep = rep_base + tid % n_rep
         kind = int(sources[src, _KIND])
         ox = sources[src, _OX]
@@ -568,12 +569,19 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         layer = int(sources[src, _LAYER])
         refx = sources[src, _SX]
         refy = sources[src, _SY]
-        # one independent randomisation per (seed, source, batch, epoch), as in kernels.trace_stream
-        bseed = sm.hash_u32(u32(seed) ^ sm.hash_u32(u32(src * n_batches + batch) ^ sm.hash_u32(u32(epoch))))
+        inv_dx = sources[src, _IDX]
+        inv_dy = sources[src, _IDY]
+        wscale = sources[src, _WSCALE]
+        spec_off = src_int[src, 2]
+        spec_n = src_int[src, 3]
+        # one independent randomisation per (source seed, source index, batch, epoch), as in
+        # kernels.trace_stream
+        bseed = sm.hash_u32(u32(src_int[src, 0]) ^ sm.hash_u32(u32(src_int[src, 1] * n_batches + batch)
+                                                               ^ sm.hash_u32(u32(epoch))))
         wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
         rseed = int(bseed >> u32(1))
         plane_size = nx * ny
-        n_spec = spec_cdf.shape[0] - 1
+        n_strat = n_strata * n_strata
         hist_base = (((rep * n_layers + layer) * hist_batches + batch % hist_batches) * n_chan) * plane_size
         sw = wp.float64(0.0)
         swx = wp.float64(0.0)
@@ -590,8 +598,9 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         c_inv = int(0)
         c_out = int(0)
         c_graze = int(0)
-        k = lane
-        while k < count:
+        k = q * slot_rays
+        k_end = wp.min(k + slot_rays, count)
+        while k < k_end:
             # branch-free like trace_fast (see _build_trace): no value of one ray outlives it
             i = start + k
             u0 = real(0.0)
@@ -610,14 +619,16 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                 u1 = real(wp.randf(state))
                 uw = real(wp.randf(state))
                 if wp.static(sampler == 1):
-                    strat = i < n_strata * n_strata
+                    strat = i < n_strat
                     u0 = wp.where(strat, (real(i % n_strata) + u0) / real(n_strata), u0)
                     u1 = wp.where(strat, (real(i // n_strata) + u1) / real(n_strata), u1)
+                    # the wavelength stratified too (sampling.stratified_1d)
+                    uw = wp.where(strat, sm.stratified_1d(i, n_strat, uw, wseed), uw)
             pa = a0 + u0 * (a1 - a0)
             pb = b0 + u1 * (b1 - b0)
             # wavelength: the bin k with cdf[k] <= uw < cdf[k + 1] (sampling.sample_cdf)
-            lo = int(0)
-            hi = n_spec
+            lo = spec_off
+            hi = spec_off + spec_n
             while hi - lo > 1:
                 mid = (lo + hi) // 2
                 below = spec_cdf[mid] <= uw
@@ -646,7 +657,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
             dz = wp.where(point, vz / rs, wz)
             qq = dist / rs
             weight = wp.where(point, (dx * wx + dy * wy + dz * wz) * qq * qq, real(1.0))
-            weight = wp.where(kind == 1, weight * dz, weight)
+            weight = wp.where(kind == 1, weight * dz, weight) * wscale
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
@@ -688,7 +699,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                                 v = weight * cw * real(fixed_one) + real(0.5)
                                 if v >= real(1.0):
                                     wp.atomic_add(hist, base + c * plane_size, wp.int64(v))
-            k = k + T
+            k = k + 1
         stats[tid, 0] = wp.float64(c_ok)
         stats[tid, 1] = sw
         stats[tid, 2] = swx
