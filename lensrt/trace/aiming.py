@@ -259,13 +259,14 @@ def aim_frames(fps, geom: PupilGeometry) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def chief_rays(lens: Lens, fps, wavelength_nm: float | np.ndarray, to_stop: ToStop | None = None,
-               geometry: PupilGeometry | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               geometry: PupilGeometry | None = None, fallback: bool = True
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Real chief rays (through the centre of the real stop) of many field points at once:
     (origins, directions, aimed), one row per field point.
 
     The Newton iteration of :func:`aim_rays` (``aim="real"``, pupil (0, 0)) runs on every field point
     together, so the rays to the stop are traced in a few batched calls; a field point it cannot aim
-    directly falls back to :func:`aim_rays` alone (continuation in field).
+    directly falls back to :func:`aim_rays` alone (continuation in field) unless ``fallback`` is False.
     """
     fps = list(fps)
     n = len(fps)
@@ -285,7 +286,7 @@ def chief_rays(lens: Lens, fps, wavelength_nm: float | np.ndarray, to_stop: ToSt
     scale = max(geom.ep_radius_mm, geom.stop_radius_mm)
     ab, ok = _newton(residual, np.zeros((n, 2)), scale)
     o, d = rays_through_points(fps, c + ab[:, :1] * e1 + ab[:, 1:2] * e2)
-    for k in np.nonzero(~ok)[0]:  # continuation in field, one field point at a time
+    for k in np.nonzero(~ok)[0] if fallback else ():  # continuation in field, one field point at a time
         ok_k = aim_rays(lens, fps[k], np.zeros(1), np.zeros(1), wl[k], "real", to_stop, geom)
         o[k], d[k], ok[k] = ok_k[0][0], ok_k[1][0], ok_k[2][0]
     return o, d, ok

@@ -126,7 +126,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
                      hist: wp.array(dtype=wp.int64), nx: int, ny: int,
                      n_layers: int, n_rep: int, hist_batches: int,
                      sampler: int, epoch: int, n_batches: int, n_slots: int, slot_rays: int,
-                     start: int, count: int, n_strata: int,
+                     start: int, count: int, n_strata: int, n_wstrata: int,
                      tid_base: int, rep_base: int,
                      stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64),
                      rec: wp.array3d(dtype=real)):
@@ -176,7 +176,8 @@ def get_kernels(precision: str) -> SimpleNamespace:
         wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
         rseed = int(bseed >> u32(1))
         nsx = n_strata
-        n_strat = n_strata * n_strata
+        n_cells = n_strata * n_strata
+        n_strat = n_cells * n_wstrata
         plane_size = nx * ny
         # per-thread accumulators (fixed order of addition)
         n_ok = wp.float64(0.0)
@@ -200,7 +201,11 @@ def get_kernels(precision: str) -> SimpleNamespace:
         while k < k_end:
             i = start + k
             state = wp.rand_init(rseed, i)
-            u0, u1, state = sm.unit_square(sampler, i, nsx, nsx, bseed, state)
+            # stratified: n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
+            cell = i
+            if sampler == 1 and i < n_strat:
+                cell = i % n_cells
+            u0, u1, state = sm.unit_square(sampler, cell, nsx, nsx, bseed, state)
             pa, pb, pdf = sm.box(u0, u1, a0, a1, b0, b1)
             uw = real(0.0)
             if sampler == 2:
@@ -208,7 +213,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
             else:
                 uw = real(wp.randf(state))
                 if sampler == 1 and i < n_strat:
-                    uw = sm.stratified_1d(i, n_strat, uw, wseed)
+                    uw = (real(i // n_cells) + uw) / real(n_wstrata)
             wl, line, wl_pdf = sm.sample_spectrum(uw, spec_mode, spec_nm, spec_cdf, spec_off, spec_n)
             row = int(-1)
             if use_table != 0:

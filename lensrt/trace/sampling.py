@@ -8,9 +8,10 @@ Point sets on the unit square (one function per kind, selected by
 ``stratified``
     jittered: the first ``nx * ny`` points of a batch (``nx = ny = floor(sqrt(n))``)
     take one random point in each cell of an nx x ny grid; any rest are random. The
-    stream kernel stratifies the wavelength of those points too, in one dimension
-    (``nx * ny`` strata of the spectrum's CDF, paired with the pupil cells by a random
-    permutation per batch, :func:`permute` -- pbrt's "padding" of sample dimensions);
+    stream kernel stratifies the wavelength too: ``nw`` strata of the spectrum's CDF,
+    each with its own ``nx * ny`` jittered pupil grid (a 3-D jittered grid; ``nw`` = the
+    number of lines of a discrete spectrum, about n^(1/3) for a tabulated one:
+    :func:`lensrt.trace.stream.strata`);
 ``sobol``
     the first two Sobol' dimensions with Owen scrambling and index shuffling
     (hash-based nested uniform scrambling, B. Burley, "Practical Hash-based Owen
@@ -251,52 +252,6 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                 u1 = (real(cy) + u1) / real(n_strata_y)
         return u0, u1, state
 
-    K_E170893D = _i32(0xE170893D)
-    K_0929EB3F = _i32(0x0929EB3F)
-    K_6935FA69 = _i32(0x6935FA69)
-    K_74DCB303 = _i32(0x74DCB303)
-    K_9E501CC3 = _i32(0x9E501CC3)
-    K_C860A3DF = _i32(0xC860A3DF)
-
-    @func
-    def permute(i: wp.uint32, n: wp.uint32, p: wp.uint32) -> wp.uint32:
-        # a pseudo-random permutation of 0 .. n-1 keyed by p (A. Kensler, "Correlated Multi-Jittered
-        # Sampling", Pixar 2013): a hash that is a bijection on the next power of two, cycle-walked
-        w = n - u32(1)
-        w = w | (w >> u32(1))
-        w = w | (w >> u32(2))
-        w = w | (w >> u32(4))
-        w = w | (w >> u32(8))
-        w = w | (w >> u32(16))
-        done = bool(False)
-        while not done:
-            i = i ^ p
-            i = i * u32(K_E170893D)
-            i = i ^ (p >> u32(16))
-            i = i ^ ((i & w) >> u32(4))
-            i = i ^ (p >> u32(8))
-            i = i * u32(K_0929EB3F)
-            i = i ^ (p >> u32(23))
-            i = i ^ ((i & w) >> u32(1))
-            i = i * (u32(1) | (p >> u32(27)))
-            i = i * u32(K_6935FA69)
-            i = i ^ ((i & w) >> u32(11))
-            i = i * u32(K_74DCB303)
-            i = i ^ ((i & w) >> u32(2))
-            i = i * u32(K_9E501CC3)
-            i = i ^ ((i & w) >> u32(2))
-            i = i * u32(K_C860A3DF)
-            i = i & w
-            i = i ^ (i >> u32(5))
-            done = i < n
-        return (i + p) % n
-
-    @func
-    def stratified_1d(i: int, n: int, jitter: real, seed: wp.uint32) -> real:
-        """Point i (< n) of a 1-D jittered set of n strata, the strata in a random order keyed by seed
-        (the "padding" of a 2-D stratified set with an independently stratified dimension)."""
-        return (real(permute(u32(i), u32(n), seed)) + jitter) / real(n)
-
     @func
     def box(u0: real, u1: real, a0: real, a1: real, b0: real, b1: real):
         """Uniform point in [a0, a1) x [b0, b1): returns a, b, pdf."""
@@ -366,8 +321,7 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
         return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
 
-    ns = SimpleNamespace(hash_u32=hash_u32, permute=permute, stratified_1d=stratified_1d,
-                         sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
+    ns = SimpleNamespace(hash_u32=hash_u32, sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
                          sobol_dim1_reversed=sobol_dim1_reversed,
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
                          unit_square=unit_square, box=box, concentric_disk=concentric_disk, sample_cdf=sample_cdf)

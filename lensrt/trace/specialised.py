@@ -533,7 +533,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                           hist: wp.array(dtype=wp.int64), nx: int, ny: int,
                           n_layers: int, n_rep: int, hist_batches: int,
                           epoch: int, n_batches: int, n_slots: int, slot_rays: int,
-                          start: int, count: int, n_strata: int, tid_base: int, rep_base: int,
+                          start: int, count: int, n_strata: int, n_wstrata: int, tid_base: int, rep_base: int,
                           stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64)):
         # one thread per slot (kernels.trace_stream's contract)
         tid = wp.tid() + tid_base
@@ -581,7 +581,8 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
         rseed = int(bseed >> u32(1))
         plane_size = nx * ny
-        n_strat = n_strata * n_strata
+        n_cells = n_strata * n_strata
+        n_strat = n_cells * n_wstrata
         hist_base = (((rep * n_layers + layer) * hist_batches + batch % hist_batches) * n_chan) * plane_size
         sw = wp.float64(0.0)
         swx = wp.float64(0.0)
@@ -619,11 +620,12 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                 u1 = real(wp.randf(state))
                 uw = real(wp.randf(state))
                 if wp.static(sampler == 1):
+                    # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
                     strat = i < n_strat
-                    u0 = wp.where(strat, (real(i % n_strata) + u0) / real(n_strata), u0)
-                    u1 = wp.where(strat, (real(i // n_strata) + u1) / real(n_strata), u1)
-                    # the wavelength stratified too (sampling.stratified_1d)
-                    uw = wp.where(strat, sm.stratified_1d(i, n_strat, uw, wseed), uw)
+                    cell = i % n_cells
+                    u0 = wp.where(strat, (real(cell % n_strata) + u0) / real(n_strata), u0)
+                    u1 = wp.where(strat, (real(cell // n_strata) + u1) / real(n_strata), u1)
+                    uw = wp.where(strat, (real(i // n_cells) + uw) / real(n_wstrata), uw)
             pa = a0 + u0 * (a1 - a0)
             pb = b0 + u1 * (b1 - b0)
             # wavelength: the bin k with cdf[k] <= uw < cdf[k + 1] (sampling.sample_cdf)

@@ -58,7 +58,7 @@ from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kerne
 from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "pupil_boxes",
-           "stream_source", "stream_sources", "stream", "slot_layout", "EMITTERS"]
+           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS"]
 
 EMITTERS = ("lambertian", "isotropic")
 _EPOCH = 1 << 30
@@ -352,6 +352,20 @@ def slot_layout(rays_per_batch: int, threads_per_batch: int | None = None) -> tu
     return per, -(-n_b // per)
 
 
+def strata(rays_per_batch: int, spectra: Sequence[Spectrum]) -> tuple[int, int]:
+    """(wavelength strata, pupil strata per side) of the stratified sampler: one wavelength stratum per
+    line of a discrete spectrum (of the call's spectra with the most lines) -- equal-weight lines then
+    each get a whole jittered pupil grid -- and about the cube root of the rays per batch for a
+    tabulated one (a 3-D jittered grid); the pupil grid fills the rest."""
+    n_b = int(rays_per_batch)
+    if spectra[0].mode == SPECTRUM_DISCRETE:
+        n_w = max(len(sp.wavelength_nm) for sp in spectra)
+    else:
+        n_w = max(1, round(n_b ** (1.0 / 3.0)))
+    n_w = max(1, min(n_w, n_b))
+    return n_w, max(1, math.isqrt(n_b // n_w))
+
+
 def _spectrum_tables(lens: Lens, spectra: Sequence[Spectrum]):
     """Concatenated wavelength, CDF and index tables of ``spectra`` (each n + 1 entries), offsets, counts."""
     mode = spectra[0].mode
@@ -524,7 +538,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, want_hist),
                              GPU_TUNING[precision] if is_gpu else DEFAULT_TUNING)
         pconst = params(spec, consts, dev)
-    n_strata = int(math.isqrt(n_b))
+    n_wstrata, n_strata = strata(n_b, spectra)
     launches = 0
     pool = ThreadPoolExecutor(replicas) if (not is_gpu and replicas > 1) else None
     if is_gpu:
@@ -545,10 +559,10 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                 common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src, src_i,
                           int(mode), spec_nm, spec_cdf, use_table, tab,
                           chan_mode, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          code, int(epoch), B, ns, slot_rays, int(local), int(count), n_strata]
+                          code, int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
             else:
                 common = [pconst, src, src_i, spec_nm, spec_cdf, tab, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          int(epoch), B, ns, slot_rays, int(local), int(count), n_strata]
+                          int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
 
             def run(w: int) -> None:
                 extra = [bounds[w], w if not is_gpu else 0, stats, counts]
