@@ -18,6 +18,9 @@ array operations -- the same numbers to rounding, at a fraction of the cost
   bisection bracketed by the radial profile (:func:`ee_radii_jackknife`).
 
 The jackknife variance is ``(B - 1) / B * sum_i (theta_i - mean)^2`` (Efron & Stein 1981).
+Matrix-vector products go through ``numpy.einsum`` (its own loops, one thread) rather than
+BLAS: for arrays this small a multi-threaded BLAS spends more time starting threads than
+computing, and many PSFs are analysed side by side.
 """
 from __future__ import annotations
 
@@ -31,6 +34,11 @@ from .grid import ImageGrid
 
 __all__ = ["jackknife_se", "moment_jackknife", "mtf_jackknife", "geometric_radius_jackknife",
            "ee_radii_jackknife"]
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """a . b of two vectors without BLAS (module docstring)."""
+    return float(np.einsum("i,i->", a, b))
 
 
 def jackknife_se(loo: np.ndarray) -> np.ndarray:
@@ -73,9 +81,9 @@ def _otf_sums(hb: np.ndarray, grid: ImageGrid, fx: np.ndarray, fy: np.ndarray) -
     cx, cy = grid.centre_mm
     ex = np.exp(-2j * np.pi * np.outer(fx, grid.x_mm - cx))  # (F, cols)
     ey = np.exp(-2j * np.pi * np.outer(fy, grid.y_mm - cy))  # (F, rows)
-    b, rows, cols = hb.shape
-    a = (hb.reshape(b * rows, cols) @ ex.T).reshape(b, rows, -1)  # (B, rows, F)
-    return np.einsum("brf,fr->bf", a, ey)
+    # separable: sum over columns with ex, then rows with ey (real and imaginary parts, no BLAS)
+    a = np.einsum("brc,fc->bfr", hb, ex.real) + 1j * np.einsum("brc,fc->bfr", hb, ex.imag)  # (B, F, rows)
+    return np.einsum("bfr,fr->bf", a, ey)
 
 
 def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], angles_rad: Sequence[float],
@@ -116,8 +124,8 @@ def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid) -> tuple[float, 
     if not S > 0:
         return 0.0, 0.0
     sb = flat.sum(axis=1)
-    sx_b, sy_b = flat @ gx, flat @ gy
-    sx, sy = float(H @ gx), float(H @ gy)
+    sx_b, sy_b = np.einsum("bp,p->b", flat, gx), np.einsum("bp,p->b", flat, gy)
+    sx, sy = float(sx_b.sum()), float(sy_b.sum())
     cx, cy = sx / S, sy / S
     lit_n = np.count_nonzero(flat > 0, axis=0)
     lit = lit_n > 0
@@ -157,7 +165,7 @@ class _Annulus:
             sx = self.ax[cut, None] + self.r.ox[None, :]
             sy = self.ay[cut, None] + self.r.oy[None, :]
             f[cut] = np.mean(sx * sx + sy * sy <= r * r, axis=1)
-        return self.e_inner + float(self.h @ f)
+        return self.e_inner + _dot(self.h, f)
 
 
 def _radius_bisect(rings, H: np.ndarray, target: float, tol: float) -> float:
@@ -196,15 +204,16 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     H = flat_b.sum(axis=0)
     hs = H.sum()
     gx, gy = (v.ravel() for v in grid.mesh_mm())
-    c = (float(H @ gx / hs), float(H @ gy / hs))
+    sx_b, sy_b, s_b = np.einsum("bp,p->b", flat_b, gx), np.einsum("bp,p->b", flat_b, gy), flat_b.sum(axis=1)
+    sx, sy = float(_dot(H, gx)), float(_dot(H, gy))
+    c = (sx / hs, sy / hs)
     d = 0.25 * grid.pitch_mm
     rings = _Rings(grid, c, 4)
     shifted = [_Rings(grid, (c[0] + dx, c[1] + dy), 4) for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d))]
-    sx_b, sy_b, s_b = flat_b @ gx, flat_b @ gy, flat_b.sum(axis=1)
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
-        cx_i = (H @ gx - sx_b) / rest
-        cy_i = (H @ gy - sy_b) / rest
+        cx_i = (sx - sx_b) / rest
+        cy_i = (sy - sy_b) / rest
     out: dict[float, tuple[float, float]] = {}
     for frac in fractions:
         if hs < frac * total:
@@ -212,13 +221,13 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
         full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm)
         w = rings.fractions(full)
         lo = max(full - d, 0.0)
-        dedr = float(H @ (rings.fractions(full + d) - rings.fractions(lo))) / (full + d - lo)
+        dedr = float(_dot(H, rings.fractions(full + d) - rings.fractions(lo))) / (full + d - lo)
         if not dedr > 0:
             out[frac] = (full, 0.0)
             continue
-        grad = [float(H @ (shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
-                float(H @ (shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
-        e = float(H @ w) - flat_b @ w + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
+        grad = [float(_dot(H, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
+                float(_dot(H, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
+        e = float(_dot(H, w)) - np.einsum("bp,p->b", flat_b, w) + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
         loo = np.where(rest > 0, full + (frac * (total - tot_b) - e) / dedr, full)
         out[frac] = (full, float(jackknife_se(loo)))
     return out

@@ -88,7 +88,7 @@ def _shared_boxes(lens, camera, lights: list[dict], wls, device: str) -> list:
     ray passes): every light's centre and rim points in one batched pupil-box search, cached per
     (lens, stop, wavelengths, lights, device) -- the boxes do not change between passes or renders."""
     from ..trace.stream import PupilBox, pupil_boxes
-    key = (lens, float(camera.stop_radius_mm), tuple(float(w) for w in wls), str(device),
+    key = (lens, camera.stop_radius_mm, tuple(float(w) for w in wls), str(device),
            tuple((tuple(float(v) for v in li["centre"]), float(li["radius"])) for li in lights))
     hit = _BOX_CACHE.get(key)
     if hit is not None:
@@ -169,6 +169,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     yb = -0.5 * rows * sen.pitch_y_mm + (iy + 0.5) * sen.pitch_y_mm
     pr, pc = sen.pixel_of(xb, yb)
     order = (np.rint(pr).astype(np.int64) * cols + np.rint(pc).astype(np.int64)).ravel()
+    gather = np.argsort(order, kind="stable")     # stored pixel p <- histogram bin gather[p]
     wls = [float(plan.wavelength_nm)] if not plan.spectral else [g.min_nm, 0.5 * (g.min_nm + g.max_nm), g.max_nm]
     all_lights = _light_list(scene)
     lights = []
@@ -219,7 +220,7 @@ def render_splat(scene, lens, plan, options, progress=None):
         t0 = time.perf_counter()
         ps = pass_seed(seed, acc.passes)
         rng = np.random.default_rng(ps)
-        img = np.zeros((nb + 3, rows * cols))
+        img = None
         for kind in kinds:
             group = [L for L in lights if L["spec"].mode == kind]
             top = max(L["scale"] for L in group)
@@ -236,8 +237,9 @@ def render_splat(scene, lens, plan, options, progress=None):
             res = stream(lens, srcs, grid, n_src, spectrum=[L["spec"] for L in group], channels=chans,
                          sampler="sobol", seed=(ps + 7919 * kind) & 0x7FFFFFFF, batches=2, precision="float32",
                          device=dev, stop_radius_mm=cam.stop_radius_mm)
-            h = res.histogram[0].reshape(nb + 3, -1)
-            img[:, order] += h * (top / (res.rays_per_source * area_m2))
+            part = np.take(res.histogram[0].reshape(nb + 3, -1), gather, axis=1)
+            part *= top / (res.rays_per_source * area_m2)
+            img = part if img is None else img + part
             rays_done += res.rays_total
             kernel_s += float(res.extra.get("kernel_seconds", res.seconds))
         spec_pass = img[:nb].T.astype(np.float32)

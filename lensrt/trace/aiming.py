@@ -218,20 +218,25 @@ def ray_through_point(fp: FieldPoint, points_mm: np.ndarray) -> tuple[np.ndarray
     return a - back * d, d
 
 
-def rays_through_points(fps, points_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rays from field point ``fps[k]`` through ``points_mm[k]`` (n, 3), each row its own field point:
+def rays_through_points(fps, points_mm: np.ndarray, rows: np.ndarray | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from field point ``fps[rows[k]]`` (``fps[k]`` without ``rows``) through ``points_mm[k]`` (n, 3):
     (origins, directions), as :func:`ray_through_point` gives them one field point at a time."""
     a = np.atleast_2d(np.asarray(points_mm, dtype=np.float64))
-    inf = np.array([fp.infinite for fp in fps], dtype=bool)
+    idx = np.arange(len(fps)) if rows is None else np.asarray(rows)
+    inf_f = np.array([fp.infinite for fp in fps], dtype=bool)
+    dirs = np.array([fp.direction if fp.infinite else (0.0, 0.0, 1.0) for fp in fps], dtype=np.float64)
+    objs = np.array([(0.0, 0.0, 0.0) if fp.infinite else fp.point_mm for fp in fps], dtype=np.float64)
+    inf = inf_f[idx]
     d = np.empty_like(a)
     o = np.empty_like(a)
     if inf.any():
-        di = np.array([fp.direction for fp in fps if fp.infinite], dtype=np.float64)
+        di = dirs[idx[inf]]
         ai = a[inf]
         o[inf] = ai - np.sum(ai * di, axis=1, keepdims=True) * di
         d[inf] = di
     if (~inf).any():
-        ob = np.array([fp.point_mm for fp in fps if not fp.infinite], dtype=np.float64)
+        ob = objs[idx[~inf]]
         af = a[~inf]
         v = af - ob
         dist = np.linalg.norm(v, axis=1, keepdims=True)
@@ -277,7 +282,7 @@ def chief_rays(lens: Lens, fps, wavelength_nm: float | np.ndarray, to_stop: ToSt
 
     def residual(ab: np.ndarray, rows: np.ndarray):
         pts = c + ab[:, :1] * e1[rows] + ab[:, 1:2] * e2[rows]
-        o, d = rays_through_points([fps[r] for r in rows], pts)
+        o, d = rays_through_points(fps, pts, rows)
         x, y, ok = to_stop(o, d, wl[rows])
         r = np.stack([x, y], axis=1)
         r[~ok] = 0.0

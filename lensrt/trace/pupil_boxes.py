@@ -118,7 +118,7 @@ def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray,
     B = np.tile(gb, (1, n))
     src = np.repeat(np.arange(S), n * n)
     pts = c[None, :] + A.reshape(-1, 1) * e1[src] + B.reshape(-1, 1) * e2[src]
-    o, d = rays_through_points([fps[k] for k in src], pts)
+    o, d = rays_through_points(fps, pts, src)
     ok = np.zeros((S, n * n), dtype=bool)
     foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
     for wl in wls:
