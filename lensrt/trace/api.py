@@ -198,9 +198,9 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     else:
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(run, range(workers)))
-    o = out.numpy().astype(np.float64)
-    st = status.numpy().astype(np.int32)
-    sf = surface.numpy().astype(np.int32)
+    o = out.numpy().astype(np.float64, copy=False)
+    st = status.numpy().astype(np.int32, copy=False)
+    sf = surface.numpy().astype(np.int32, copy=False)
     seconds = time.perf_counter() - t0
     vz = lens.vertex_z_mm()
     frame = np.where(st == OK, end, np.clip(sf, 0, n_surf))
