@@ -189,8 +189,8 @@ def run_psf_map(setup: PsfSetup, fields: Sequence[FieldSpec], seed: int = 0, exe
 
 #: sizes of the benchmark workload (``--size``): key=value pairs override the "tiny" preset; ``groups``
 #: work items (groups of fields; the map is the same bits for any number). "large" keeps one H100
-#: busy for about 8 s (8.1e10 rays at 1.07e10 rays/s) against about 1.6 s of host set-up and analysis
-#: (measured with 1e8 rays per field: 2.4 s in all, 0.76 s of it on the GPU).
+#: busy for about 7.6 s (8.1e10 rays at 1.07e10 rays/s): 9.5 s in all on one H100, the rest host
+#: set-up and analysis (benchmarks/results/bench_multigpu_1gpu_h100.txt).
 WORKLOAD_PRESETS: dict[str, dict] = {
     "tiny": {"lens": "dgauss_50mm_f2", "grid": 3, "rays": 1 << 14, "wavelengths": 1, "pixels": 32,
              "sensor": "full-frame", "precision": "float32", "sampler": "sobol", "groups": 3},
