@@ -139,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     rms = [r.estimates["rms_radius_mm"] for r in pmap.results]
 
     def row(d: dict) -> dict:
-        return {"wall_s": d["wall_s"], "kernel_s": d["kernel_s"], "setup_s": d["setup_s"], "analysis_s": d["analysis_s"],
+        return {"wall_s": d["wall_s"], "kernel_s": d["kernel_s"], "setup_s": d["setup_s"],
+                "analysis_s": d["analysis_s"],
                 "kernel_rays_per_s": n_rays / d["kernel_s"], "wall_rays_per_s": n_rays / d["wall_s"]}
 
     out = {

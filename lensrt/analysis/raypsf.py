@@ -47,7 +47,8 @@ from .psf import PsfResult, geometric_psf
 from .psf_setup import PsfSetup
 from .psf_rays import field_xy_of, pupil_grid_rays
 
-__all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry", "round_seed",
+__all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry",
+           "round_seed",
            "psf_window", "psf_windows", "add_mtf_estimates", "psf_from_stream"]
 
 #: smallest automatic half-width of a geometric PSF grid (mm): 2 um

@@ -108,7 +108,8 @@ def run_tile_item(item, prep, device: str) -> TileResult:
 
 @dataclass(frozen=True)
 class TileReduction:
-    """Places :class:`TileResult` s into the image; finishes as :class:`RenderSums` (a :class:`lensrt.parallel.Reduction`)."""
+    """Places :class:`TileResult` s into the image; finishes as :class:`RenderSums`
+    (a :class:`lensrt.parallel.Reduction`)."""
 
     n_pixels: int
     n_bands: int

@@ -45,7 +45,8 @@ from .sampling import sampling_funcs
 from .status import GRAZING_COS, OK, STATUS_NAMES
 from .surfaces import surface_funcs
 
-__all__ = ["get_kernels", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "SRC_INT", "SRC_INT_COLS", "N_STATS", "STAT_NAMES",
+__all__ = ["get_kernels", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "SRC_INT", "SRC_INT_COLS", "N_STATS",
+           "STAT_NAMES",
            "N_COUNTS", "COUNT_NAMES", "RAY_IN_COLS", "RAY_OUT_COLS"]
 
 #: histogram weights are stored as round(weight * 2^FIXED_POINT_BITS) in int64

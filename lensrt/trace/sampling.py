@@ -321,7 +321,8 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
         return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
 
-    ns = SimpleNamespace(hash_u32=hash_u32, sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
+    ns = SimpleNamespace(hash_u32=hash_u32, sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen,
+                         sobol_dim1=sobol_dim1,
                          sobol_dim1_reversed=sobol_dim1_reversed,
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
                          unit_square=unit_square, box=box, concentric_disk=concentric_disk, sample_cdf=sample_cdf)
