@@ -214,7 +214,9 @@ def cmd_converge(args: argparse.Namespace) -> int:
     samplers = _names(args.samplers, q.samplers, "--samplers") or [s for s in ("random", "stratified", "sobol")
                                                                     if s in q.samplers]
     precisions = _names(args.precisions, q.precisions, "--precisions") or list(q.precisions)
-    data = converge(q, counts, samplers, precisions, repeats=args.repeats, seed=args.seed, reference=ref)
+    from ._parallel import progress_printer
+    data = converge(q, counts, samplers, precisions, repeats=args.repeats, seed=args.seed, reference=ref,
+                    progress=None if args.json else progress_printer(args, "converge: runs"))
     data["lens"] = getattr(getattr(q, "lens", None), "name", None) or args.file
     data["command"] = "lensrt converge " + " ".join(_argv_of(args))
     if args.out:
