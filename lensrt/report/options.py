@@ -64,12 +64,12 @@ QUALITIES: dict[str, Quality] = {q.name: q for q in (
     Quality("draft", compare_rays=1 << 12, spot_rays=1 << 10, psf_grid=(3, 3), psf_rays=1 << 14, psf_pixels=64,
             mtf_fields=4, mtf_rays=1 << 14, mtf_freqs=33, mtf_method="geometric", bokeh_grid=(5, 3),
             bokeh_width_px=480, bokeh_rays=20_000),
-    Quality("normal", compare_rays=1 << 16, spot_rays=1 << 14, psf_grid=(5, 5), psf_rays=1 << 18, psf_pixels=96,
-            mtf_fields=7, mtf_rays=1 << 18, mtf_freqs=65, mtf_method="auto", bokeh_grid=(9, 6),
-            bokeh_width_px=900, bokeh_rays=200_000),
+    Quality("normal", compare_rays=1 << 16, spot_rays=1 << 14, psf_grid=(7, 7), psf_rays=1 << 18, psf_pixels=96,
+            mtf_fields=9, mtf_rays=1 << 19, mtf_freqs=65, mtf_method="auto", bokeh_grid=(9, 6),
+            bokeh_width_px=900, bokeh_rays=500_000),
     Quality("high", compare_rays=1 << 18, spot_rays=1 << 16, psf_grid=(9, 9), psf_rays=1 << 20, psf_pixels=128,
-            mtf_fields=9, mtf_rays=1 << 20, mtf_freqs=81, mtf_method="auto", bokeh_grid=(9, 6),
-            bokeh_width_px=1350, bokeh_rays=1_000_000),
+            mtf_fields=11, mtf_rays=1 << 20, mtf_freqs=81, mtf_method="auto", bokeh_grid=(9, 6),
+            bokeh_width_px=1350, bokeh_rays=2_000_000),
 )}
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ..io.table import Table
-from .model import ReportContext, Section
+from .model import Figure, ReportContext, Section
 
 __all__ = ["lens_section", "first_order_section"]
 
@@ -32,16 +32,17 @@ def lens_section(ctx: ReportContext, sec: Section) -> None:
     for f in facts:
         sec.text(f)
     rows, headers = lens_table(lens)
-    sec.table(Table(rows, headers, digits=4,
-                    title=f"Surfaces (z of the image surface {lens.image_z_mm:.4f} mm from surface 1; "
-                          "* semi-diameter computed)"))
+    table = Table(rows, headers, digits=4, title=f"Surfaces (image surface at z = {lens.image_z_mm:.4f} mm from "
+                                                  "surface 1; * semi-diameter computed)")
     sec.data["surfaces"] = [dict(zip(headers, r)) for r in rows]
     hy = [f.hy for f in lens_fields(lens)]
     path = plot_layout(ctx.path("layout.png"), lens, hy, lens.wavelengths.primary_nm, device=ctx.device,
                        title=lens.name or "")
-    sec.figure(path, "Cross-section to the clear apertures with meridional ray bundles at each field of the lens "
-                     "(rays spread over the vignetted pupil, primary wavelength); the stop and the image surface "
-                     "are marked.", wide=True)
+    fig = Figure(path.name, "Cross-section to the clear apertures with meridional ray bundles at each field of the "
+                            "lens (rays spread over the vignetted pupil, primary wavelength); the stop and the "
+                            "image surface are marked.")
+    fig.wide = True
+    sec.blocks += [("figure", fig), ("table", table)]
 
 
 def _last_finite(a) -> float:
