@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="pixel pitch for the system MTF and the MTF curves' range (default 4.0)")
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--quality", choices=list(QUALITIES), default="normal",
-                   help="sample counts: draft (a quick look), normal (default), high (smoother figures, ~10x "
+                   help="sample counts: draft (a quick look), normal (default), high (smoother figures, about 4x "
                         "longer); README 'Lens report' lists them")
     m.add_argument("--time-budget", type=float, default=None, metavar="S",
                    help="seconds for the PSF map and MTF together: each field point gets its share as a "

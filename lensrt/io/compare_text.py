@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .table import Table, format_table
+from .table import Table
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..analysis.compare import Comparison

@@ -169,7 +169,7 @@ def _blocks(blocks: list) -> str:
     return "".join(out)
 
 
-def _kv(rows: list[tuple[str, str]], raw: set[str] = frozenset()) -> str:
+def _kv(rows: list[tuple[str, str]], raw: frozenset[str] = frozenset()) -> str:
     cells = "".join(f"<tr><th>{_e(k)}</th><td>{v if k in raw else _e(v)}</td></tr>" for k, v in rows)
     return f'<table class="kv"><tbody>{cells}</tbody></table>'
 
@@ -196,10 +196,10 @@ def render_html(report: "Report") -> str:
         status = (f'<div class="status ok">All {n_ok} sections made'
                   + (f" ({len(skipped)} skipped)" if skipped else "") + f" in {report.seconds:.0f} s.</div>")
     fno = f"f/{o.f_number:g} (stopped down)" if o.f_number else f"f/{s['f_number']:.3g} (the lens file's)"
-    facts = [("lens file", str(s.get("path") or "-")), ("sensor", o.sensor), ("focus", _focus_text(report)), ("aperture", fno),
-             ("quality", f"{o.quality}: compare {q.compare_rays} rays per field, PSF map {q.psf_grid[0]} x "
-                         f"{q.psf_grid[1]} x {q.psf_rays} rays, MTF {q.mtf_fields} fields x {q.mtf_rays} rays, "
-                         f"bokeh {q.bokeh_grid[0]} x {q.bokeh_grid[1]} x 2 sources x {q.bokeh_rays} rays"
+    facts = [("lens file", str(s.get("lens_file") or s.get("path") or "-")), ("sensor", o.sensor), ("focus", _focus_text(report)), ("aperture", fno),
+             ("quality", f"{o.quality}: compare {q.compare_rays:,} rays per field, PSF map {q.psf_grid[0]} x "
+                         f"{q.psf_grid[1]} x {q.psf_rays:,} rays, MTF {q.mtf_fields} heights x {q.mtf_rays:,} rays, "
+                         f"bokeh {q.bokeh_grid[0]} x {q.bokeh_grid[1]} cells x 2 sources x {q.bokeh_rays:,} rays"
                          + (f"; time budget {o.time_budget_s:g} s for PSF and MTF" if o.time_budget_s else "")),
              ("device", report.device_name),
              ("precision", f"{o.precision} Monte Carlo kernels (PSF, MTF, bokeh); float64 for the paraxial-against-"
@@ -276,7 +276,7 @@ def _run_html(report: "Report") -> str:
         rows.append(("lens changed", n))
     times = Table([[sec.title, "skipped" if sec.data.get("skipped") else ("ok" if sec.ok else "failed"),
                     sec.seconds] for sec in report.sections], ["section", "outcome", "seconds"], digits=1)
-    return ('<section id="run"><h2>How this report was made</h2>' + _kv(rows, raw={"command line"})
+    return ('<section id="run"><h2>How this report was made</h2>' + _kv(rows, raw=frozenset({"command line"}))
             + html_table(times)
             + '<ul class="files"><li><a href="report.json"><code>report.json</code></a> \u2014 everything on this page '
               "and more (all tables' data, the full paraxial-against-real comparison, every Monte Carlo record, "

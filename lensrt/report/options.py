@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..errors import LensrtError
@@ -102,6 +102,8 @@ class ReportOptions:
         paraxial-against-real section are always float64.
     seed : int
         Seed of every Monte Carlo estimate.
+    command_line : str
+        How the report was asked for (shown on the page).
     """
 
     quality: str = "normal"
@@ -115,7 +117,6 @@ class ReportOptions:
     precision: str = "float32"
     seed: int = 0
     command_line: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from ..paraxial.photographic import sensor_format

@@ -108,6 +108,20 @@ def _lens_summary(lens) -> dict[str, Any]:
             "length_mm": lens.length_mm}
 
 
+def _lens_file_text(path) -> str:
+    """A library lens by its name, any other file by its path."""
+    from ..library import library_dir
+    if not path:
+        return "-"
+    p = Path(path).resolve()
+    try:
+        if p.parent == library_dir().resolve():
+            return f"{p.stem} (lensrt's lens library, {p.name})"
+    except Exception:  # noqa: BLE001 - a missing library folder is no reason to fail here
+        pass
+    return str(path)
+
+
 def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None, *,
                  skip: Sequence[str] = (), stream=None, quiet: bool = False) -> Report:
     """Run the report's sections on ``lens`` and write ``index.html`` and ``report.json`` into ``out_dir``.
@@ -168,6 +182,7 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     except Exception as err:  # noqa: BLE001 - the headline numbers are a convenience, never a failure
         report.summary["key_numbers_error"] = f"{type(err).__name__}: {err}"
     report.summary["path"] = str(lens.path) if lens.path else None
+    report.summary["lens_file"] = _lens_file_text(lens.path)
     report.summary["source"] = lens.source
     report.seconds = time.perf_counter() - t0
     report.json_path = out / "report.json"

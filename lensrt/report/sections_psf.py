@@ -58,7 +58,6 @@ def psf_section(ctx: ReportContext, sec: Section) -> None:
     setup = make_setup(ctx.lens, None, psf_focus(ctx), ctx.device, **opts)
     half = 0.5 * fmt.diagonal_mm
     radius, why = usable_image_radius(ctx, setup.plane_z_mm, half)
-    pmap = None
     for attempt, shrink in enumerate((1.0, 0.8, 0.6)):
         scale = shrink * radius / half
         grid_sensor = o.sensor if scale == 1.0 else f"{fmt.width_mm * scale:.4g}x{fmt.height_mm * scale:.4g}"
