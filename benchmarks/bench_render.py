@@ -57,7 +57,7 @@ def _case(name: str, scene, opts, repeat: int) -> dict:
             "paths_per_cpu_s": best.samples / best.cpu_seconds if best.cpu_seconds > 0 else float("nan"),
             "setup_s": setup, "first_run_wall_s": first_wall, "rel_error": rel,
             "image_Y_lux": None if img is None else [img.value, img.stderr], "device": best.device,
-            "setup_detail": best.setup_seconds}
+            "setup_detail": best.setup_seconds, "kernel_s": getattr(best, "kernel_seconds", None)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -118,6 +118,18 @@ def main(argv: list[str] | None = None) -> int:
               "-" if r["rel_error"] is None else f"{r['rel_error']:.3g}"] for r in rows]
     print(format_table(table, ["case", "kernel", "pixels", "spp", "bands", "seconds", "paths/s", "paths/CPU s", "set-up s",
                                "first run s", "rel. err"]))
+    splat = [r for r in rows if r["mode"] == "light_splat"]
+    cam = [r for r in rows if r["case"].strip().startswith("night street: camera")]
+    if splat and cam and splat[0]["rel_error"] and cam[0]["rel_error"]:
+        a, b = splat[0], cam[0]
+        # Monte Carlo error falls as 1/sqrt(time): the time each path needs for the other's error
+        t_cam = b["seconds"] * (b["rel_error"] / a["rel_error"]) ** 2
+        t_splat = a["seconds"] * (a["rel_error"] / b["rel_error"]) ** 2
+        print(f"night street, equal error: light splat {a['seconds']:.3g} s at rel. err {a['rel_error']:.3g} "
+              f"(GPU/kernel {a['kernel_s'] or float('nan'):.3g} s); camera paths need ~{t_cam:.3g} s for that error "
+              f"({b['seconds']:.3g} s at {b['rel_error']:.3g}); at the camera paths' error the splat needs "
+              f"~{t_splat:.3g} s: {'light splat' if t_cam > a['seconds'] else 'camera paths'} is faster by "
+              f"{max(t_cam / a['seconds'], a['seconds'] / t_cam):.3g}x")
     main_row = rows[0]
     print(f"per image: {main_row['seconds']:.3g} s for {main_row['pixels']} px x {main_row['spp']} spp "
           f"({main_row['paths_per_s']:.3g} paths/s)")

@@ -22,13 +22,15 @@ def complete_lens(lens: Lens) -> Lens:
     (:func:`lensrt.trace.apertures.compute_clear_apertures`, float64 reference
     tracer on the host -- no kernel is compiled), with the paraxial estimate as
     the fallback where real rays fail; the method used is recorded in
-    ``lens.meta["clear_apertures"]``.
+    ``lens.meta["clear_apertures"]``. The lens's wavelengths are checked against its
+    glasses' measured ranges (:meth:`Lens.check_wavelengths`: an ExtrapolationWarning each).
     """
     with located(lens.path):
         if any(s.semi_diameter_mm is None for s in lens.surfaces):
             from .trace.apertures import compute_clear_apertures
             lens = compute_clear_apertures(lens)
         check_geometry(lens)
+    lens.check_wavelengths(lens.wavelengths.nm)  # warns where a glass's formula is extrapolated
     return lens
 
 

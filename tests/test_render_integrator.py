@@ -224,6 +224,24 @@ def test_render_job_workload_reduces_in_pass_order():
     assert one.passes == 4 and np.all(np.isfinite(one.xyz_stderr))
 
 
+def test_tiled_render_job_equals_the_pass_job_and_the_in_process_render():
+    """Tiles with all their passes summed on the device: the same bits as items of one pass each (any
+    number of tiles, one or two devices) and as the one-device render's irradiance."""
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.workloads import get_workload
+    passes = LocalExecutor("cpu").run(get_workload("render")("tiles=0", 3)).value
+    for tiles, devices in ((1, "cpu"), (5, "cpu,cpu")):
+        job = get_workload("render")(f"tiles={tiles}", 3)
+        assert len(job.items) == tiles
+        v = LocalExecutor(devices).run(job).value
+        for f in ("spec_sum", "xyz", "xyz_stderr", "passes", "samples_per_pixel", "hits"):
+            assert np.array_equal(getattr(passes, f), getattr(v, f)), (tiles, f)
+    setup = job.context
+    scene = setup.scene
+    r = render(scene, options=RenderOptions(width=64, spp_per_pass=2, samples_per_pixel=8, seed=3, device="cpu"))
+    assert np.array_equal(r.irradiance, v.irradiance(setup.shape, setup.n_bands))
+
+
 def test_stop_rules_samples_time_and_target_error():
     scene, opts = _small_default()
     r = render(scene, options=opts)
@@ -290,6 +308,44 @@ def test_light_splat_agrees_with_camera_paths():
     rs, cs = np.unravel_index(np.argmax(ys), ys.shape)
     rc, cc = np.unravel_index(np.argmax(yc), yc.shape)
     assert abs(rs - rc) <= 1 and abs(cs - cc) <= 1
+
+
+LAMPS_SCENE = SPHERE_SCENE.replace('name = "one lamp"', 'name = "three lamps"').replace(
+    "spectrum = { line_nm = 550.0 }", "spectrum = { gaussian_nm = 550, fwhm_nm = 20 }") + """
+[[light]]
+name = "warm"
+type = "sphere"
+position = [-0.6, -0.2, -6.0]
+radius = 0.15
+spectrum = "A"
+radiance_scale = 20.0
+[[light]]
+name = "small"
+type = "sphere"
+position = [0.0, 0.0, -10.0]
+radius = 0.08
+spectrum = { gaussian_nm = 620, fwhm_nm = 30 }
+radiance_scale = 300.0
+"""
+
+
+def test_light_splat_of_many_lights_in_one_launch_agrees_with_camera_paths():
+    """Three sphere lights of different sizes and spectra (two gaussians, illuminant A): the splat traces
+    them in one launch per pass, each source with its own spectrum and scale; per region
+    around each lamp and in all, the power equals the camera paths' (4 standard errors)."""
+    scene = loads_scene(LAMPS_SCENE)
+    s = render(scene, options=RenderOptions(device="cpu", samples_per_pixel=64))
+    assert s.mode == "light_splat" and "3 light(s)" in s.notes[0]
+    c = render(scene, options=RenderOptions(device="cpu", samples_per_pixel=1024, spp_per_pass=128,
+                                            window=(0, 32, 0, 48)))
+    ps, pc = s.regions["image"], c.regions["image"]
+    assert abs(ps.value - pc.value) < 4.0 * math.hypot(ps.stderr, pc.stderr)
+    ys, yc = s.xyz[..., 1], c.xyz[..., 1]
+    es, ec = s.xyz_stderr[..., 1], c.xyz_stderr[..., 1]
+    for r0, r1, c0, c1 in ((0, 16, 24, 48), (16, 32, 0, 24)):   # the lamp top right, the warm one bottom left
+        a, b = ys[r0:r1, c0:c1].sum(), yc[r0:r1, c0:c1].sum()
+        ea, eb = np.sqrt((es[r0:r1, c0:c1] ** 2).sum()), np.sqrt((ec[r0:r1, c0:c1] ** 2).sum())
+        assert a > 0 and abs(a - b) < 4.0 * math.hypot(ea, eb) + 1e-3 * b
 
 
 def test_light_splat_lamp_lands_top_right():

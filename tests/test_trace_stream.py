@@ -210,3 +210,51 @@ def test_batch_histograms_feed_the_psf_analysis(device):
     rms, se = res.rms_radius()
     # the analysis's RMS radius from the same moment sums agrees with the stream's own estimate
     assert abs(float(psf.estimates["rms_radius_mm"].value) - rms) < 1e-9 + 1e-6 * rms
+
+
+def test_stratified_wavelength_steepens_the_convergence(device):
+    """The stratified sampler stratifies the wavelength too (a jittered pupil grid per line): on a lens
+    with longitudinal colour, the RMS radius converges faster than N^-1/2 and faster than random."""
+    from lensrt.stats import fit_loglog_slope
+    lens = library_lens("cooke_triplet_50mm_f5")
+    src = stream_source(lens, 0.0, 0.0, device=device)
+    slopes, last = {}, {}
+    for sampler in ("random", "stratified"):
+        ns, err = [], []
+        for n in (1 << 10, 1 << 12, 1 << 14):
+            r = stream(lens, [src], Grid(8, 8, 0.01), 32 * n, sampler=sampler, seed=1, batches=32,
+                       precision="float32", device=device, histogram=False)
+            s = r.batch_stats[0]
+            w = s[:, 1]
+            rms = np.sqrt(s[:, 4] / w - (s[:, 2] / w) ** 2 + s[:, 5] / w - (s[:, 3] / w) ** 2)
+            ns.append(n)
+            err.append(rms.std(ddof=1))
+        slopes[sampler], last[sampler] = fit_loglog_slope(ns, err), err[-1]
+    assert -0.65 < slopes["random"] < -0.35
+    assert slopes["stratified"] < -0.6
+    assert last["stratified"] < 0.5 * last["random"]
+
+
+def test_sources_with_their_own_spectra_and_weights_in_one_launch(device):
+    """Each source samples its own spectrum (one of the call's) and carries a weight factor: in one
+    launch, the same rays as launches of one spectrum each (weights scale histogram and moments)."""
+    from dataclasses import replace
+    lens = library_lens(DG)
+    a, b = (stream_source(lens, 0.0, hy, device=device) for hy in (0.0, 0.6))
+    sa = spectrum_continuous([480.0, 560.0, 650.0], [1.0, 3.0])
+    sb = spectrum_continuous([500.0, 520.0, 600.0, 640.0], [2.0, 1.0, 1.0])
+    kw = dict(sampler="sobol", batches=4, precision="float32", device=device)
+    grid = Grid(24, 24, 0.01)
+    both = stream(lens, [replace(a, seed=7, rng_index=0, layer=0), replace(b, seed=8, rng_index=0, layer=1,
+                                                                            spectrum=1, weight=0.25)],
+                  grid, 1 << 12, spectrum=[sa, sb], **kw)
+    one_a = stream(lens, [a], grid, 1 << 12, spectrum=sa, seed=7, **kw)
+    one_b = stream(lens, [b], grid, 1 << 12, spectrum=sb, seed=8, **kw)
+    assert np.array_equal(both.histogram[0], one_a.histogram[0])
+    assert np.array_equal(both.batch_stats[0], one_a.batch_stats[0])
+    assert np.array_equal(both.batch_counts[1], one_b.batch_counts[0])
+    np.testing.assert_allclose(both.histogram[1], 0.25 * one_b.histogram[0], rtol=0, atol=2e-7 * 4096)
+    np.testing.assert_allclose(both.batch_stats[1][:, 1:], 0.25 * one_b.batch_stats[0][:, 1:], rtol=1e-6)
+    assert both.flux_per_ray(1) == pytest.approx(one_b.flux_per_ray(0))
+    with pytest.raises(Exception, match="spectrum"):
+        stream(lens, [replace(a, spectrum=2)], grid, 1 << 10, spectrum=[sa, sb], **kw)

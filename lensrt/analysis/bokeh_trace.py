@@ -14,13 +14,9 @@ stream launch.
   rotationally symmetric lens maps azimuths one to one, so one radial solve
   serves every azimuth.
 * :func:`pupil_boxes` -- the box of each source's *real* (vignetted) entrance
-  pupil, exactly as :func:`lensrt.trace.stream.pupil_box` builds it (a
-  128 x 128 grid over everything that passes surface 1, then 64 x 64 over what
-  passed -- maps use 64 and 48; every aperture and the iris; the shortest, a
-  middle and the longest wavelength), but for all sources in one trace per
-  wavelength and pass; the
-  passing rays are traced to the sensor plane, which gives each source's
-  *footprint* (the bounding box of its blur spot) for free.
+  pupil and its *footprint* on the sensor plane (the bounding box of its blur
+  spot): :func:`lensrt.trace.stream.pupil_boxes` (maps use grids of 64 and 48;
+  the shortest, a middle and the longest wavelength).
 * :func:`stream_windows` -- one stream launch for many sources, each binned
   into its own histogram layer: a window of the frame's pixel grid around its
   footprint. Each source is scaled to sensor illuminance by its own pupil box
@@ -176,123 +172,20 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
 
 # ---- pupil boxes of many sources ------------------------------------------------------------
 
-def _aim_frames(lens: Lens, obj: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Aim-plane centre (the paraxial EP centre) and per source the beam axis w and basis e1, e2."""
-    from ..trace.aiming import beam_basis, pupil_geometry
-    c = np.array([0.0, 0.0, pupil_geometry(lens).ep_z_mm])
-    v = c[None, :] - obj
-    w = v / np.linalg.norm(v, axis=1, keepdims=True)
-    e1, e2 = beam_basis(w)
-    return c, w, e1, e2
-
-
-def _surface1_boxes(lens: Lens, obj: np.ndarray, c: np.ndarray, w: np.ndarray, e1: np.ndarray,
-                    e2: np.ndarray) -> np.ndarray:
-    """(S, 4) boxes a0, a1, b0, b1 in each aim plane that hold every ray passing surface 1."""
-    s1 = lens.surfaces[0]
-    sd = s1.semi_diameter_mm
-    if sd is None:  # pragma: no cover - load_lens fills semi-diameters
-        raise LensrtError("bokeh sources need the first surface's clear semi-diameter")
-    phi = np.linspace(0.0, 2.0 * np.pi, 181)
-    rim = np.concatenate([np.stack([sd * np.cos(phi), sd * np.sin(phi), np.full_like(phi, z)], axis=1)
-                          for z in (0.0, float(s1.sag(min(sd, s1.max_semi_diameter_mm))))])
-    v = rim[None, :, :] - obj[:, None, :]  # (S, M, 3)
-    along = np.einsum("smk,sk->sm", v, w)
-    dist = np.einsum("sk,sk->s", c[None, :] - obj, w)
-    bad = np.any(along <= 0.0, axis=1) | (dist <= 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        proj = obj[:, None, :] + v * (dist[:, None] / along)[:, :, None] - c[None, None, :]
-    a = np.einsum("smk,sk->sm", proj, e1)
-    b = np.einsum("smk,sk->sm", proj, e2)
-    pad = 0.02 * (a.max(axis=1) - a.min(axis=1) + b.max(axis=1) - b.min(axis=1))
-    out = np.stack([a.min(axis=1) - pad, a.max(axis=1) + pad, b.min(axis=1) - pad, b.max(axis=1) + pad], axis=1)
-    out[bad] = np.array([-10.0 * sd, 10.0 * sd, -10.0 * sd, 10.0 * sd])
-    return out
-
-
-def _grid_pass(lens: Lens, obj: np.ndarray, c: np.ndarray, e1: np.ndarray, e2: np.ndarray, box: np.ndarray,
-               n: int, wls: list[float], plane_z_mm: float, trace_kw: dict, device: str | None):
-    """Trace an n x n grid over each source's box at every wavelength.
-
-    Returns (lo, hi, cell, footprint): per source the min/max aim coordinates (a, b) of the
-    passing grid points (inf/-inf when none passed), the cell size (a, b) and the footprint
-    x_min, x_max, y_min, y_max of the passing rays on the plane.
-    """
-    S = len(obj)
-    t = (np.arange(n) + 0.5) / n
-    ga = box[:, 0:1] + t[None, :] * (box[:, 1:2] - box[:, 0:1])  # (S, n)
-    gb = box[:, 2:3] + t[None, :] * (box[:, 3:4] - box[:, 2:3])
-    A = np.repeat(ga, n, axis=1)  # (S, n*n): rays of source k are the k-th row
-    B = np.tile(gb, (1, n))
-    src = np.repeat(np.arange(S), n * n)
-    pts = c[None, :] + A.reshape(-1, 1) * e1[src] + B.reshape(-1, 1) * e2[src]
-    o, d = _rays_from_points(obj[src], pts)
-    ok = np.zeros((S, n * n), dtype=bool)
-    foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
-    for wl in wls:
-        res = _trace(lens, o, d, wl, device, plane_z_mm=plane_z_mm, **trace_kw)
-        got = res.ok.reshape(S, n * n)
-        ok |= got
-        for k in (0, 1):
-            v = res.position_mm[:, k].reshape(S, n * n)
-            foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
-            foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
-    lo = np.stack([np.where(ok, A, np.inf).min(axis=1), np.where(ok, B, np.inf).min(axis=1)], axis=1)
-    hi = np.stack([np.where(ok, A, -np.inf).max(axis=1), np.where(ok, B, -np.inf).max(axis=1)], axis=1)
-    cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
-    return lo, hi, cell, foot
-
-
-def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
-    """The passing region's bounds padded by 1.5 cells, within ``box``; unchanged where nothing passed."""
-    lit = np.isfinite(lo[:, 0])
-    out = box.copy()
-    out[:, 0] = np.where(lit, np.maximum(lo[:, 0] - 1.5 * cell[:, 0], box[:, 0]), box[:, 0])
-    out[:, 1] = np.where(lit, np.minimum(hi[:, 0] + 1.5 * cell[:, 0], box[:, 1]), box[:, 1])
-    out[:, 2] = np.where(lit, np.maximum(lo[:, 1] - 1.5 * cell[:, 1], box[:, 2]), box[:, 2])
-    out[:, 3] = np.where(lit, np.minimum(hi[:, 1] + 1.5 * cell[:, 1], box[:, 3]), box[:, 3])
-    return out
-
-
 def pupil_boxes(lens: Lens, obj: np.ndarray, wavelengths_nm: Sequence[float], plane_z_mm: float, *,
                 iris: Iris | None = None, stop_radius_mm: float | None = None, device: str | None = None,
                 coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0) -> tuple[list, np.ndarray]:
-    """Real pupil boxes of the object points ``obj`` (S, 3) and their footprints on the plane.
-
-    ``min_cells_across_pupil`` raises ``coarse`` (up to 128) until the coarse grid has that
-    many cells across the paraxial entrance pupil's diameter.
+    """Real pupil boxes of the object points ``obj`` (S, 3) and their footprints on the plane
+    z = ``plane_z_mm``: :func:`lensrt.trace.stream.pupil_boxes` with ``footprint=True``.
 
     Returns (boxes, footprint): a :class:`lensrt.trace.stream.PupilBox` per source
     (area 0 when nothing passes) and (S, 4) footprint bounds x_min, x_max, y_min, y_max
-    (mm; NaN when nothing passes) of the passing grid rays on the plane z = ``plane_z_mm``.
+    (mm; NaN when nothing passes) of the passing grid rays on the plane.
     """
-    from ..trace.stream import PupilBox
-    obj = np.atleast_2d(np.asarray(obj, dtype=np.float64))
-    c, w, e1, e2 = _aim_frames(lens, obj)
-    wls = sorted({float(v) for v in wavelengths_nm})
-    kw = {"iris": iris, "stop_radius_mm": stop_radius_mm}
-    box1 = _surface1_boxes(lens, obj, c, w, e1, e2)
-    if min_cells_across_pupil:
-        # a front element much larger than the pupil (wide angles, fisheyes): more coarse cells, so
-        # the coarse pass has several across the paraxial pupil (up to 128, the stream's own count)
-        from ..trace.aiming import pupil_geometry
-        width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
-        need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
-        coarse = max(coarse, min(128, need))
-    lo, hi, cell, foot = _grid_pass(lens, obj, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
-    lit = np.isfinite(lo[:, 0])
-    box2 = _shrink(box1, lo, hi, cell)
-    lo2, hi2, cell2, foot2 = _grid_pass(lens, obj, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device)
-    lit2 = np.isfinite(lo2[:, 0])
-    final = _shrink(box2, lo2, hi2, cell2)  # a sliver the fine grid missed keeps the coarse box
-    foot = np.where(lit2[:, None], foot2, foot)
-    boxes = []
-    for k in range(len(obj)):
-        a0, a1, b0, b1 = (float(v) for v in final[k]) if lit[k] else (0.0, 0.0, 0.0, 0.0)
-        boxes.append(PupilBox(tuple(float(v) for v in c), tuple(float(v) for v in w[k]),
-                              tuple(float(v) for v in e1[k]), tuple(float(v) for v in e2[k]), a0, a1, b0, b1))
-    foot[~lit] = np.nan
-    return boxes, foot
+    from ..trace.stream import pupil_boxes as batched
+    return batched(lens, np.atleast_2d(np.asarray(obj, dtype=np.float64)), wavelengths_nm, plane_z_mm=plane_z_mm,
+                   iris=iris, stop_radius_mm=stop_radius_mm, device=device, coarse=coarse, fine=fine,
+                   min_cells_across_pupil=min_cells_across_pupil, footprint=True)
 
 
 # ---- streaming many sources into windows of one frame -------------------------------------

@@ -79,23 +79,45 @@ class ChiefTable:
 
 @lru_cache(maxsize=16)
 def _table(lens: Lens, plane_z_mm: float, h_max: float, n: int, device: str | None) -> ChiefTable:
-    from ..trace.aiming import field_point
-    from .psf_rays import chief_ray_at
+    from ..trace import RayBatch, trace
+    from ..trace.aiming import aim_rays, chief_rays, field_point
+    from ..trace.api import kernel_to_stop
     if lens.fields.max_radial <= 0:
         raise LensrtError("the lens file declares only the axial field: off-axis points cannot be named",
                           hint="add a field to the lens file ([fields])")
     wl = lens.wavelengths.primary_nm
-    hs, ys = [0.0], [0.0]
-    for h in np.linspace(0.0, h_max, n)[1:]:
+    hs_all = np.linspace(0.0, h_max, n)[1:]
+    fps = []
+    for h in hs_all:
         try:
-            r = chief_ray_at(lens, field_point(lens, 0.0, float(h)), [wl], plane_z_mm, device)
+            fps.append(field_point(lens, 0.0, float(h)))
         except LensrtError:
             break
-        y = float(r.position_mm[0, 1])
-        if abs(y) <= abs(ys[-1]) or (len(ys) > 1 and np.sign(y) != np.sign(ys[-1])):
-            break  # no longer monotonic: the end of the usable coverage
-        hs.append(float(h))
-        ys.append(y)
+    hs_all = hs_all[:len(fps)]
+    # every chief ray of the table in one batched Newton solve and one trace (no per-field fallback:
+    # the table ends at the first field that cannot be aimed, which then gets the slow path alone)
+    to_stop = kernel_to_stop(lens, device)
+    o, d, aimed = chief_rays(lens, fps, wl, to_stop, fallback=False) if fps else (np.zeros((0, 3)),) * 2 + (
+        np.zeros(0, dtype=bool),)
+    hs, ys = [0.0], [0.0]
+    for k, h in enumerate(hs_all):
+        if not aimed[k]:
+            ok_k = aim_rays(lens, fps[k], np.zeros(1), np.zeros(1), wl, "real", to_stop)
+            if not ok_k[2][0]:
+                break
+            o[k], d[k], aimed[k] = ok_k[0][0], ok_k[1][0], True
+    good = np.nonzero(~aimed)[0]
+    m = int(good[0]) if len(good) else len(fps)
+    if m:
+        r = trace(lens, RayBatch(o[:m], d[:m], np.full(m, wl)), "float64", device, clip=False, plane_z_mm=plane_z_mm)
+        for k in range(m):
+            if not r.ok[k]:
+                break
+            y = float(r.position_mm[k, 1])
+            if abs(y) <= abs(ys[-1]) or (len(ys) > 1 and np.sign(y) != np.sign(ys[-1])):
+                break  # no longer monotonic: the end of the usable coverage
+            hs.append(float(hs_all[k]))
+            ys.append(y)
     if len(hs) < 3:
         raise LensrtError("the real chief ray cannot be traced off axis: no field mapping")
     return ChiefTable(np.array(hs), np.array(ys), float(plane_z_mm))

@@ -302,16 +302,14 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
     ref = np.asarray(reference_mm, dtype=np.float64)
     tang = tangential_angle_rad(tuple(ref))
     if moment_sums is not None:
+        from .psf_jackknife import moment_jackknife
         s = np.asarray(moment_sums, dtype=np.float64)
         if s.shape != (nb, len(MOMENT_KEYS)):
             raise LensrtError(f"moment sums must be ({nb}, {len(MOMENT_KEYS)}), not {s.shape}")
-        stat = {"centroid_x_mm": lambda t: _moments(t)[0] + ref[0],
-                "centroid_y_mm": lambda t: _moments(t)[1] + ref[1],
-                "rms_radius_mm": lambda t: math.sqrt(max(_moments(t)[2] + _moments(t)[4], 0.0)),
-                "rms_tangential_mm": lambda t: _directional_rms(t, tang),
-                "rms_sagittal_mm": lambda t: _directional_rms(t, tang + 0.5 * math.pi)}
-        for name, fn in stat.items():
-            ests[name] = est(*jackknife(s, fn), "mm")
+        if not s[:, 0].sum() > 0:
+            raise LensrtError("no rays reached the image plane")
+        for name, (v, se) in moment_jackknife(s, ref, tang).items():
+            ests[name] = est(v, se, "mm")
     else:
         from .energy import second_moments_mm2
 
@@ -327,15 +325,17 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
                 "rms_sagittal_mm": lambda t: hm(t, tang + 0.5 * math.pi)}
         for name, fn in stat.items():
             ests[name] = est(*jackknife(h, fn), "mm", jk + " (from the histogram)")
-    ests["geometric_radius_mm"] = est(*jackknife(h, lambda t: _geometric_radius(t, grid)), "mm",
+    from .psf_jackknife import ee_radii_jackknife, geometric_radius_jackknife
+    ests["geometric_radius_mm"] = est(*geometric_radius_jackknife(h, grid), "mm",
                                       jk + " (extreme value: indicative)")
     skipped = []
+    ee = ee_radii_jackknife(h, off, grid, ee_fractions)
     for frac in ee_fractions:
         key = f"ee{int(round(100 * frac))}_radius_mm"
-        if h.sum() < frac * total:
+        if frac not in ee:
             skipped.append(key)
             continue
-        ests[key] = est(*_ee_radius_jackknife(h, off, grid, frac), "mm")
+        ests[key] = est(*ee[frac], "mm")
     fo, fo_se = batch_means(off / np.where(landed_b > 0, landed_b, 1.0))
     ests["fraction_off_grid"] = est(float(fo), float(fo_se), "", f"batch means over {nb} batches")
     meta = dict(metadata or {})

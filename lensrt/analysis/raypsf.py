@@ -45,10 +45,11 @@ from .grid import ImageGrid
 from .mtf import mtf_estimate, tangential_angle_rad
 from .psf import PsfResult, geometric_psf
 from .psf_setup import PsfSetup
-from .psf_rays import chief_ray_at, field_xy_of, pupil_grid_rays, trace_pupil_rays
+from .psf_rays import field_xy_of, pupil_grid_rays
 
-__all__ = ["StreamTotals", "geometric_psf_at", "prepare_field", "FieldGeometry", "round_seed", "psf_window",
-           "add_mtf_estimates"]
+__all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry",
+           "round_seed",
+           "psf_window", "psf_windows", "add_mtf_estimates", "psf_from_stream"]
 
 #: smallest automatic half-width of a geometric PSF grid (mm): 2 um
 _MIN_HALF_MM = 2e-3
@@ -72,34 +73,43 @@ class FieldGeometry:
     seconds: float
 
 
-def prepare_field(setup: PsfSetup, f: FieldSpec, device: str | None = None) -> FieldGeometry:
-    """Pupil box (at the spectrum's extremes and primary) and real chief ray of field ``f``."""
-    from ..trace.aiming import field_point
-    from ..trace.stream import pupil_box
+def prepare_fields(setup: PsfSetup, fields: list[FieldSpec], device: str | None = None) -> list[FieldGeometry]:
+    """Pupil boxes (at the spectrum's extremes and primary) and real chief rays of many fields at once:
+    one batched pupil-box search and one batched chief-ray solve (:mod:`lensrt.trace.pupil_boxes`,
+    :func:`lensrt.trace.aiming.chief_rays`), whatever the number of fields."""
+    from ..trace import RayBatch, trace
+    from ..trace.aiming import chief_rays, field_point
+    from ..trace.api import kernel_to_stop
+    from ..trace.stream import pupil_boxes
+    from ..trace.pupil_boxes import box_wavelengths
     t0 = time.perf_counter()
     lens, spec = setup.lens, setup.spectrum
-    fp = field_point(lens, f.hx, f.hy)
+    fps = [field_point(lens, f.hx, f.hy) for f in fields]
     wls = sorted({spec.min_nm, spec.primary_nm, spec.max_nm})
-    box = pupil_box(lens, fp, wls, device=device)
-    if box.area_mm2 <= 0:
-        raise LensrtError(f"field {f.label or (f.hx, f.hy)}: no ray passes the lens",
-                          hint="choose field points inside the lens's coverage")
-    chief = chief_ray_at(lens, fp, [spec.primary_nm], setup.plane_z_mm, device)
-    ref = (float(chief.position_mm[0, 0]), float(chief.position_mm[0, 1]))
-    return FieldGeometry(fp, box, ref, tuple(float(v) for v in chief.direction[0]), time.perf_counter() - t0)
+    boxes = pupil_boxes(lens, fps, box_wavelengths(lens, wls), device=device)
+    for f, box in zip(fields, boxes):
+        if box.area_mm2 <= 0:
+            raise LensrtError(f"field {f.label or (f.hx, f.hy)}: no ray passes the lens",
+                              hint="choose field points inside the lens's coverage")
+    wl = spec.primary_nm
+    o, d, ok = chief_rays(lens, fps, wl, kernel_to_stop(lens, device))
+    chief = trace(lens, RayBatch(o, d, np.full(len(fps), wl)), "float64", device, clip=False,
+                  plane_z_mm=setup.plane_z_mm)
+    if not (ok.all() and chief.ok.all()):
+        raise LensrtError("the real chief ray of this field point cannot be traced to the image",
+                          hint="choose a field point inside the lens's coverage")
+    each = (time.perf_counter() - t0) / max(len(fields), 1)
+    return [FieldGeometry(fp, box, (float(chief.position_mm[k, 0]), float(chief.position_mm[k, 1])),
+                          tuple(float(v) for v in chief.direction[k]), each)
+            for k, (fp, box) in enumerate(zip(fps, boxes))]
 
 
-def psf_window(setup: PsfSetup, geom: FieldGeometry, device: str | None = None, n_side: int = 48
-               ) -> tuple[float, int, float]:
-    """(pitch_um, pixels, pilot half-width mm) of the grid for this field (module docstring, step 2)."""
-    spec = setup.spectrum
-    rays = pupil_grid_rays(geom.fp, geom.box, n_side)
-    half = 0.0
-    for wl in sorted({spec.min_nm, spec.primary_nm, spec.max_nm}):
-        r = trace_pupil_rays(setup.lens, rays, wl, setup.plane_z_mm, device)
-        if r.ok.any():
-            d = np.abs(r.position_mm[r.ok, :2] - np.asarray(geom.reference_mm))
-            half = max(half, float(d.max()))
+def prepare_field(setup: PsfSetup, f: FieldSpec, device: str | None = None) -> FieldGeometry:
+    """Pupil box (at the spectrum's extremes and primary) and real chief ray of field ``f``."""
+    return prepare_fields(setup, [f], device)[0]
+
+
+def _window(setup: PsfSetup, half: float) -> tuple[float, int, float]:
     half = max(1.1 * half, _MIN_HALF_MM)
     pixels = int(setup.pixels)
     if setup.pitch_um is not None:
@@ -110,6 +120,33 @@ def psf_window(setup: PsfSetup, geom: FieldGeometry, device: str | None = None, 
         pixels += pixels % 2
         pitch_um = max(setup.max_pitch_um, 2.0 * half * UM_PER_MM / pixels)
     return float(pitch_um), pixels, half
+
+
+def psf_windows(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None = None, n_side: int = 48
+                ) -> list[tuple[float, int, float]]:
+    """(pitch_um, pixels, pilot half-width mm) of the grid of each field (module docstring, step 2):
+    the pilot grids of all fields traced together, one trace per wavelength."""
+    from ..trace import RayBatch, trace
+    spec = setup.spectrum
+    sets = [pupil_grid_rays(g.fp, g.box, n_side) for g in geoms]
+    o = np.concatenate([r.origin_mm for r in sets])
+    d = np.concatenate([r.direction for r in sets])
+    m = n_side * n_side
+    ref = np.repeat(np.array([g.reference_mm for g in geoms], dtype=np.float64), m, axis=0)
+    half = np.zeros(len(geoms))
+    for wl in sorted({spec.min_nm, spec.primary_nm, spec.max_nm}):
+        r = trace(setup.lens, RayBatch(o, d, np.full(len(o), float(wl))), "float64", device,
+                  plane_z_mm=setup.plane_z_mm)
+        dev = np.max(np.abs(r.position_mm[:, :2] - ref), axis=1)
+        dev = np.where(r.ok, dev, 0.0).reshape(len(geoms), m)
+        half = np.maximum(half, dev.max(axis=1))
+    return [_window(setup, float(h)) for h in half]
+
+
+def psf_window(setup: PsfSetup, geom: FieldGeometry, device: str | None = None, n_side: int = 48
+               ) -> tuple[float, int, float]:
+    """(pitch_um, pixels, pilot half-width mm) of the grid for this field (module docstring, step 2)."""
+    return psf_windows(setup, [geom], device, n_side)[0]
 
 
 @dataclass
@@ -126,20 +163,23 @@ class StreamTotals:
     rounds: int = 0
     device: str = ""
     box_area_mm2: float = 0.0
+    kernel_seconds: float = 0.0
 
-    def add(self, res) -> None:
-        inp = res.psf_inputs(0)
+    def add(self, res, source: int = 0, share: float = 1.0) -> None:
+        """Add source ``source`` of a stream result; ``share`` of its time is this source's."""
+        inp = res.psf_inputs(source)
         self.hist += inp["hist"]
         self.moments += inp["moment_sums"]
         self.off_grid += inp["off_grid"]
-        for k, v in res.status_counts(0).items():
+        for k, v in res.status_counts(source).items():
             self.counts[k] = self.counts.get(k, 0) + int(v)
-        self.rays += int(res.rays_total)
-        self.trace_seconds += float(res.seconds)
+        self.rays += int(res.rays_per_source)
+        self.trace_seconds += float(res.seconds) * share
+        self.kernel_seconds += float(res.extra.get("kernel_seconds", res.seconds)) * share
         self.launches += int(res.launches)
         self.rounds += 1
         self.device = res.device
-        self.box_area_mm2 = float(res.pupil_area_mm2[0])
+        self.box_area_mm2 = float(res.pupil_area_mm2[source])
 
 
 def _rms_rel_error(moments: np.ndarray) -> tuple[float, float]:
@@ -231,6 +271,7 @@ def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, fre
     Frequencies beyond the grid's Nyquist are left out (listed in the metadata).
     """
     from .mtf import mtf_along
+    from .psf_jackknife import mtf_jackknife
     out: dict[str, Estimate] = {}
     grid = result.grid
     t = tangential_angle_rad(result.reference_mm)
@@ -245,9 +286,12 @@ def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, fre
                 [float(v) for v in f_all[f_all > nyq * (1 - 1e-9)]])
         if f.size == 0:
             continue
-        for name, ang in (("sagittal", t + 0.5 * math.pi), ("tangential", t)):
-            if hist is not None:
-                e = mtf_estimate(hist, grid, f, ang, binned=True, seconds=result.seconds, samples=result.samples)
+        pairs = (("sagittal", t + 0.5 * math.pi), ("tangential", t))
+        jk = mtf_jackknife(hist, grid, f, [a for _, a in pairs]) if hist is not None else None
+        for j, (name, ang) in enumerate(pairs):
+            if jk is not None:  # mtf_estimate's numbers, both directions in one pass
+                e = Estimate(jk[j][0], jk[j][1], int(result.samples), float(result.seconds),
+                             f"jackknife over {np.shape(hist)[0]} batches", "")
             else:
                 v = mtf_fn(f, ang) if mtf_fn is not None else mtf_along(result.psf, grid, f, ang, binned=result.binned)
                 e = Estimate(np.asarray(v), np.zeros(f.size), result.samples, result.seconds, "deterministic", "")
@@ -265,17 +309,27 @@ def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | Non
     pitch_um, pixels, half = psf_window(setup, geom, device)
     grid = ImageGrid.centred((pixels, pixels), pitch_um, geom.reference_mm)
     tot, run = run_stream(setup, geom, grid, seed, device)
-    seconds = time.perf_counter() - t0
+    return finish_geometric(setup, f, seed, geom, grid, half, tot, run, time.perf_counter() - t0, reason)
+
+
+def finish_geometric(setup: PsfSetup, f: FieldSpec, seed: int, geom: FieldGeometry, grid: ImageGrid, half: float,
+                     tot: StreamTotals, run: ProgressiveRun | None, seconds: float, reason: str = "asked for",
+                     extra: dict | None = None) -> PsfResult:
+    """The PsfResult of a field's traced totals (``seconds``: set-up and tracing so far)."""
+    t1 = time.perf_counter()
     spec = setup.spectrum
     n = tot.rays
     meta = {"method": "geometric", "method_reason": reason, "sampler": setup.sampler, "precision": setup.precision,
             "device": tot.device, "focus": setup.focus, "spectrum": spec.to_dict(), "field": f.to_dict(),
             "pupil_box_mm2": tot.box_area_mm2, "status_counts": tot.counts,
             "transmission": tot.counts.get("OK", 0) / n if n else 0.0, "trace_seconds": tot.trace_seconds,
+            "kernel_seconds": tot.kernel_seconds,
             "rays_per_second": n / tot.trace_seconds if tot.trace_seconds > 0 else None,
-            "launches": tot.launches, "rounds": tot.rounds, "stop_reason": run.stop_reason if setup.progressive
-            else "rays", "pilot_half_width_mm": half, "chief_direction": list(geom.chief_direction)}
-    if setup.progressive:
+            "launches": tot.launches, "rounds": tot.rounds,
+            "stop_reason": run.stop_reason if (setup.progressive and run is not None) else "rays",
+            "pilot_half_width_mm": half, "chief_direction": list(geom.chief_direction)}
+    meta.update(extra or {})
+    if setup.progressive and run is not None:
         meta["progress"] = [p.to_dict() for p in run.history]
         meta["target_error"] = setup.target_error
         meta["target_quantity"] = setup.target_quantity
@@ -289,7 +343,18 @@ def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | Non
                            samples=n, seconds=seconds, seed=int(seed), ee_fractions=setup.ee_fractions,
                            metadata=meta)
     add_mtf_estimates(result, tot.hist, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm)
-    total = time.perf_counter() - t0
+    analysis = time.perf_counter() - t1
     result.metadata["setup_seconds"] = seconds - tot.trace_seconds
-    result.metadata["analysis_seconds"] = total - seconds
-    return replace(result, seconds=total)
+    result.metadata["analysis_seconds"] = analysis
+    return replace(result, seconds=seconds + analysis)
+
+
+def psf_from_stream(res, source: int = 0, channel: int = 0, **kwargs) -> PsfResult:
+    """The geometric PSF of one source of a stream run with ``batch_histograms=True``: its
+    :meth:`~lensrt.trace.stream.StreamResult.psf_inputs` on the source's own bins as an ImageGrid
+    (``kwargs`` go to :func:`lensrt.analysis.psf.geometric_psf`)."""
+    b = res.bins(source)
+    if abs(b["pixel_mm"] - b["pixel_y_mm"]) > 1e-12 * b["pixel_mm"]:
+        raise LensrtError("a PSF grid needs square bins")
+    grid = ImageGrid.centred(b["shape"], b["pixel_mm"] * UM_PER_MM, b["centre_mm"])
+    return geometric_psf(grid=grid, **{**res.psf_inputs(source, channel), **kwargs})

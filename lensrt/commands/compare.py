@@ -51,6 +51,8 @@ def compare_report(lens, fields_in_lens_unit=(), wavelengths_nm=(), rays: int = 
         raise LensrtError("--field beyond 108 degrees", hint="field angles are half-angles from the axis")
     if rays < 64 or spot_rays < 64:
         raise LensrtError("--rays and --spot-rays must be at least 64")
+    if wavelengths_nm:
+        lens.check_wavelengths(list(wavelengths_nm))  # an ExtrapolationWarning where a glass is extrapolated
     return compare_lens(lens, wavelengths_nm=list(wavelengths_nm), extra_fields=extra, device=device, rays=rays,
                         seed=seed, spot_rays=spot_rays)
 

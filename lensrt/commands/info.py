@@ -41,6 +41,8 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
     if object_distance_mm is not None and (math.isnan(object_distance_mm) or object_distance_mm <= 0):
         raise LensrtError(f"--object-distance-mm {object_distance_mm:g} must be positive",
                           hint="give the distance from the object to the first vertex in mm, or inf")
+    if wavelength_nm is not None:
+        lens.check_wavelengths(wavelength_nm)  # an ExtrapolationWarning where a glass's formula is extrapolated
     fo = first_order(lens, wavelength_nm, object_distance_mm)
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
@@ -141,6 +143,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
     emit(lens.name or str(lens.path))
     emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
+    if d["image_virtual"]:
+        emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
+             f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
+             f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
     emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
     seidel = d["seidel"]
     srows = seidel_rows(lens, d)

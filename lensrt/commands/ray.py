@@ -42,6 +42,8 @@ def ray_report(lens, hx: float, hy: float, px: float, py: float, wavelength_nm: 
         if not math.isfinite(v):
             raise LensrtError(f"--{name} {v!r} is not a finite number")
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    if wavelength_nm is not None:
+        lens.check_wavelengths(wl)  # an ExtrapolationWarning where a glass's formula is extrapolated
     rays = make_rays(lens, hx, hy, px, py, wl, aim, device)
     res = trace(lens, rays, precision, device, clip=clip, record=True)
     st, where = int(res.status[0]), int(res.surface[0])

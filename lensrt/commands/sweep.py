@@ -128,6 +128,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     fmt = ph.sensor_format(args.sensor)
     columns = _columns(args.quantity)
     lens = load_lens(args.file)
+    if args.wavelength_nm is not None:
+        lens.check_wavelengths(args.wavelength_nm)  # an ExtrapolationWarning where a glass is extrapolated
     focus = parse_values(args.focus_distance_mm, "--focus-distance-mm") if args.focus_distance_mm \
         else list(DEFAULT_FOCUS_MM)
     fnums = parse_values(args.f_number, "--f-number") if args.f_number \

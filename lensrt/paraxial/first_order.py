@@ -32,6 +32,8 @@ __all__ = ["FirstOrder", "first_order", "pupils", "Pupils", "entrance_pupil_diam
 
 #: a matrix element below this (relative) counts as zero: a pupil or image at infinity
 _TINY = 1e-15
+#: an image farther than this many focal lengths from the last vertex is at infinity
+_IMAGE_AT_INFINITY = 1e9
 
 
 @dataclass(frozen=True)
@@ -218,7 +220,7 @@ class FirstOrder:
     bellows_factor: float  # b = 1 + |m| / mp (p. 31)
     working_f_number: float  # Nw = b N
     image_z_mm: float  # paraxial image of the object plane
-    image_distance_mm: float  # last vertex -> paraxial image
+    image_distance_mm: float  # last vertex -> paraxial image (< 0: a virtual image)
     image_surface_distance_mm: float  # last vertex -> the lens's image surface (CODE V IMG DIS)
     unit_focus_extension_mm: float  # paraxial image z - F' z: the extension e of a unit-focusing lens (p. 12)
     magnification: float  # m = n u / (n' u') of the marginal ray; 0 at infinity
@@ -229,6 +231,10 @@ class FirstOrder:
     half_field_deg: float  # largest object-space half field angle (chief-ray slope for heights)
     paraxial_image_height_mm: float  # at the largest field, in the paraxial image plane
     field_image_heights_mm: tuple[float, ...]  # at each field point (radial), paraxial image plane
+    #: the image-space rays diverge: the paraxial image lies in front of the last vertex (an object
+    #: inside the front focal point of a positive lens -- a magnifier); the lens's image surface then
+    #: receives a blur, not an image
+    image_virtual: bool = False
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -278,9 +284,12 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     # Object at distance d_obj: marginal ray from the axial object point to the EP's edge.
     m_ray = marginal_ray(sysm, d_obj, pup.entrance_z_mm, epd)
     image_offset = m_ray.axis_crossing_mm()
-    if math.isinf(image_offset):
-        raise LensrtError("the image is at infinity at this object distance (the object is at the front "
-                          "focal point)", hint="move the object farther from the lens")
+    # an object at (or within rounding of) the front focal point images to infinity: rounding leaves
+    # a finite but meaningless image distance (1e17 mm), so anything beyond 1e9 focal lengths is infinity
+    if math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl):
+        raise LensrtError(f"the image is at infinity at this object distance ({d_obj:g} mm: the object is at the "
+                          f"front focal point, z = {front_focal_z:g} mm)",
+                          hint="move the object away from the front focal point")
     image_z = z_last + image_offset
     mag = 0.0 if math.isinf(d_obj) else float(m_ray.nu[0] / m_ray.nu[-1])
     f_number = abs(f_front) / epd
@@ -318,4 +327,5 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm,
         half_field_deg=half_field, paraxial_image_height_mm=h_img,
         field_image_heights_mm=tuple(float(h) for h in heights),
+        image_virtual=bool(image_offset < 0.0),
     )

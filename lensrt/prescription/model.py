@@ -337,6 +337,19 @@ class Lens:
         cols = [np.broadcast_to(np.asarray(m.index(w), dtype=np.float64), w.shape) for m in self.media()]
         return np.stack(cols, axis=-1)
 
+    def check_wavelengths(self, wavelength_nm: float | Sequence[float] | np.ndarray) -> list[str]:
+        """Warn where a glass's dispersion formula would be extrapolated at ``wavelength_nm``.
+
+        Each catalog glass carries the wavelength range its vendor measured; outside it
+        the formula is extrapolated (and can be far off, or not real: a power series
+        goes negative in the infrared). Issues one
+        :class:`~lensrt.prescription.materials.ExtrapolationWarning` per such glass and
+        returns the messages (empty when every wavelength is covered).
+        """
+        from .materials import check_wavelength_range
+        waves = np.unique(np.ravel(np.asarray(wavelength_nm, dtype=np.float64)))
+        return check_wavelength_range(self.media(), waves)
+
     def glass_materials(self) -> list[Material]:
         return [m for m in self.media() if not m.is_air]
 

@@ -199,6 +199,8 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
         scene = scale_pixels(scene, options.width)
     lens = load_lens(scene.camera.lens_source) if lens is None else lens
     plan = plan_render(scene, lens)
+    # an ExtrapolationWarning where a glass's dispersion formula is extrapolated at the render's wavelengths
+    lens.check_wavelengths([plan.grid.min_nm, plan.grid.max_nm] if plan.wavelength_nm is None else [plan.wavelength_nm])
     t["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cam = setup_camera(scene, lens, options.focus)
@@ -291,6 +293,8 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
         options = replace(options, width=None)
     lens = load_lens(scene.camera.lens_source) if lens is None else lens
     plan = plan_render(scene, lens)
+    # an ExtrapolationWarning where a glass's dispersion formula is extrapolated at the render's wavelengths
+    lens.check_wavelengths([plan.grid.min_nm, plan.grid.max_nm] if plan.wavelength_nm is None else [plan.wavelength_nm])
     if plan.variant.splat:
         from .splat import render_splat, splat_feasible
         ok, why = splat_feasible(scene, lens, options)

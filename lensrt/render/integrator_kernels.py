@@ -79,9 +79,11 @@ def get_render_kernels() -> SimpleNamespace:
                     scn: sk.SceneData, spectral: int, lam_fixed: float, cdf: wp.array(dtype=float),
                     band0: float, inv_band: float, n_bands: int,
                     cmf: wp.array2d(dtype=float), km: float,
-                    spp: int, seed: int, pix_base: int,
+                    spp: int, seed: int, pix_base: int, out_base: int,
                     spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
+        # pixel pix of the image (its random numbers), stored at pix - out_base (tiles keep their own arrays)
         pix = wp.tid() + pix_base
+        o = pix - out_base
         row = pix // width
         col = pix - row * width
         st = wp.rand_init(seed, pix)
@@ -143,15 +145,15 @@ def get_render_kernels() -> SimpleNamespace:
             k = int(0)
             if n_bands > 1:
                 k = wp.clamp(int((lam - band0) * inv_band), 0, n_bands - 1)
-            spec[pix * n_bands + k] = spec[pix * n_bands + k] + e * inv_band
+            spec[o * n_bands + k] = spec[o * n_bands + k] + e * inv_band
             fx = (lam - scn.lam0) / scn.dlam
             if fx >= 0.0 and fx <= float(scn.n_lam - 1):
                 m = wp.min(int(fx), scn.n_lam - 2)
                 t = fx - float(m)
                 for c in range(3):
                     acc[c] = acc[c] + e * km * ((1.0 - t) * cmf[c, m] + t * cmf[c, m + 1])
-        xyz[pix] = acc
-        hits[pix] = wp.int32(n_ok)
+        xyz[o] = acc
+        hits[o] = wp.int32(n_ok)
 
     @wp.kernel(module=MODULE, enable_backward=False)
     def pupil_probe(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),

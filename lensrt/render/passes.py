@@ -127,15 +127,19 @@ class DevicePass:
     hits: Any
 
 
-def device_pass(prep: Prepared, index: int, out: DevicePass | None = None) -> DevicePass:
-    """Run pass ``index`` on ``prep.device`` into ``out`` (zeroed here; allocated when None)."""
+def device_pass(prep: Prepared, index: int, out: DevicePass | None = None,
+                pixels: tuple[int, int] | None = None) -> DevicePass:
+    """Run pass ``index`` on ``prep.device`` into ``out`` (zeroed here; allocated when None), for every
+    pixel or for the pixel range ``pixels`` = (first, end) (a tile: ``out`` holds that range only; its
+    pixels are the same bits as in the whole image)."""
     from ..device import warp
     from ..units import LUMINOUS_EFFICACY_LM_PER_W
     from .pupil_table import launch_sliced
     wp = warp()
     s = prep.setup
     dev = prep.device
-    n = s.n_pixels
+    p0, p1 = (0, s.n_pixels) if pixels is None else (int(pixels[0]), int(pixels[1]))
+    n = p1 - p0
     if out is None:
         out = DevicePass(wp.zeros(n * s.n_bands, dtype=float, device=dev), wp.zeros(n, dtype=wp.vec3, device=dev),
                          wp.zeros(n, dtype=wp.int32, device=dev))
@@ -154,7 +158,8 @@ def device_pass(prep: Prepared, index: int, out: DevicePass | None = None) -> De
               int(s.pupil_boxes.shape[0]), prep.scene.data, int(plan.spectral), lam_fixed, prep.cdf,
               float(s.band0_nm), float(inv_band), int(s.n_bands), prep.cmf, float(LUMINOUS_EFFICACY_LM_PER_W),
               int(s.spp_per_pass), pass_seed(s.seed, index)]
-    launch_sliced(prep.kernels.camera_pass, n, lambda base: common + [int(base), out.spec, out.xyz, out.hits], dev)
+    launch_sliced(prep.kernels.camera_pass, n, lambda base: common + [int(base) + p0, p0, out.spec, out.xyz, out.hits],
+                  dev)
     return out
 
 

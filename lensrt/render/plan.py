@@ -17,7 +17,11 @@ Decisions, each with its reason in :attr:`Plan.reasons`:
 * **light splat or camera paths** -- a scene of point/sphere lights only (no
   surfaces, no background, no uniform illumination) is traced from the light
   side, like the bokeh tracer; anything else needs camera paths
-  (sensor -> lens -> scene) for the full image.
+  (sensor -> lens -> scene) for the full image. Measured, not assumed: on the
+  night street (480 x 320 px, 64 spp, one H100) the splat took 0.97 s for a
+  relative error of 0.025, camera paths 0.063 s for 0.48 -- they would need
+  about 23 s for the splat's error (error falls as 1/sqrt(time)), so the splat
+  is 24x faster at equal error (82x on the 2-core CPU).
 * **geometry** -- analytic planes and spheres only, or a ``wp.Mesh`` BVH when
   the scene has meshes (no BVH build otherwise).
 * **lighting** -- emission only (no reflective surfaces); uniform illumination
@@ -237,7 +241,9 @@ def plan_render(scene: Scene, lens: Any = None) -> Plan:
                    and scene.illumination is None and bool(scene.point_lights or scene.sphere_lights))
     if only_points:
         r["mode"] = "light splat: point/sphere sources only, traced from the light side into the pupil"
-        skipped.append(("camera paths", "point sources only; splatting from the lights is cheaper"))
+        skipped.append(("camera paths", "point sources only; splatting from the lights reaches a given image "
+                                         "error about 24x sooner (measured on the night street, H100, "
+                                         "benchmarks/bench_render.py)"))
     else:
         r["mode"] = "camera paths: sensor -> lens -> scene, the full image"
 

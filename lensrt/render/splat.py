@@ -21,8 +21,12 @@ disc), each with intensity L pi r^2 / K; K grows with the disc's image size so t
 points land less than a pixel apart (at most 256). All share one pupil box: the box of the disc's
 centre united with those of four rim points, grown by 5 %.
 
-Passes: each pass traces spp_per_pass x pixels rays in all (shared equally by the lights) with
-its own seed; per-pass images give the per-pixel standard errors (batch means).
+Passes: each pass traces spp_per_pass x pixels rays in all, the same number from every point
+source (a sphere light's K disc points get K shares), with its own seed; per-pass images give
+the per-pixel standard errors (batch means). All the lights of a pass go into one stream launch
+(one per kind of spectrum: lines, tabulated), each source with its own spectrum and its light's
+scale as a weight factor relative to the largest; the pupil boxes are found once for all lights
+and rim points together, and cached.
 """
 from __future__ import annotations
 
@@ -76,26 +80,46 @@ def _light_list(scene) -> list[dict]:
     return out
 
 
-def _shared_box(lens, camera, light: dict, wls, device: str):
-    """The PupilBox of the light's centre, united with its rim points' and grown by 5 %."""
-    from ..trace.aiming import FieldPoint
-    from ..trace.stream import PupilBox, pupil_box
-    c = light["centre"]
-    fp = FieldPoint(False, None, tuple(c))
-    box = pupil_box(lens, fp, wls, stop_radius_mm=camera.stop_radius_mm, device=device)
-    if box.area_mm2 <= 0.0:
-        return None
-    a0, a1, b0, b1 = box.a0, box.a1, box.b0, box.b1
-    r = light["radius"]
-    if r > 0.0:
-        e1, e2 = np.asarray(box.e1), np.asarray(box.e2)
-        for d in (e1, -e1, e2, -e2):
-            rim = pupil_box(lens, FieldPoint(False, None, tuple(c + r * d)), wls, stop_radius_mm=camera.stop_radius_mm,
-                            device=device)
-            if rim.area_mm2 > 0:
+_BOX_CACHE: dict = {}
+
+
+def _shared_boxes(lens, camera, lights: list[dict], wls, device: str) -> list:
+    """Per light the PupilBox of its centre, united with its rim points' and grown by 5 % (None when no
+    ray passes): every light's centre and rim points in one batched pupil-box search, cached per
+    (lens, stop, wavelengths, lights, device) -- the boxes do not change between passes or renders."""
+    from ..trace.stream import PupilBox, pupil_boxes
+    key = (lens, camera.stop_radius_mm, tuple(float(w) for w in wls), str(device),
+           tuple((tuple(float(v) for v in li["centre"]), float(li["radius"])) for li in lights))
+    hit = _BOX_CACHE.get(key)
+    if hit is not None:
+        return hit
+    centres = np.array([li["centre"] for li in lights], dtype=np.float64)
+    boxes = pupil_boxes(lens, centres, wls, stop_radius_mm=camera.stop_radius_mm, device=device)
+    # rim points: along each centre box's e1 and e2, one batched search for all sphere lights
+    rims, owner = [], []
+    for k, (li, box) in enumerate(zip(lights, boxes)):
+        if li["radius"] > 0.0 and box.area_mm2 > 0.0:
+            e1, e2 = np.asarray(box.e1), np.asarray(box.e2)
+            for d in (e1, -e1, e2, -e2):
+                rims.append(li["centre"] + li["radius"] * d)
+                owner.append(k)
+    rim_boxes = pupil_boxes(lens, np.array(rims), wls, stop_radius_mm=camera.stop_radius_mm,
+                            device=device) if rims else []
+    out = []
+    for k, box in enumerate(boxes):
+        if box.area_mm2 <= 0.0:
+            out.append(None)
+            continue
+        a0, a1, b0, b1 = box.a0, box.a1, box.b0, box.b1
+        for rim, o in zip(rim_boxes, owner):
+            if o == k and rim.area_mm2 > 0:
                 a0, a1, b0, b1 = min(a0, rim.a0), max(a1, rim.a1), min(b0, rim.b0), max(b1, rim.b1)
-    ga, gb = 0.05 * (a1 - a0), 0.05 * (b1 - b0)
-    return PupilBox(box.centre, box.axis, box.e1, box.e2, a0 - ga, a1 + ga, b0 - gb, b1 + gb)
+        ga, gb = 0.05 * (a1 - a0), 0.05 * (b1 - b0)
+        out.append(PupilBox(box.centre, box.axis, box.e1, box.e2, a0 - ga, a1 + ga, b0 - gb, b1 + gb))
+    if len(_BOX_CACHE) > 32:
+        _BOX_CACHE.clear()
+    _BOX_CACHE[key] = out
+    return out
 
 
 def _channels(plan, grid, band0: float, bw: float, nb: int):
@@ -145,10 +169,11 @@ def render_splat(scene, lens, plan, options, progress=None):
     yb = -0.5 * rows * sen.pitch_y_mm + (iy + 0.5) * sen.pitch_y_mm
     pr, pc = sen.pixel_of(xb, yb)
     order = (np.rint(pr).astype(np.int64) * cols + np.rint(pc).astype(np.int64)).ravel()
+    gather = np.argsort(order, kind="stable")     # stored pixel p <- histogram bin gather[p]
     wls = [float(plan.wavelength_nm)] if not plan.spectral else [g.min_nm, 0.5 * (g.min_nm + g.max_nm), g.max_nm]
+    all_lights = _light_list(scene)
     lights = []
-    for li in _light_list(scene):
-        box = _shared_box(lens, cam, li, wls, dev)
+    for li, box in zip(all_lights, _shared_boxes(lens, cam, all_lights, wls, dev)):
         if box is None:
             continue
         c = li["centre"]
@@ -168,11 +193,19 @@ def render_splat(scene, lens, plan, options, progress=None):
         lights.append({"light": li, "box": box, "dist": dist, "spec": spec, "total": total, "k": k})
     if not lights:
         raise LensrtError("no light of the scene gets through the lens")
+    # one stream launch per pass for every light (one per spectrum kind: lines and tabulated spectra);
+    # each light's rays carry its scale (total x box area / (points x distance^2)) relative to the
+    # largest, so that one fixed-point histogram holds them all
+    kinds = sorted({L["spec"].mode for L in lights})
+    for L in lights:
+        L["scale"] = L["total"] * L["box"].area_mm2 / (L["k"] * L["dist"] ** 2)
+    n_sources = sum(L["k"] for L in lights)
     rule = _stop_rule(scene, options, n_px)
     spp = rule.max_samples // n_px
     spp_pass = options.spp_per_pass or max(1, spp // 8)
     planned = max(1, math.ceil(spp / spp_pass))
     rays_pass = spp_pass * n_px
+    n_src = max(2, rays_pass // n_sources)
     seed = scene.render.seed if options.seed is None else int(options.seed)
     acc = PassSum(n_px, nb, (rows, cols), 1)
     history: list[dict] = []
@@ -182,28 +215,33 @@ def render_splat(scene, lens, plan, options, progress=None):
     stop = None
     rays_done = 0
     pass_times = []
+    kernel_s = 0.0
     while stop is None:
         t0 = time.perf_counter()
         ps = pass_seed(seed, acc.passes)
         rng = np.random.default_rng(ps)
-        img = np.zeros((nb + 3, rows * cols))
-        for j, L in enumerate(lights):
-            li, box = L["light"], L["box"]
-            pts = [li["centre"]]
-            if L["k"] > 1:
-                e1, e2 = np.asarray(box.e1), np.asarray(box.e2)
-                uv = _disc_points(L["k"], rng) * li["radius"]
-                pts = [li["centre"] + a * e1 + b * e2 for a, b in uv]
-            srcs = [StreamSource(FieldPoint(False, None, tuple(p)), box, cam.sensor_z_mm, (0.0, 0.0), 0, "isotropic")
-                    for p in pts]
-            n_src = max(2, (rays_pass // len(lights)) // len(srcs))
-            res = stream(lens, srcs, grid, n_src, spectrum=L["spec"], channels=chans, sampler="sobol",
-                         seed=(ps + 7919 * j) & 0x7FFFFFFF, batches=2, precision="float32", device=dev,
-                         stop_radius_mm=cam.stop_radius_mm)
-            scale = L["total"] * box.area_mm2 / (res.rays_per_source * len(srcs) * L["dist"] ** 2) / area_m2
-            h = res.histogram[0].reshape(nb + 3, -1)
-            img[:, order] += h * scale
+        img = None
+        for kind in kinds:
+            group = [L for L in lights if L["spec"].mode == kind]
+            top = max(L["scale"] for L in group)
+            srcs = []
+            for j, L in enumerate(group):
+                li, box = L["light"], L["box"]
+                pts = [li["centre"]]
+                if L["k"] > 1:
+                    e1, e2 = np.asarray(box.e1), np.asarray(box.e2)
+                    uv = _disc_points(L["k"], rng) * li["radius"]
+                    pts = [li["centre"] + a * e1 + b * e2 for a, b in uv]
+                srcs += [StreamSource(FieldPoint(False, None, tuple(p)), box, cam.sensor_z_mm, (0.0, 0.0), 0,
+                                      "isotropic", spectrum=j, weight=L["scale"] / top) for p in pts]
+            res = stream(lens, srcs, grid, n_src, spectrum=[L["spec"] for L in group], channels=chans,
+                         sampler="sobol", seed=(ps + 7919 * kind) & 0x7FFFFFFF, batches=2, precision="float32",
+                         device=dev, stop_radius_mm=cam.stop_radius_mm)
+            part = np.take(res.histogram[0].reshape(nb + 3, -1), gather, axis=1)
+            part *= top / (res.rays_per_source * area_m2)
+            img = part if img is None else img + part
             rays_done += res.rays_total
+            kernel_s += float(res.extra.get("kernel_seconds", res.seconds))
         spec_pass = img[:nb].T.astype(np.float32)
         acc.add(img[nb:].T.astype(np.float32), 0, spec_pass)
         pass_times.append(time.perf_counter() - t0)
@@ -227,4 +265,5 @@ def render_splat(scene, lens, plan, options, progress=None):
                        _regions(acc, rays_done, seconds), history, float("nan"),
                        {"total_before_passes": t_loop - t_start}, notes, None)
     res.cpu_seconds = time.process_time() - cpu0
+    res.kernel_seconds = kernel_s
     return res

@@ -48,9 +48,14 @@ from .reference import trace_reference
 from .status import OK
 
 __all__ = ["AIM_MODES", "FieldPoint", "PupilGeometry", "field_point", "pupil_geometry", "beam_basis",
-           "ray_through_point", "aim_rays", "reference_to_stop", "ToStop"]
+           "ray_through_point", "rays_through_points", "aim_rays", "chief_rays", "reference_to_stop", "ToStop"]
 
 AIM_MODES = ("paraxial", "chief", "real")
+
+#: continuation in field for rays that Newton's method cannot aim directly: base steps from the
+#: axis to the field, and how often a step may be halved for a ray that loses the path
+_CONTINUATION_STEPS = 8
+_CONTINUATION_HALVINGS = 4
 
 #: to_stop(origins (n, 3), directions (n, 3), wavelength_nm (n,)) -> (x (n,), y (n,), ok (n,) bool):
 #: where each ray meets the stop surface (stop frame), traced without clipping
@@ -136,10 +141,24 @@ def _field_point_object(lens: Lens, radial: float, ca: float, sa: float) -> Fiel
 
 
 def field_point(lens: Lens, hx: float, hy: float) -> FieldPoint:
-    """The field point named by normalised field coordinates (module docstring)."""
+    """The field point named by normalised field coordinates (module docstring).
+
+    An angle field with a finite object names the object point whose chief ray
+    makes that angle with the axis through the centre of the paraxial entrance
+    pupil (Zemax's and CODE V's definition, and the paraxial chief ray of
+    :func:`lensrt.paraxial.first_order.field_slope_and_height`): the point at
+    height -tan(angle) (object distance + z_EP), below the axis for a positive angle.
+    """
     h = math.hypot(hx, hy)
     ca, sa = (hx / h, hy / h) if h > 0.0 else (0.0, 1.0)  # exact zeros on the axes
     radial = _radial_to_object(lens, h * lens.fields.max_radial)
+    if lens.fields.kind == "angle" and not math.isinf(lens.object_distance_mm):
+        if abs(radial) >= 0.5 * math.pi:
+            raise LensrtError(f"field angle {math.degrees(radial):g} deg cannot come from an object plane at "
+                              f"{lens.object_distance_mm:g} mm", hint="field angles of a finite object are below 90 deg")
+        from ..paraxial import first_order
+        ep_z = first_order(lens).entrance_pupil_z_mm
+        radial = -math.tan(radial) * (lens.object_distance_mm + ep_z)
     return _field_point_object(lens, radial, ca, sa)
 
 
@@ -165,12 +184,17 @@ def pupil_geometry(lens: Lens) -> PupilGeometry:
 def beam_basis(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal e1, e2 perpendicular to unit ``w`` (..., 3): x and y rotated minimally onto w.
 
-    Smooth for every direction but exactly -z; on axis e1 = x, e2 = y.
+    Smooth for every direction but -z, where e1 = x, e2 = -y (a beam from straight behind);
+    on axis e1 = x, e2 = y.
     """
     wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
-    f = 1.0 / (1.0 + wz)
+    back = 1.0 + wz <= 1e-12
+    f = 1.0 / np.where(back, 1.0, 1.0 + wz)
     e1 = np.stack([1.0 - wx * wx * f, -wx * wy * f, -wx], axis=-1)
     e2 = np.stack([-wx * wy * f, 1.0 - wy * wy * f, -wy], axis=-1)
+    if np.any(back):
+        e1 = np.where(back[..., None], np.array([1.0, 0.0, 0.0]), e1)
+        e2 = np.where(back[..., None], np.array([0.0, -1.0, 0.0]), e2)
     return e1, e2
 
 
@@ -192,6 +216,85 @@ def ray_through_point(fp: FieldPoint, points_mm: np.ndarray) -> tuple[np.ndarray
     # step back from the aim point to the sphere |p - o| = |o|, without cancellation
     back = (np.sum(a * a, axis=1, keepdims=True) - 2.0 * (a @ o)[:, None]) / (dist + r0)
     return a - back * d, d
+
+
+def rays_through_points(fps, points_mm: np.ndarray, rows: np.ndarray | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from field point ``fps[rows[k]]`` (``fps[k]`` without ``rows``) through ``points_mm[k]`` (n, 3):
+    (origins, directions), as :func:`ray_through_point` gives them one field point at a time."""
+    a = np.atleast_2d(np.asarray(points_mm, dtype=np.float64))
+    idx = np.arange(len(fps)) if rows is None else np.asarray(rows)
+    inf_f = np.array([fp.infinite for fp in fps], dtype=bool)
+    dirs = np.array([fp.direction if fp.infinite else (0.0, 0.0, 1.0) for fp in fps], dtype=np.float64)
+    objs = np.array([(0.0, 0.0, 0.0) if fp.infinite else fp.point_mm for fp in fps], dtype=np.float64)
+    inf = inf_f[idx]
+    d = np.empty_like(a)
+    o = np.empty_like(a)
+    if inf.any():
+        di = dirs[idx[inf]]
+        ai = a[inf]
+        o[inf] = ai - np.sum(ai * di, axis=1, keepdims=True) * di
+        d[inf] = di
+    if (~inf).any():
+        ob = objs[idx[~inf]]
+        af = a[~inf]
+        v = af - ob
+        dist = np.linalg.norm(v, axis=1, keepdims=True)
+        df = v / dist
+        r0 = np.linalg.norm(ob, axis=1, keepdims=True)
+        back = (np.sum(af * af, axis=1, keepdims=True) - 2.0 * np.sum(af * ob, axis=1, keepdims=True)) / (dist + r0)
+        o[~inf] = af - back * df
+        d[~inf] = df
+    return o, d
+
+
+def aim_frames(fps, geom: PupilGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per field point: the centre C of the aim plane (the paraxial entrance pupil's centre, shared),
+    the beam axis w (n, 3) and the plane's basis e1, e2 (n, 3) -- :func:`_aim_frame` for many."""
+    c = np.array([0.0, 0.0, geom.ep_z_mm])
+    w = np.empty((len(fps), 3))
+    for k, fp in enumerate(fps):
+        if fp.infinite:
+            w[k] = fp.direction
+        else:
+            v = c - np.asarray(fp.point_mm, dtype=np.float64)
+            w[k] = v / np.linalg.norm(v)
+    e1, e2 = beam_basis(w)
+    return c, w, e1, e2
+
+
+def chief_rays(lens: Lens, fps, wavelength_nm: float | np.ndarray, to_stop: ToStop | None = None,
+               geometry: PupilGeometry | None = None, fallback: bool = True
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Real chief rays (through the centre of the real stop) of many field points at once:
+    (origins, directions, aimed), one row per field point.
+
+    The Newton iteration of :func:`aim_rays` (``aim="real"``, pupil (0, 0)) runs on every field point
+    together, so the rays to the stop are traced in a few batched calls; a field point it cannot aim
+    directly falls back to :func:`aim_rays` alone (continuation in field) unless ``fallback`` is False.
+    """
+    fps = list(fps)
+    n = len(fps)
+    geom = pupil_geometry(lens) if geometry is None else geometry
+    wl = np.broadcast_to(np.asarray(wavelength_nm, dtype=np.float64), (n,)).copy()
+    to_stop = reference_to_stop(lens) if to_stop is None else to_stop
+    c, _, e1, e2 = aim_frames(fps, geom)
+
+    def residual(ab: np.ndarray, rows: np.ndarray):
+        pts = c + ab[:, :1] * e1[rows] + ab[:, 1:2] * e2[rows]
+        o, d = rays_through_points(fps, pts, rows)
+        x, y, ok = to_stop(o, d, wl[rows])
+        r = np.stack([x, y], axis=1)
+        r[~ok] = 0.0
+        return r, ok
+
+    scale = max(geom.ep_radius_mm, geom.stop_radius_mm)
+    ab, ok = _newton(residual, np.zeros((n, 2)), scale)
+    o, d = rays_through_points(fps, c + ab[:, :1] * e1 + ab[:, 1:2] * e2)
+    for k in np.nonzero(~ok)[0] if fallback else ():  # continuation in field, one field point at a time
+        ok_k = aim_rays(lens, fps[k], np.zeros(1), np.zeros(1), wl[k], "real", to_stop, geom)
+        o[k], d[k], ok[k] = ok_k[0][0], ok_k[1][0], ok_k[2][0]
+    return o, d, ok
 
 
 def reference_to_stop(lens: Lens) -> ToStop:
@@ -336,20 +439,39 @@ def _solve(lens: Lens, fp: FieldPoint, ab0: np.ndarray, wl: np.ndarray, points: 
     ab, ok = _newton(residual_for(target, wl, fp), ab0, scale)
     if ok.all():
         return ab, ok
-    # continuation: walk the field (and pupil) up from the axis for the rays that failed
+    # continuation: walk the field (and pupil) up from the axis for the rays that failed. Each
+    # step starts from the linear extrapolation of the ray's last two solutions; a step that a ray
+    # cannot follow (a fisheye near 90 deg, where few starts reach the stop) is halved for that
+    # ray, at most _CONTINUATION_HALVINGS times, before the ray is given up
     bad = np.nonzero(~ok)[0]
-    cur = np.zeros((len(bad), 2))
-    steps = 8
-    for k in range(1, steps + 1):
-        f = k / steps
-        res = residual_for(target[bad] * f, wl[bad], _scaled_field(fp, f))
-        cur_new, ok_k = _newton(res, cur, scale, max_iter=20)
-        if not ok_k.any():  # nothing follows the path: give up on these rays
-            return ab, ok
-        keep = np.nonzero(ok_k)[0]  # continue with the rays still on the path
-        bad, cur = bad[keep], cur_new[keep]
-    ab[bad] = cur
-    ok[bad] = True
+    m = len(bad)
+    f_at, ab_at = np.zeros(m), np.zeros((m, 2))
+    f_prev, ab_prev = np.full(m, np.nan), np.zeros((m, 2))
+    step = np.full(m, 1.0 / _CONTINUATION_STEPS)
+    alive = np.ones(m, dtype=bool)
+    while True:
+        act = np.nonzero(alive & (f_at < 1.0))[0]
+        if len(act) == 0:
+            break
+        f_next = np.minimum(f_at[act] + step[act], 1.0)
+        for fv in np.unique(f_next):
+            g = act[f_next == fv]
+            start = ab_at[g].copy()
+            known = np.isfinite(f_prev[g])
+            if known.any():
+                k = g[known]
+                slope = (ab_at[k] - ab_prev[k]) / (f_at[k] - f_prev[k])[:, None]
+                start[known] += slope * (fv - f_at[k])[:, None]
+            res = residual_for(target[bad[g]] * fv, wl[bad[g]], _scaled_field(fp, float(fv)))
+            new, ok_g = _newton(res, start, scale, max_iter=20)
+            good, fail = g[ok_g], g[~ok_g]
+            f_prev[good], ab_prev[good] = f_at[good], ab_at[good]
+            f_at[good], ab_at[good] = fv, new[ok_g]
+            step[fail] *= 0.5
+            alive[fail] = step[fail] >= 0.99 / (_CONTINUATION_STEPS * 2**_CONTINUATION_HALVINGS)
+    done = alive & (f_at >= 1.0)
+    ab[bad[done]] = ab_at[done]
+    ok[bad[done]] = True
     return ab, ok
 
 

@@ -67,8 +67,8 @@ class RayResult:
 
     ``position_mm`` (n, 3) is in the lens frame (z from the first vertex): on the
     image surface for OK rays, else where the ray stopped. ``surface`` is the
-    0-based surface where a ray failed (-1 when OK); :attr:`grazing` flags rays that met a
-    surface beyond 80 deg incidence. ``records`` (when asked)
+    0-based surface where a ray failed (-1 when OK); :attr:`grazing` flags rays that met or left a
+    surface beyond 80 deg (incidence or refraction). ``records`` (when asked)
     holds per surface met: x, y, z (sag, vertex frame), L, M, N after refraction,
     incidence and refraction angles (rad) and the segment length (mm).
     """
@@ -84,7 +84,7 @@ class RayResult:
     seconds: float
     records: np.ndarray | None = None
     aimed: np.ndarray | None = field(default=None)
-    #: smallest cos(angle of incidence) over the surfaces the ray refracted at
+    #: smallest cos of the angles of incidence and refraction over the surfaces the ray refracted at
     min_cos_incidence: np.ndarray | None = None
     #: the kernel variant that ran ('generic' or 'specialised', see lensrt.trace.variants)
     kernel: str = "generic"
@@ -95,7 +95,7 @@ class RayResult:
 
     @property
     def grazing(self) -> np.ndarray:
-        """Rays that met some surface beyond GRAZING_INCIDENCE_DEG (ill-conditioned; see status.py)."""
+        """Rays that met or left some surface beyond GRAZING_INCIDENCE_DEG (ill-conditioned; see status.py)."""
         return self.min_cos_incidence < GRAZING_COS
 
     @property
@@ -198,9 +198,9 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     else:
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(run, range(workers)))
-    o = out.numpy().astype(np.float64)
-    st = status.numpy().astype(np.int32)
-    sf = surface.numpy().astype(np.int32)
+    o = out.numpy().astype(np.float64, copy=False)
+    st = status.numpy().astype(np.int32, copy=False)
+    sf = surface.numpy().astype(np.int32, copy=False)
     seconds = time.perf_counter() - t0
     vz = lens.vertex_z_mm()
     frame = np.where(st == OK, end, np.clip(sf, 0, n_surf))

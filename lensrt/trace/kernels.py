@@ -9,8 +9,8 @@ holding
   record (for ``lensrt ray``);
 * :func:`trace_stream` -- *stream* shape: rays generated, traced and accumulated
   in the kernel, each thread looping over many rays, no per-ray storage;
-* :func:`reduce_partial`, :func:`reduce_final` -- the per-thread stream slots summed on the
-  device in two stages, each in a fixed order (parallel, deterministic);
+* :func:`fold_slots` -- the stream's per-slot sums added to running totals in slot order;
+* :func:`sum_replicas` -- histogram replicas added on the device;
 * :func:`sample_square` -- the samplers alone, for tests.
 
 The lens-specialised variants of the store and stream kernels live in
@@ -22,13 +22,18 @@ cached on disk by Warp.
 
 Stream accumulation is deterministic: histogram bins are int64 fixed point
 (weight * 2^:data:`FIXED_POINT_BITS`) added with integer atomics, whose sum does not
-depend on the order of the additions; moments and status counts are summed per
-thread in a fixed order and written to per-thread slots, which the host reduces
-in a fixed order. Same seed, same device, same inputs -> bit-identical results.
+depend on the order of the additions. Moments and status counts are summed per
+*slot*: a contiguous run of ``slot_rays`` rays of one (source, batch), traced by one
+thread, whose sums start from zero -- so a slot's sums depend on its rays only. The
+slots are then added one after another in slot order (:func:`fold_slots`), continuing
+across launches. Slots never straddle launches, so the result is the same bits
+whatever the launch split, the number of sources in the launch or the CPU worker
+threads; it depends on the slot length (a function of the rays per batch only, unless
+the caller fixes it). Same seed, same device, same inputs -> bit-identical results.
 Histogram replicas (``rep = rep_base + tid % n_rep``) spread atomic traffic on
 GPUs; on the CPU, where Warp's atomics are plain adds, each worker thread of
 :func:`lensrt.trace.stream.stream` owns its replica (``tid_base``/``rep_base``
-select its slice of threads), and the replicas are summed as integers.
+select its slice of threads); the replicas are summed as integers on the device.
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations of the
 # functions built below as objects (the scalar type ``real`` is a closure variable).
@@ -40,7 +45,8 @@ from .sampling import sampling_funcs
 from .status import GRAZING_COS, OK, STATUS_NAMES
 from .surfaces import surface_funcs
 
-__all__ = ["get_kernels", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "N_STATS", "STAT_NAMES",
+__all__ = ["get_kernels", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "SRC_INT", "SRC_INT_COLS", "N_STATS",
+           "STAT_NAMES",
            "N_COUNTS", "COUNT_NAMES", "RAY_IN_COLS", "RAY_OUT_COLS"]
 
 #: histogram weights are stored as round(weight * 2^FIXED_POINT_BITS) in int64
@@ -53,14 +59,18 @@ RAY_OUT_COLS = 8
 #: columns of a stream source row (see lensrt.trace.stream.StreamSource)
 SRC = dict(kind=0, ox=1, oy=2, oz=3, wx=4, wy=5, wz=6, e1x=7, e1y=8, e1z=9, e2x=10, e2y=11, e2z=12,
            cx=13, cy=14, cz=15, a0=16, a1=17, b0=18, b1=19, dist=20, plane_dz=21, gx0=22, gy0=23,
-           layer=24, sx=25, sy=26)
-SRC_COLS = 28
+           layer=24, sx=25, sy=26, idx=27, idy=28, wscale=29)
+SRC_COLS = 30
+#: integer columns of a stream source (``src_int``): random seed, index mixed into the seed, first entry
+#: and number of lines/bins of its spectrum in the concatenated spectrum tables
+SRC_INT = dict(seed=0, index=1, spec_off=2, spec_n=3)
+SRC_INT_COLS = 4
 #: per-thread moments of the stream kernel (float64): over OK rays at the plane,
 #: weights w, positions relative to the source's (sx, sy)
 STAT_NAMES = ("n_ok", "sum_w", "sum_wx", "sum_wy", "sum_wxx", "sum_wyy", "sum_wxy", "sum_w_grid")
 N_STATS = len(STAT_NAMES)
 #: per-thread counts: one per ray status, then OK rays that fell outside the grid, then OK rays
-#: that met a surface at grazing incidence (> GRAZING_INCIDENCE_DEG)
+#: that met or left a surface at a grazing angle (> GRAZING_INCIDENCE_DEG, incidence or refraction)
 COUNT_NAMES = STATUS_NAMES + ("OUTSIDE_GRID", "GRAZING")
 N_COUNTS = len(COUNT_NAMES)
 
@@ -84,7 +94,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
     fixed_one = float(2**FIXED_POINT_BITS)
     N_STATS_C, N_COUNTS_C = N_STATS, N_COUNTS
     (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
-     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY) = (SRC[k] for k in SRC)
+     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY, _IDX, _IDY, _WSCALE) = (SRC[k] for k in SRC)
 
     @wp.kernel(module=mod, enable_backward=False)
     def trace_store(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
@@ -110,22 +120,24 @@ def get_kernels(precision: str) -> SimpleNamespace:
 
     @wp.kernel(module=mod, enable_backward=False)
     def trace_stream(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
-                     n_surfaces: int, clip: int, sources: wp.array2d(dtype=real),
+                     n_surfaces: int, clip: int, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
                      spec_mode: int, spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
                      use_table: int, index_table: wp.array2d(dtype=real),
                      chan_mode: int, n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
-                     hist: wp.array(dtype=wp.int64), nx: int, ny: int, inv_dx: real, inv_dy: real,
+                     hist: wp.array(dtype=wp.int64), nx: int, ny: int,
                      n_layers: int, n_rep: int, hist_batches: int,
-                     sampler: int, seed: int, epoch: int, n_batches: int, threads_per_batch: int,
-                     start: int, count: int, n_strata: int,
+                     sampler: int, epoch: int, n_batches: int, n_slots: int, slot_rays: int,
+                     start: int, count: int, n_strata: int, n_wstrata: int,
                      tid_base: int, rep_base: int,
                      stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64),
                      rec: wp.array3d(dtype=real)):
+        # one thread per slot: a contiguous run of slot_rays rays of one (source, batch); its sums
+        # depend on those rays only, never on the launch split (module docstring)
         tid = wp.tid() + tid_base
-        T = threads_per_batch
-        src = tid // (n_batches * T)
-        batch = (tid // T) % n_batches
-        lane = tid % T
+        q = tid % n_slots
+        g = tid // n_slots
+        src = g // n_batches
+        batch = g % n_batches
         rep = rep_base + tid % n_rep
         kind = int(sources[src, _KIND])
         ox = sources[src, _OX]
@@ -154,11 +166,19 @@ def get_kernels(precision: str) -> SimpleNamespace:
         layer = int(sources[src, _LAYER])
         refx = sources[src, _SX]
         refy = sources[src, _SY]
-        # one independent randomisation per (seed, source, batch, epoch)
-        bseed = sm.hash_u32(u32(seed) ^ sm.hash_u32(u32(src * n_batches + batch) ^ sm.hash_u32(u32(epoch))))
+        inv_dx = sources[src, _IDX]
+        inv_dy = sources[src, _IDY]
+        wscale = sources[src, _WSCALE]
+        spec_off = src_int[src, 2]
+        spec_n = src_int[src, 3]
+        # one independent randomisation per (source seed, source index, batch, epoch)
+        bseed = sm.hash_u32(u32(src_int[src, 0]) ^ sm.hash_u32(u32(src_int[src, 1] * n_batches + batch)
+                                                               ^ sm.hash_u32(u32(epoch))))
         wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
         rseed = int(bseed >> u32(1))
         nsx = n_strata
+        n_cells = n_strata * n_strata
+        n_strat = n_cells * n_wstrata
         plane_size = nx * ny
         # per-thread accumulators (fixed order of addition)
         n_ok = wp.float64(0.0)
@@ -177,18 +197,25 @@ def get_kernels(precision: str) -> SimpleNamespace:
         c_inv = wp.int64(0)
         c_out = wp.int64(0)
         c_graze = wp.int64(0)
-        k = lane
-        while k < count:
+        k = q * slot_rays
+        k_end = wp.min(k + slot_rays, count)
+        while k < k_end:
             i = start + k
             state = wp.rand_init(rseed, i)
-            u0, u1, state = sm.unit_square(sampler, i, nsx, nsx, bseed, state)
+            # stratified: n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
+            cell = i
+            if sampler == 1 and i < n_strat:
+                cell = i % n_cells
+            u0, u1, state = sm.unit_square(sampler, cell, nsx, nsx, bseed, state)
             pa, pb, pdf = sm.box(u0, u1, a0, a1, b0, b1)
             uw = real(0.0)
             if sampler == 2:
                 uw = sm.sobol_1d(u32(i), wseed)
             else:
                 uw = real(wp.randf(state))
-            wl, line, wl_pdf = sm.sample_cdf(uw, spec_mode, spec_nm, spec_cdf)
+                if sampler == 1 and i < n_strat:
+                    uw = (real(i // n_cells) + uw) / real(n_wstrata)
+            wl, line, wl_pdf = sm.sample_spectrum(uw, spec_mode, spec_nm, spec_cdf, spec_off, spec_n)
             row = int(-1)
             if use_table != 0:
                 row = line
@@ -199,7 +226,7 @@ def get_kernels(precision: str) -> SimpleNamespace:
             dx = wx
             dy = wy
             dz = wz
-            weight = real(1.0)
+            weight = wscale
             if kind != 0:
                 vx = px - ox
                 vy = py - oy
@@ -208,10 +235,11 @@ def get_kernels(precision: str) -> SimpleNamespace:
                 dx = vx / rho
                 dy = vy / rho
                 dz = vz / rho
-                q = dist / rho
-                weight = (dx * wx + dy * wy + dz * wz) * q * q
+                qd = dist / rho
+                weight = (dx * wx + dy * wy + dz * wz) * qd * qd
                 if kind == 1:
                     weight = weight * dz
+                weight = weight * wscale
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
                 surf, media, iris, n_surfaces, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row,
@@ -242,9 +270,9 @@ def get_kernels(precision: str) -> SimpleNamespace:
                         wp.atomic_add(hist, base, wp.int64(weight * real(fixed_one) + real(0.5)))
                     else:
                         pos = (wl - chan_nm0) / chan_dnm
-                        g = chan.shape[1]
-                        if pos >= real(0.0) and pos <= real(g - 1):
-                            k0 = wp.min(int(pos), g - 2)
+                        gc = chan.shape[1]
+                        if pos >= real(0.0) and pos <= real(gc - 1):
+                            k0 = wp.min(int(pos), gc - 2)
                             f = pos - real(k0)
                             for c in range(n_chan):
                                 cw = chan[c, k0] * (real(1.0) - f) + chan[c, k0 + 1] * f
@@ -263,81 +291,53 @@ def get_kernels(precision: str) -> SimpleNamespace:
                 c_nc = c_nc + wp.int64(1)
             else:
                 c_inv = c_inv + wp.int64(1)
-            k = k + T
-        stats[tid, 0] = n_ok
-        stats[tid, 1] = sw
-        stats[tid, 2] = swx
-        stats[tid, 3] = swy
-        stats[tid, 4] = swxx
-        stats[tid, 5] = swyy
-        stats[tid, 6] = swxy
-        stats[tid, 7] = swg
-        counts[tid, 0] = c_ok
-        counts[tid, 1] = c_missed
-        counts[tid, 2] = c_vig
-        counts[tid, 3] = c_tir
-        counts[tid, 4] = c_nc
-        counts[tid, 5] = c_inv
-        counts[tid, 6] = c_out
-        counts[tid, 7] = c_graze
+            k = k + 1
+        slot = tid
+        stats[slot, 0] = n_ok
+        stats[slot, 1] = sw
+        stats[slot, 2] = swx
+        stats[slot, 3] = swy
+        stats[slot, 4] = swxx
+        stats[slot, 5] = swyy
+        stats[slot, 6] = swxy
+        stats[slot, 7] = swg
+        counts[slot, 0] = c_ok
+        counts[slot, 1] = c_missed
+        counts[slot, 2] = c_vig
+        counts[slot, 3] = c_tir
+        counts[slot, 4] = c_nc
+        counts[slot, 5] = c_inv
+        counts[slot, 6] = c_out
+        counts[slot, 7] = c_graze
 
     @wp.kernel(module=mod, enable_backward=False)
-    def reduce_threads(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), T: int,
-                       out_stats: wp.array2d(dtype=wp.float64), out_counts: wp.array2d(dtype=wp.int64)):
-        # one thread per (source, batch): sum its T threads' slots in a fixed order (deterministic)
-        g = wp.tid()
-        for j in range(N_STATS_C):
-            acc = wp.float64(0.0)
-            for t in range(T):
-                acc = acc + stats[g * T + t, j]
-            out_stats[g, j] = out_stats[g, j] + acc
-        for j in range(N_COUNTS_C):
-            c = wp.int64(0)
-            for t in range(T):
-                c = c + counts[g * T + t, j]
-            out_counts[g, j] = out_counts[g, j] + c
-
-    @wp.kernel(module=mod, enable_backward=False)
-    def reduce_partial(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), T: int,
-                       chunk: int, n_chunks: int, part_stats: wp.array3d(dtype=wp.float64),
-                       part_counts: wp.array3d(dtype=wp.int64)):
-        # stage 1 of the device reduction: one thread per (source-batch g, column j, chunk c) sums
-        # the chunk's thread slots in a fixed order (deterministic, and parallel enough for a GPU)
-        tid = wp.tid()
-        c = tid % n_chunks
-        j = (tid // n_chunks) % (N_STATS_C + N_COUNTS_C)
-        g = tid // (n_chunks * (N_STATS_C + N_COUNTS_C))
-        t0 = g * T + c * chunk
-        t1 = g * T + wp.min(T, (c + 1) * chunk)
-        if j < N_STATS_C:
-            acc = wp.float64(0.0)
-            for t in range(t0, t1):
-                acc = acc + stats[t, j]
-            part_stats[g, j, c] = acc
-        else:
-            cnt = wp.int64(0)
-            for t in range(t0, t1):
-                cnt = cnt + counts[t, j - N_STATS_C]
-            part_counts[g, j - N_STATS_C, c] = cnt
-
-    @wp.kernel(module=mod, enable_backward=False)
-    def reduce_final(part_stats: wp.array3d(dtype=wp.float64), part_counts: wp.array3d(dtype=wp.int64),
-                     n_chunks: int, out_stats: wp.array2d(dtype=wp.float64),
-                     out_counts: wp.array2d(dtype=wp.int64)):
-        # stage 2: one thread per (g, column) adds the chunks' sums in order, into the running totals
+    def fold_slots(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), n_slots: int,
+                   out_stats: wp.array2d(dtype=wp.float64), out_counts: wp.array2d(dtype=wp.int64)):
+        # one thread per (source-batch g, column j): add the launch's slots to the running total one
+        # after another, in slot order -- a sequential sum over all slots of the call, whatever the
+        # launch split (deterministic)
         tid = wp.tid()
         j = tid % (N_STATS_C + N_COUNTS_C)
         g = tid // (N_STATS_C + N_COUNTS_C)
         if j < N_STATS_C:
-            acc = wp.float64(0.0)
-            for c in range(n_chunks):
-                acc = acc + part_stats[g, j, c]
-            out_stats[g, j] = out_stats[g, j] + acc
+            acc = out_stats[g, j]
+            for q in range(n_slots):
+                acc = acc + stats[g * n_slots + q, j]
+            out_stats[g, j] = acc
         else:
-            cnt = wp.int64(0)
-            for c in range(n_chunks):
-                cnt = cnt + part_counts[g, j - N_STATS_C, c]
-            out_counts[g, j - N_STATS_C] = out_counts[g, j - N_STATS_C] + cnt
+            cnt = out_counts[g, j - N_STATS_C]
+            for q in range(n_slots):
+                cnt = cnt + counts[g * n_slots + q, j - N_STATS_C]
+            out_counts[g, j - N_STATS_C] = cnt
+
+    @wp.kernel(module=mod, enable_backward=False)
+    def sum_replicas(hist: wp.array(dtype=wp.int64), n_rep: int, length: int, out: wp.array(dtype=wp.int64)):
+        # the histogram replicas added on the device (integers: exact), so one copy comes to the host
+        i = wp.tid()
+        acc = wp.int64(0)
+        for r in range(n_rep):
+            acc = acc + hist[r * length + i]
+        out[i] = acc
 
     @wp.kernel(module=mod, enable_backward=False)
     def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=real)):
@@ -348,7 +348,6 @@ def get_kernels(precision: str) -> SimpleNamespace:
         out[i, 0] = u0
         out[i, 1] = u1
 
-    return SimpleNamespace(trace_store=trace_store, trace_stream=trace_stream, reduce_threads=reduce_threads,
-                           reduce_partial=reduce_partial, reduce_final=reduce_final,
-                           sample_square=sample_square,
+    return SimpleNamespace(trace_store=trace_store, trace_stream=trace_stream, fold_slots=fold_slots,
+                           sum_replicas=sum_replicas, sample_square=sample_square,
                            real=real, module=mod, surfaces=sf, sampling=sm)

@@ -20,7 +20,8 @@ or for long transfers (Spencer & Murty, JOSA 52, 672, 1962; Welford,
     q = B + sign(B) sqrt(B^2 - A F),   t1 = F / q,   t2 = q / A,
 
 keeping the one on the vertex branch (1 - c (1 + k) z > 0: the half of a sphere
-or ellipsoid that holds the vertex; the root nearer the axis when both qualify).
+or ellipsoid that holds the vertex; when both qualify, the one where the ray
+crosses toward the surface's +z side, see :func:`_conic_t`).
 
 An even asphere is met by Newton's method on the sag, started from the base
 conic's intersection; no convergence within :data:`NEWTON_MAX_ITER` steps is
@@ -31,6 +32,14 @@ n' sin I' = n sin I (p. 1):
     cos I' = sqrt(1 - mu^2 (1 - cos^2 I)),
 
 and a negative radicand is total internal reflection (``TIR``).
+
+A sequential ray crosses every surface from the medium before it to the medium
+after it: toward the surface's +z side (d . n >= 0 with the normal n toward
++z). A ray that could meet a surface only from behind -- a beam from beyond
+90 deg that would have to pass the lens backwards, or a ray that crossed the
+surface's far branch first -- is ``MISSED`` there. Segments may still run
+backwards (t < 0: a stop plane inside a surface's sag, an image plane in front
+of the last vertex): that is the usual virtual propagation of sequential tracers.
 
 A ray's optical path length is counted from its origin; :mod:`.aiming`
 places origins on the object-space wavefront through the first vertex.
@@ -86,9 +95,11 @@ class ReferenceRay:
 
     @property
     def min_cos_incidence(self) -> float:
-        """Smallest cos(angle of incidence) over the surfaces the ray refracted at."""
+        """Smallest cos of the angles of incidence and refraction over the surfaces the ray refracted at
+        (near 90 deg either way -- grazing incidence, or refraction just short of TIR -- the ray is
+        ill-conditioned; see :data:`~lensrt.trace.status.GRAZING_INCIDENCE_DEG`)."""
         refracted = [h for h in self.hits if h.incidence_rad > 0.0 or h.refraction_rad > 0.0]
-        return min((math.cos(h.incidence_rad) for h in refracted), default=1.0)
+        return min((min(math.cos(h.incidence_rad), math.cos(h.refraction_rad)) for h in refracted), default=1.0)
 
 
 def sag_and_slope(c: float, kp1: float, asphere: tuple[float, ...], r2: float) -> tuple[float, float] | None:
@@ -113,7 +124,12 @@ def _conic_t(c: float, kp1: float, x: float, y: float, z: float, L: float, M: fl
     Both roots in the form that does not cancel: q = B + sign(B) sqrt(B^2 - A F),
     t1 = F / q, t2 = q / A. A root lies on the vertex branch when
     1 - c (1 + k) z > 0 there (the half of a sphere or ellipsoid that holds the
-    vertex); when both do (paraboloids, hyperboloids), the one nearer the axis.
+    vertex). When both do (paraboloids, hyperboloids, and a sphere's cap met by
+    a ray steeper than its rim: a fisheye's front beyond 90 deg), the ray enters
+    the branch at one and leaves at the other; the one kept is where it crosses
+    toward the surface's +z side, the side of the medium after the surface: there
+    d . n = B - A t > 0 with n = (-c x, -c y, 1 - c (1 + k) z), and
+    B - A t1 = sign(B) sqrt(B^2 - A F) = -(B - A t2), so it is t1 when B >= 0.
     """
     F = c * (x * x + y * y) + c * kp1 * z * z - 2.0 * z
     B = N - c * (x * L + y * M + kp1 * z * N)
@@ -123,15 +139,13 @@ def _conic_t(c: float, kp1: float, x: float, y: float, z: float, L: float, M: fl
         return None
     root = math.sqrt(disc)
     q = B + root if B >= 0.0 else B - root
-    best, best_r2 = None, math.inf
-    for t in ((F / q) if q != 0.0 else None, (q / A) if A != 0.0 else None):
-        if t is None or c * kp1 * (z + t * N) >= 1.0:
-            continue
-        px, py = x + t * L, y + t * M
-        r2 = px * px + py * py
-        if r2 < best_r2:
-            best, best_r2 = t, r2
-    return best
+    t1 = F / q if q != 0.0 else None
+    t2 = q / A if A != 0.0 else None
+    ok1 = t1 is not None and c * kp1 * (z + t1 * N) < 1.0
+    ok2 = t2 is not None and c * kp1 * (z + t2 * N) < 1.0
+    if ok1 and ok2:
+        return t1 if B >= 0.0 else t2
+    return t1 if ok1 else (t2 if ok2 else None)
 
 
 def intersect(c: float, kp1: float, asphere: tuple[float, ...], x: float, y: float, z: float,
@@ -276,6 +290,8 @@ def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction
         else:  # the image surface: a plane
             c, kp1, asph = 0.0, 1.0, ()
         status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
+        if status == OK and L * normal[0] + M * normal[1] + N * normal[2] < 0.0:
+            status = MISSED  # met from behind, from the medium after the surface: no sequential path
         if status != OK:
             ray.status, ray.surface = status, i
             break

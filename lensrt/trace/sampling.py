@@ -7,7 +7,11 @@ Point sets on the unit square (one function per kind, selected by
     independent uniform points (Warp's PCG generator, ``wp.rand_init(seed, offset)``);
 ``stratified``
     jittered: the first ``nx * ny`` points of a batch (``nx = ny = floor(sqrt(n))``)
-    take one random point in each cell of an nx x ny grid; any rest are random;
+    take one random point in each cell of an nx x ny grid; any rest are random. The
+    stream kernel stratifies the wavelength too: ``nw`` strata of the spectrum's CDF,
+    each with its own ``nx * ny`` jittered pupil grid (a 3-D jittered grid; ``nw`` = the
+    number of lines of a discrete spectrum, about n^(1/3) for a tabulated one:
+    :func:`lensrt.trace.stream.strata`);
 ``sobol``
     the first two Sobol' dimensions with Owen scrambling and index shuffling
     (hash-based nested uniform scrambling, B. Burley, "Practical Hash-based Owen
@@ -295,7 +299,30 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
         return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
 
-    ns = SimpleNamespace(hash_u32=hash_u32, reverse_bits=reverse_bits, owen=owen, sobol_dim1=sobol_dim1,
+    @func
+    def sample_spectrum(u: real, mode: int, nm: wp.array(dtype=real), cdf: wp.array(dtype=real), off: int,
+                        n: int):
+        """Wavelength from spectrum entries off .. off + n of concatenated tables (one spectrum per
+        source, :func:`lensrt.trace.stream.stream`): returns (wavelength_nm, table row, pdf) as
+        :func:`sample_cdf` does with ``n`` lines or bins starting at ``off``."""
+        lo = off
+        hi = off + n
+        while hi - lo > 1:  # the bin k with cdf[k] <= u < cdf[k + 1]
+            mid = (lo + hi) // 2
+            if cdf[mid] <= u:
+                lo = mid
+            else:
+                hi = mid
+        width = cdf[lo + 1] - cdf[lo]
+        if mode == 0:
+            return nm[lo], lo, width
+        f = real(0.5)
+        if width > real(0.0):
+            f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
+        return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
+
+    ns = SimpleNamespace(hash_u32=hash_u32, sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen,
+                         sobol_dim1=sobol_dim1,
                          sobol_dim1_reversed=sobol_dim1_reversed,
                          to_unit=to_unit, sobol_2d=sobol_2d, sobol_1d=sobol_1d, r2_2d=r2_2d,
                          unit_square=unit_square, box=box, concentric_disk=concentric_disk, sample_cdf=sample_cdf)

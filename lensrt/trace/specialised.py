@@ -26,7 +26,7 @@ only where the result is unchanged to rounding:
 * Sellmeier terms share one division: sum b_j w^2 / d_j = w^2 (sum b_j prod_{k != j} d_k) / prod d_j;
 * the N-blade iris test uses the blades' normals (the largest projection of the
   point on them) instead of an arctangent and a cosine;
-* per-thread ray counts are int32 (a thread never traces 2^31 rays in one launch).
+* per-slot ray counts are int32 (a slot never holds 2^31 rays).
 
 Kernels are built on first use of a (precision, shape, options) key and cached
 in-process (``lru_cache``) and on disk (Warp's module cache, by content hash);
@@ -165,8 +165,9 @@ def _build_trace(wp, real, module, shape, table, Consts):
     # ---------------------------------------------------------------- pieces
     @func
     def quadric_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one, nearer the
-        # axis when both are); q / A is divided out only where it is on the vertex branch
+        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one; when both
+        # are, the one where the ray crosses toward the surface's +z side: t1 when B >= 0);
+        # q / A is divided out only where it is on the vertex branch
         F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
         B = N - c * (x * L + y * M + kp1 * z * N)
         A = c * (L * L + M * M + kp1 * N * N)
@@ -177,14 +178,10 @@ def _build_trace(wp, real, module, shape, table, Consts):
         u = c * kp1
         t1 = F / wp.where(q != real(0.0), q, real(1.0))
         v1 = real_roots and q != real(0.0) and u * (z + t1 * N) < real(1.0)
-        px1 = x + t1 * L
-        py1 = y + t1 * M
         lhs = u * (z * A + q * N)  # u (z + (q / A) N) < 1, multiplied by A
         v2 = real_roots and A != real(0.0) and wp.where(A > real(0.0), lhs < A, lhs > A)
         t2 = lazy_div(v2, q, A)
-        px2 = x + t2 * L
-        py2 = y + t2 * M
-        use2 = v2 and ((not v1) or px2 * px2 + py2 * py2 < px1 * px1 + py1 * py1)
+        use2 = v2 and ((not v1) or B < real(0.0))
         t = wp.where(use2, t2, wp.where(v1, t1, real(0.0)))
         return v1 or v2, t
 
@@ -197,14 +194,15 @@ def _build_trace(wp, real, module, shape, table, Consts):
     @func
     def refract_unit(L: real, M: real, N: real, nx: real, ny: real, nz: real, mu: real):
         # surfaces.refract with the ratio mu = n1 / n2 given, no angles, the result renormalised
-        # by unit_near_one; returns total internal reflection, L', M', N', cos I
+        # by unit_near_one; returns total internal reflection, L', M', N', min(cos I, cos I')
         ci = L * nx + M * ny + N * nz
         sg = wp.where(ci < real(0.0), real(-1.0), real(1.0))
         cos_i = ci * sg
         k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        g = wp.sqrt(wp.max(k, real(0.0))) - mu * cos_i
+        cos_r = wp.sqrt(wp.max(k, real(0.0)))
+        g = cos_r - mu * cos_i
         L2, M2, N2 = unit_near_one(mu * L + g * sg * nx, mu * M + g * sg * ny, mu * N + g * sg * nz)
-        return k < real(0.0), L2, M2, N2, cos_i
+        return k < real(0.0), L2, M2, N2, wp.where(k < real(0.0), cos_i, wp.min(cos_i, cos_r))
 
     # per-surface helpers that need the surface's constants at fixed offsets: built per surface
     def make_sag(i: int):
@@ -351,7 +349,8 @@ def _build_trace(wp, real, module, shape, table, Consts):
     def trace_fast(P: Consts, x0: real, y0: real, z0: real, L0: real, M0: real, N0: real, w2: real,
                    index_table: wp.array2d(dtype=real), row: int, plane_dz: real):
         """Trace one ray (surfaces.trace_ray with end = n_surfaces, no record); returns status,
-        surface, x, y, z (frame of the last surface met), L, M, N, opl, smallest cos(incidence)."""
+        surface, x, y, z (frame of the last surface met), L, M, N, opl, smallest cos of the angles of
+        incidence and refraction."""
         norm = wp.sqrt(L0 * L0 + M0 * M0 + N0 * N0)
         good = norm > real(0.0) and wp.isfinite(norm) and wp.isfinite(x0 + y0 + z0)
         x = x0
@@ -407,6 +406,8 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     nz = nz * ninv
             else:
                 st, t, nx, ny, nz = wp.static(asphere_fns[i])(P, x, y, z, L, M, N)
+            # met from behind (from the medium after it): no sequential path (surfaces.trace_ray)
+            st = wp.where(st == int(OK) and L * nx + M * ny + N * nz < real(0.0), int(MISSED), st)
             hit = alive and st == int(OK)
             status = wp.where(alive and not hit, st, status)
             where = wp.where(alive and not hit, i, where)
@@ -441,9 +442,9 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     valid = n2 > real(0.0)
                     status = wp.where(passed and not valid, int(INVALID), status)
                     where = wp.where(passed and not valid, i, where)
-                    tir, L2, M2, N2, cos_i = refract_unit(L, M, N, nx, ny, nz, mu)
+                    tir, L2, M2, N2, cos_ir = refract_unit(L, M, N, nx, ny, nz, mu)
                     go = passed and valid
-                    min_cos = wp.where(go, wp.min(min_cos, cos_i), min_cos)
+                    min_cos = wp.where(go, wp.min(min_cos, cos_ir), min_cos)
                     status = wp.where(go and tir, int(TIR), status)
                     where = wp.where(go and tir, i, where)
                     go = go and not tir
@@ -521,24 +522,25 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
     channels = bool(opts.channels)
     histogram = bool(opts.histogram)
     (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
-     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY) = (SRC[k] for k in SRC)
+     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY, _IDX, _IDY, _WSCALE) = (SRC[k] for k in SRC)
     assert N_STATS == 8 and N_COUNTS == 8
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
-    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real),
+    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
                           index_table: wp.array2d(dtype=real),
                           n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
-                          hist: wp.array(dtype=wp.int64), nx: int, ny: int, inv_dx: real, inv_dy: real,
+                          hist: wp.array(dtype=wp.int64), nx: int, ny: int,
                           n_layers: int, n_rep: int, hist_batches: int,
-                          seed: int, epoch: int, n_batches: int, threads_per_batch: int,
-                          start: int, count: int, n_strata: int, tid_base: int, rep_base: int,
+                          epoch: int, n_batches: int, n_slots: int, slot_rays: int,
+                          start: int, count: int, n_strata: int, n_wstrata: int, tid_base: int, rep_base: int,
                           stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64)):
+        # one thread per slot (kernels.trace_stream's contract)
         tid = wp.tid() + tid_base
-        T = threads_per_batch
-        src = tid // (n_batches * T)
-        batch = (tid // T) % n_batches
-        lane = tid % T
+        q = tid % n_slots
+        g = tid // n_slots
+        src = g // n_batches
+        batch = g % n_batches
         rep = rep_base + tid % n_rep
         kind = int(sources[src, _KIND])
         ox = sources[src, _OX]
@@ -567,12 +569,20 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         layer = int(sources[src, _LAYER])
         refx = sources[src, _SX]
         refy = sources[src, _SY]
-        # one independent randomisation per (seed, source, batch, epoch), as in kernels.trace_stream
-        bseed = sm.hash_u32(u32(seed) ^ sm.hash_u32(u32(src * n_batches + batch) ^ sm.hash_u32(u32(epoch))))
+        inv_dx = sources[src, _IDX]
+        inv_dy = sources[src, _IDY]
+        wscale = sources[src, _WSCALE]
+        spec_off = src_int[src, 2]
+        spec_n = src_int[src, 3]
+        # one independent randomisation per (source seed, source index, batch, epoch), as in
+        # kernels.trace_stream
+        bseed = sm.hash_u32(u32(src_int[src, 0]) ^ sm.hash_u32(u32(src_int[src, 1] * n_batches + batch)
+                                                               ^ sm.hash_u32(u32(epoch))))
         wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
         rseed = int(bseed >> u32(1))
         plane_size = nx * ny
-        n_spec = spec_cdf.shape[0] - 1
+        n_cells = n_strata * n_strata
+        n_strat = n_cells * n_wstrata
         hist_base = (((rep * n_layers + layer) * hist_batches + batch % hist_batches) * n_chan) * plane_size
         sw = wp.float64(0.0)
         swx = wp.float64(0.0)
@@ -589,8 +599,9 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         c_inv = int(0)
         c_out = int(0)
         c_graze = int(0)
-        k = lane
-        while k < count:
+        k = q * slot_rays
+        k_end = wp.min(k + slot_rays, count)
+        while k < k_end:
             # branch-free like trace_fast (see _build_trace): no value of one ray outlives it
             i = start + k
             u0 = real(0.0)
@@ -609,14 +620,17 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                 u1 = real(wp.randf(state))
                 uw = real(wp.randf(state))
                 if wp.static(sampler == 1):
-                    strat = i < n_strata * n_strata
-                    u0 = wp.where(strat, (real(i % n_strata) + u0) / real(n_strata), u0)
-                    u1 = wp.where(strat, (real(i // n_strata) + u1) / real(n_strata), u1)
+                    # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
+                    strat = i < n_strat
+                    cell = i % n_cells
+                    u0 = wp.where(strat, (real(cell % n_strata) + u0) / real(n_strata), u0)
+                    u1 = wp.where(strat, (real(cell // n_strata) + u1) / real(n_strata), u1)
+                    uw = wp.where(strat, (real(i // n_cells) + uw) / real(n_wstrata), uw)
             pa = a0 + u0 * (a1 - a0)
             pb = b0 + u1 * (b1 - b0)
             # wavelength: the bin k with cdf[k] <= uw < cdf[k + 1] (sampling.sample_cdf)
-            lo = int(0)
-            hi = n_spec
+            lo = spec_off
+            hi = spec_off + spec_n
             while hi - lo > 1:
                 mid = (lo + hi) // 2
                 below = spec_cdf[mid] <= uw
@@ -645,7 +659,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
             dz = wp.where(point, vz / rs, wz)
             qq = dist / rs
             weight = wp.where(point, (dx * wx + dy * wy + dz * wz) * qq * qq, real(1.0))
-            weight = wp.where(kind == 1, weight * dz, weight)
+            weight = wp.where(kind == 1, weight * dz, weight) * wscale
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
@@ -687,7 +701,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                                 v = weight * cw * real(fixed_one) + real(0.5)
                                 if v >= real(1.0):
                                     wp.atomic_add(hist, base + c * plane_size, wp.int64(v))
-            k = k + T
+            k = k + 1
         stats[tid, 0] = wp.float64(c_ok)
         stats[tid, 1] = sw
         stats[tid, 2] = swx

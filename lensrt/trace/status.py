@@ -23,7 +23,8 @@ class RayStatus(IntEnum):
     #: reached the image surface
     OK = 0
     #: no intersection with a surface (beyond a conic's extent, a plane it runs parallel to,
-    #: or a surface it would meet on the far branch)
+    #: a surface it would meet on the far branch, or one it could meet only from behind,
+    #: from the medium after it)
     MISSED = 1
     #: outside a surface's clear semi-diameter, or blocked by the iris / central obstruction
     VIGNETTED = 2
@@ -39,9 +40,11 @@ OK, MISSED, VIGNETTED, TIR, NO_CONVERGE, INVALID = (int(s) for s in RayStatus)
 STATUS_NAMES: tuple[str, ...] = tuple(s.name for s in RayStatus)
 N_STATUS = len(STATUS_NAMES)
 
-#: a ray that meets a surface more steeply than this (angle of incidence, deg) is *grazing*:
-#: its intersection and refraction are ill-conditioned, so rounding grows there (float32
-#: rays may then differ from float64 beyond the documented bound); results flag such rays
+#: a ray that meets a surface more steeply than this (angle of incidence, deg), or leaves it
+#: more steeply (angle of refraction: just short of total internal reflection, where
+#: dI'/dI = n cos I / (n' cos I') diverges), is *grazing*: its intersection or refraction is
+#: ill-conditioned, so rounding grows there (float32 rays may then differ from float64 beyond
+#: the documented bound); results flag such rays
 GRAZING_INCIDENCE_DEG = 80.0
 GRAZING_COS = math.cos(math.radians(GRAZING_INCIDENCE_DEG))
 

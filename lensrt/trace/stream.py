@@ -12,12 +12,19 @@ histogram layer) through the lens and accumulates, with no per-ray storage:
 
 Pupil sampling: rays start uniformly over a rectangle in the plane through
 the paraxial entrance-pupil centre perpendicular to the beam (infinite object)
-or to the line from the object point (finite object). :func:`pupil_box` finds
-that rectangle per field point by tracing grids of rays through every aperture
-(a coarse grid over a region that surely holds the pupil -- everything that
-passes surface 1 -- then a finer grid), so the box hugs the *real* pupil,
-cat's eyes included; vignetted rays are rejected in the kernel. The estimate of
-a flux is ``weights / rays * box area * spectrum total`` (:meth:`StreamResult.flux_per_ray`).
+or to the line from the object point (finite object): the box of the field
+point's *real* pupil, found for many field points at once by
+:func:`pupil_boxes` (:mod:`lensrt.trace.pupil_boxes`); vignetted rays are
+rejected in the kernel. :func:`stream_sources` builds many sources in a few
+batched traces (boxes, real chief rays). The estimate of a flux is ``weights /
+rays * box area * spectrum total`` (:meth:`StreamResult.flux_per_ray`).
+
+One launch, many sources: each source has its own histogram layer, detection
+plane, grid centre and bin size, spectrum (one of the call's spectra), weight
+factor, and random seed. A source's rays are those of (its seed, its index,
+batch), whatever else shares the launch: give each source its own ``seed`` and
+``rng_index`` and a group of sources traced together gives the same bits as each
+traced alone (histograms, counts and moment sums; module :mod:`.kernels`).
 
 Ray weights: 1 for a collimated beam (uniform flux per area across it); for an
 object point, ``cos(theta_plane) (D / rho)^2`` (the solid angle the pupil element
@@ -39,8 +46,10 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
-from .aiming import FieldPoint, beam_basis, field_point, pupil_geometry, ray_through_point
-from .kernels import COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_COLS, STAT_NAMES, get_kernels
+from .aiming import FieldPoint, field_point
+from .kernels import (COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_COLS, SRC_INT, SRC_INT_COLS,
+                      STAT_NAMES, get_kernels)
+from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
 from .surfaces import N_RECORD
@@ -48,41 +57,29 @@ from .shape import describe
 from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
 from .variants import choose_kernel, params, shape_and_constants
 
-__all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "stream_source",
-           "stream", "EMITTERS"]
+__all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "pupil_boxes",
+           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS"]
 
 EMITTERS = ("lambertian", "isotropic")
 _EPOCH = 1 << 30
-#: threads per launch on a GPU (all sources and batches), per kernel variant: enough
-#: waves that the last one's idle tail stays small
-GPU_THREADS = {"generic": 1 << 18, "specialised": 1 << 18}
-
-
-@dataclass(frozen=True)
-class PupilBox:
-    """A rectangle [a0, a1] x [b0, b1] in the aim plane through ``centre`` spanned by e1, e2 (mm)."""
-
-    centre: tuple[float, float, float]
-    axis: tuple[float, float, float]
-    e1: tuple[float, float, float]
-    e2: tuple[float, float, float]
-    a0: float
-    a1: float
-    b0: float
-    b1: float
-
-    @property
-    def area_mm2(self) -> float:
-        return max(self.a1 - self.a0, 0.0) * max(self.b1 - self.b0, 0.0)
-
-    def points(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        c, e1, e2 = (np.asarray(v) for v in (self.centre, self.e1, self.e2))
-        return c + np.asarray(a)[:, None] * e1 + np.asarray(b)[:, None] * e2
+#: slots (one thread each: a contiguous run of rays of one source and batch) per batch: at most
+#: SLOTS_MAX, of at least SLOT_MIN_RAYS rays (a power of two) -- a function of the rays per batch only
+SLOTS_MAX = 8192
+SLOT_MIN_RAYS = 64
+#: slots per launch (all sources and batches) at most, per device kind: the per-slot sums take
+#: 128 bytes each
+LAUNCH_SLOTS = {"gpu": 1 << 20, "cpu": 1 << 16}
 
 
 @dataclass(frozen=True)
 class StreamSource:
-    """One source of a stream: field point, pupil box, detection plane, grid centre, histogram layer."""
+    """One source of a stream: field point, pupil box, detection plane, grid centre, histogram layer.
+
+    Optional, per source: ``seed`` (default: the call's seed) and ``rng_index`` (default: the
+    source's position in the list), which with the batch select its random numbers;
+    ``pixel_mm``/``pixel_y_mm`` its bins (default: the grid's); ``spectrum`` the index of its
+    spectrum among the call's; ``weight`` a factor on every ray weight (histogram and moments).
+    """
 
     field: FieldPoint
     box: PupilBox
@@ -90,6 +87,12 @@ class StreamSource:
     centre_mm: tuple[float, float] = (0.0, 0.0)
     layer: int = 0
     emitter: str = "lambertian"
+    seed: int | None = None
+    rng_index: int | None = None
+    pixel_mm: float | None = None
+    pixel_y_mm: float | None = None
+    spectrum: int = 0
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -148,13 +151,16 @@ class StreamResult:
 
     def status_counts(self, source: int | None = None) -> dict[str, int]:
         """Rays per status (all sources, or one); ``OUTSIDE_GRID`` counts OK rays off the grid,
-        ``GRAZING`` OK rays that met a surface beyond 80 deg incidence (ill-conditioned)."""
+        ``GRAZING`` OK rays that met or left a surface beyond 80 deg (ill-conditioned)."""
         c = self.batch_counts.sum(axis=(0, 1)) if source is None else self.batch_counts[source].sum(axis=0)
         return {n: int(v) for n, v in zip(COUNT_NAMES, c)}
 
     def flux_per_ray(self, source: int = 0) -> float:
-        """Pupil-box area (mm^2) x spectrum total / rays: multiply weights by it to get flux."""
-        return float(self.pupil_area_mm2[source]) * self.spectrum_total / self.rays_per_source
+        """Pupil-box area (mm^2) x the source's spectrum total / rays: multiply weights by it to get flux
+        (weights include the source's ``weight`` factor)."""
+        totals = self.extra.get("spectrum_totals")
+        total = self.spectrum_total if totals is None else float(totals[source])
+        return float(self.pupil_area_mm2[source]) * total / self.rays_per_source
 
     def _estimate(self, source: int, fn) -> tuple[np.ndarray, np.ndarray]:
         """fn(stat sums, rays) on the pooled sums, and its standard error from the batch values."""
@@ -205,10 +211,21 @@ class StreamResult:
         s = self.batch_stats[source]
         return np.maximum(s[:, 1] - s[:, 7], 0.0)
 
-    def psf_inputs(self, source: int = 0, channel: int = 0) -> dict:
-        """Keyword arguments for ``lensrt.analysis.psf.geometric_psf`` (with an ImageGrid of
-        shape (ny, nx), pitch grid.pixel_mm * 1000 um, centred on ``centre_mm``).
+    def bins(self, source: int = 0) -> dict:
+        """The source's histogram bins: ``shape`` (ny, nx), ``pixel_mm`` and ``pixel_y_mm`` (mm) and
+        ``centre_mm`` (the grid centre on the plane, lens frame)."""
+        px = self.extra.get("pixel_mm")
+        dx = self.grid.pixel_mm if px is None else float(px[source][0])
+        dy = self.grid.dy_mm if px is None else float(px[source][1])
+        return {"shape": (self.grid.ny, self.grid.nx), "pixel_mm": dx, "pixel_y_mm": dy,
+                "centre_mm": tuple(float(v) for v in self.centre_mm[source])}
 
+    def psf_inputs(self, source: int = 0, channel: int = 0) -> dict:
+        """Keyword arguments for ``lensrt.analysis.psf.geometric_psf`` -- all but its ``grid``.
+
+        The grid is the analysis stage's ``ImageGrid.centred(b["shape"], 1000 * b["pixel_mm"],
+        b["centre_mm"])`` with ``b = self.bins(source)`` (square bins; the trace stage does not
+        import the analysis stage): ``lensrt.analysis.raypsf.psf_from_stream`` does both.
         Needs ``batch_histograms=True`` and one source per layer; rows run top-down (+y up)
         as the analysis grids do.
         """
@@ -218,7 +235,8 @@ class StreamResult:
         hist = self.batch_histograms[layer, :, channel, ::-1, :]
         return {"hist": hist, "moment_sums": self.moment_sums(source), "off_grid": self.off_grid_weight(source),
                 "reference_mm": tuple(float(v) for v in self.centre_mm[source]),
-                "samples": self.rays_per_source, "seconds": self.seconds, "seed": self.seed}
+                "samples": self.rays_per_source, "seconds": self.seconds,
+                "seed": int(self.extra.get("source_seeds", [self.seed] * (source + 1))[source])}
 
     def image(self, layer: int = 0, channel: int = 0) -> np.ndarray:
         """One (ny, nx) plane of the histogram (sum of weights per bin; row 0 = lowest y)."""
@@ -232,91 +250,41 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-def _surface1_box(lens: Lens, fp: FieldPoint, c: np.ndarray, e1: np.ndarray, e2: np.ndarray,
-                  w: np.ndarray) -> tuple[float, float, float, float]:
-    """A box in the aim plane that holds every ray passing surface 1's clear aperture."""
-    s1 = lens.surfaces[0]
-    sd = s1.semi_diameter_mm
-    if sd is None:
-        geom = pupil_geometry(lens)
-        sd = 4.0 * geom.ep_radius_mm + abs(geom.ep_z_mm)
-    sag = abs(float(s1.sag(min(sd, s1.max_semi_diameter_mm))))
-    if fp.infinite:
-        ca, cb = float(-c @ e1), float(-c @ e2)
-        half = sd + sag
-        return ca - half, ca + half, cb - half, cb + half
-    o = np.asarray(fp.point_mm)
-    phi = np.linspace(0.0, 2.0 * np.pi, 181)
-    rim = []
-    for z in (0.0, float(s1.sag(min(sd, s1.max_semi_diameter_mm)))):
-        rim.append(np.stack([sd * np.cos(phi), sd * np.sin(phi), np.full_like(phi, z)], axis=1))
-    pts = np.concatenate(rim)
-    v = pts - o
-    along = v @ w
-    dist = float((c - o) @ w)
-    if np.any(along <= 0.0) or dist <= 0.0:
-        half = 10.0 * sd
-        return -half, half, -half, half
-    proj = o + v * (dist / along)[:, None] - c
-    a, b = proj @ e1, proj @ e2
-    pad = 0.02 * (a.max() - a.min() + b.max() - b.min())
-    return a.min() - pad, a.max() + pad, b.min() - pad, b.max() + pad
 
 
-def _aim_frame(lens: Lens, fp: FieldPoint) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    geom = pupil_geometry(lens)
-    c = np.array([0.0, 0.0, geom.ep_z_mm])
-    if fp.infinite:
-        w = np.asarray(fp.direction, dtype=np.float64)
-    else:
-        v = c - np.asarray(fp.point_mm, dtype=np.float64)
-        w = v / np.linalg.norm(v)
-    e1, e2 = beam_basis(w)
-    return c, w, e1, e2
+def stream_sources(lens: Lens, fields, *, plane_z_mm: float | None = None,
+                   centres_mm: Sequence[tuple[float, float]] | None = None, layers: Sequence[int] | None = None,
+                   emitter: str = "lambertian", wavelengths_nm: Sequence[float] | None = None,
+                   iris: Iris | None = None, stop_radius_mm: float | None = None,
+                   device: str | None = None) -> list[StreamSource]:
+    """:class:`StreamSource` s for many field points at once (each its own layer unless ``layers``).
 
-
-def pupil_box(lens: Lens, fp: FieldPoint, wavelengths_nm: Sequence[float] | None = None, *,
-              iris: Iris | None = None, stop_radius_mm: float | None = None, device: str | None = None,
-              coarse: int = 128, fine: int = 64) -> PupilBox:
-    """The box of the real (vignetted) entrance pupil of field point ``fp`` (module docstring).
-
-    Traced in float64 with every aperture, at ``wavelengths_nm`` (default: the
-    lens's shortest, primary and longest). An empty box (area 0) means no ray
-    gets through.
+    ``fields``: (hx, hy) pairs or :class:`~lensrt.trace.aiming.FieldPoint` s. Pupil boxes come from
+    one batched :func:`pupil_boxes` (at :func:`~lensrt.trace.pupil_boxes.box_wavelengths` of
+    ``wavelengths_nm``); ``centres_mm`` default to where the real chief rays (primary wavelength,
+    batched :func:`lensrt.trace.aiming.chief_rays`) meet the plane -- the axis where one cannot be
+    traced. The same sources as :func:`stream_source` gives one at a time.
     """
-    from .api import RayBatch, trace
-    c, w, e1, e2 = _aim_frame(lens, fp)
-    wls = list(lens.wavelengths.nm) if wavelengths_nm is None else [float(v) for v in wavelengths_nm]
-    wls = sorted({min(wls), max(wls), lens.wavelengths.primary_nm if wavelengths_nm is None else wls[0]})
-
-    def passing(a0: float, a1: float, b0: float, b1: float, n: int) -> tuple[np.ndarray, np.ndarray, float, float]:
-        da, db = (a1 - a0) / n, (b1 - b0) / n
-        ga = a0 + (np.arange(n) + 0.5) * da
-        gb = b0 + (np.arange(n) + 0.5) * db
-        A, B = np.meshgrid(ga, gb, indexing="ij")
-        A, B = A.ravel(), B.ravel()
-        pts = c + A[:, None] * e1 + B[:, None] * e2
-        o, d = ray_through_point(fp, pts)
-        ok = np.zeros(len(A), dtype=bool)
-        for wl in wls:
-            r = trace(lens, RayBatch(o, d, np.full(len(A), wl)), "float64", device, iris=iris,
-                      stop_radius_mm=stop_radius_mm)
-            ok |= r.ok
-        return A[ok], B[ok], da, db
-
-    box = _surface1_box(lens, fp, c, e1, e2, w)
-    a, b, da, db = passing(*box, coarse)
-    if len(a) == 0:
-        return PupilBox(tuple(c), tuple(w), tuple(e1), tuple(e2), 0.0, 0.0, 0.0, 0.0)
-    box2 = (max(a.min() - 1.5 * da, box[0]), min(a.max() + 1.5 * da, box[1]),
-            max(b.min() - 1.5 * db, box[2]), min(b.max() + 1.5 * db, box[3]))
-    a, b, da, db = passing(*box2, fine)
-    if len(a) == 0:  # a sliver the fine grid missed: keep the coarse box
-        a0, a1, b0, b1 = box2
-    else:
-        a0, a1 = max(a.min() - 1.5 * da, box2[0]), min(a.max() + 1.5 * da, box2[1])
-        b0, b1 = max(b.min() - 1.5 * db, box2[2]), min(b.max() + 1.5 * db, box2[3])
-    return PupilBox(tuple(c), tuple(w), tuple(e1), tuple(e2), float(a0), float(a1), float(b0), float(b1))
+    from .aiming import chief_rays
+    from .api import RayBatch, kernel_to_stop, trace
+    if emitter not in EMITTERS:
+        raise LensrtError(f"unknown emitter {emitter!r}", hint=f"use one of {', '.join(EMITTERS)}")
+    fps = [f if isinstance(f, FieldPoint) else field_point(lens, float(f[0]), float(f[1])) for f in fields]
+    if not fps:
+        return []
+    z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
+    boxes = pupil_boxes(lens, fps, box_wavelengths(lens, wavelengths_nm), iris=iris, stop_radius_mm=stop_radius_mm,
+                        device=device)
+    if centres_mm is None:
+        wl = lens.wavelengths.primary_nm
+        o, d, ok = chief_rays(lens, fps, wl, kernel_to_stop(lens, device))
+        r = trace(lens, RayBatch(o, d, np.full(len(fps), wl)), "float64", device, clip=False, plane_z_mm=z)
+        good = ok & r.ok
+        centres_mm = [(float(r.position_mm[k, 0]), float(r.position_mm[k, 1])) if good[k] else (0.0, 0.0)
+                      for k in range(len(fps))]
+    layers = list(range(len(fps))) if layers is None else [int(v) for v in layers]
+    return [StreamSource(fp, box, z, (float(c[0]), float(c[1])), lay, emitter)
+            for fp, box, c, lay in zip(fps, boxes, centres_mm, layers)]
 
 
 def stream_source(lens: Lens, hx: float = 0.0, hy: float = 0.0, *, field: FieldPoint | None = None,
@@ -328,53 +296,108 @@ def stream_source(lens: Lens, hx: float = 0.0, hy: float = 0.0, *, field: FieldP
 
     ``plane_z_mm`` defaults to the image surface; ``centre_mm`` (grid centre and
     moment reference) to where the real chief ray meets that plane (primary
-    wavelength; the axis when it cannot be traced).
+    wavelength; the axis when it cannot be traced). :func:`stream_sources` for one.
     """
-    from .aiming import aim_rays
-    from .api import RayBatch, kernel_to_stop, trace
-    if emitter not in EMITTERS:
-        raise LensrtError(f"unknown emitter {emitter!r}", hint=f"use one of {', '.join(EMITTERS)}")
     fp = field_point(lens, hx, hy) if field is None else field
-    z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
-    box = pupil_box(lens, fp, wavelengths_nm, iris=iris, stop_radius_mm=stop_radius_mm, device=device)
-    if centre_mm is None:
-        wl = lens.wavelengths.primary_nm
-        o, d, ok = aim_rays(lens, fp, np.zeros(1), np.zeros(1), wl, "real", kernel_to_stop(lens, device))
-        r = trace(lens, RayBatch(o, d, wl), "float64", device, clip=False, plane_z_mm=z)
-        centre_mm = (float(r.position_mm[0, 0]), float(r.position_mm[0, 1])) if r.ok[0] and ok[0] else (0.0, 0.0)
-    return StreamSource(fp, box, z, (float(centre_mm[0]), float(centre_mm[1])), int(layer), emitter)
+    return stream_sources(lens, [fp], plane_z_mm=plane_z_mm, centres_mm=None if centre_mm is None else [centre_mm],
+                          layers=[layer], emitter=emitter, wavelengths_nm=wavelengths_nm, iris=iris,
+                          stop_radius_mm=stop_radius_mm, device=device)[0]
 
 
 def _source_rows(lens: Lens, sources: Sequence[StreamSource], grid: Grid) -> np.ndarray:
-    rows = np.zeros((len(sources), SRC_COLS))
-    for k, s in enumerate(sources):
-        b = s.box
-        r = rows[k]
-        if s.field.infinite:
-            r[SRC["kind"]] = 0
-        else:
-            r[SRC["kind"]] = 1 if s.emitter == "lambertian" else 2
-            r[SRC["ox"]:SRC["oz"] + 1] = s.field.point_mm
-        r[SRC["wx"]:SRC["wz"] + 1] = b.axis
-        r[SRC["e1x"]:SRC["e1z"] + 1] = b.e1
-        r[SRC["e2x"]:SRC["e2z"] + 1] = b.e2
-        r[SRC["cx"]:SRC["cz"] + 1] = b.centre
-        r[SRC["a0"]], r[SRC["a1"]], r[SRC["b0"]], r[SRC["b1"]] = b.a0, b.a1, b.b0, b.b1
-        if not s.field.infinite:
-            r[SRC["dist"]] = float(np.dot(np.asarray(b.centre) - np.asarray(s.field.point_mm), b.axis))
-        r[SRC["plane_dz"]] = s.plane_z_mm - lens.image_z_mm
-        r[SRC["gx0"]] = s.centre_mm[0] - 0.5 * grid.nx * grid.pixel_mm
-        r[SRC["gy0"]] = s.centre_mm[1] - 0.5 * grid.ny * grid.dy_mm
-        r[SRC["layer"]] = s.layer
-        r[SRC["sx"]], r[SRC["sy"]] = s.centre_mm
+    """The kernel's source table (:data:`SRC` columns), built column by column."""
+    n = len(sources)
+    rows = np.zeros((n, SRC_COLS))
+    inf = np.array([s.field.infinite for s in sources], dtype=bool)
+    lam = np.array([s.emitter == "lambertian" for s in sources], dtype=bool)
+    rows[:, SRC["kind"]] = np.where(inf, 0, np.where(lam, 1, 2))
+    obj = np.array([(0.0, 0.0, 0.0) if s.field.infinite else s.field.point_mm for s in sources], dtype=np.float64)
+    rows[:, SRC["ox"]:SRC["oz"] + 1] = obj
+    boxes = [s.box for s in sources]
+    axis = np.array([b.axis for b in boxes], dtype=np.float64)
+    centre = np.array([b.centre for b in boxes], dtype=np.float64)
+    rows[:, SRC["wx"]:SRC["wz"] + 1] = axis
+    rows[:, SRC["e1x"]:SRC["e1z"] + 1] = np.array([b.e1 for b in boxes], dtype=np.float64)
+    rows[:, SRC["e2x"]:SRC["e2z"] + 1] = np.array([b.e2 for b in boxes], dtype=np.float64)
+    rows[:, SRC["cx"]:SRC["cz"] + 1] = centre
+    rows[:, SRC["a0"]:SRC["b1"] + 1] = np.array([(b.a0, b.a1, b.b0, b.b1) for b in boxes], dtype=np.float64)
+    dist = np.einsum("ij,ij->i", centre - obj, axis)
+    rows[:, SRC["dist"]] = np.where(inf, 0.0, dist)
+    rows[:, SRC["plane_dz"]] = np.array([s.plane_z_mm for s in sources], dtype=np.float64) - lens.image_z_mm
+    px = np.array([_pixel_of(s, grid) for s in sources], dtype=np.float64).reshape(n, 2)
+    cen = np.array([s.centre_mm for s in sources], dtype=np.float64).reshape(n, 2)
+    rows[:, SRC["gx0"]] = cen[:, 0] - 0.5 * grid.nx * px[:, 0]
+    rows[:, SRC["gy0"]] = cen[:, 1] - 0.5 * grid.ny * px[:, 1]
+    rows[:, SRC["idx"]], rows[:, SRC["idy"]] = 1.0 / px[:, 0], 1.0 / px[:, 1]
+    rows[:, SRC["layer"]] = [s.layer for s in sources]
+    rows[:, SRC["sx"]], rows[:, SRC["sy"]] = cen[:, 0], cen[:, 1]
+    rows[:, SRC["wscale"]] = [s.weight for s in sources]
     return rows
 
 
+def _pixel_of(s: StreamSource, grid: Grid) -> tuple[float, float]:
+    if s.pixel_mm is None:
+        return grid.pixel_mm, grid.dy_mm
+    return float(s.pixel_mm), float(s.pixel_mm if s.pixel_y_mm is None else s.pixel_y_mm)
+
+
+def slot_layout(rays_per_batch: int, threads_per_batch: int | None = None) -> tuple[int, int]:
+    """(rays per slot, slots per batch) of a stream (:mod:`.kernels`): a function of the rays per batch
+    only -- at most :data:`SLOTS_MAX` slots of at least :data:`SLOT_MIN_RAYS` rays, a power of two --
+    unless ``threads_per_batch`` fixes the number of slots."""
+    n_b = int(rays_per_batch)
+    if threads_per_batch is not None:
+        per = max(1, -(-n_b // max(1, min(int(threads_per_batch), n_b))))
+    else:
+        per = max(SLOT_MIN_RAYS, 1 << max(0, (-(-n_b // SLOTS_MAX) - 1).bit_length()))
+    if n_b > _EPOCH:  # slots must not straddle a change of epoch (2^30 rays)
+        per = min(1 << max(0, (per - 1).bit_length()), _EPOCH)
+    return per, -(-n_b // per)
+
+
+def strata(rays_per_batch: int, spectra: Sequence[Spectrum]) -> tuple[int, int]:
+    """(wavelength strata, pupil strata per side) of the stratified sampler: one wavelength stratum per
+    line of a discrete spectrum (of the call's spectra with the most lines) -- equal-weight lines then
+    each get a whole jittered pupil grid -- and about the cube root of the rays per batch for a
+    tabulated one (a 3-D jittered grid); the pupil grid fills the rest."""
+    n_b = int(rays_per_batch)
+    if spectra[0].mode == SPECTRUM_DISCRETE:
+        n_w = max(len(sp.wavelength_nm) for sp in spectra)
+    else:
+        n_w = max(1, round(n_b ** (1.0 / 3.0)))
+    n_w = max(1, min(n_w, n_b))
+    return n_w, max(1, math.isqrt(n_b // n_w))
+
+
+def _spectrum_tables(lens: Lens, spectra: Sequence[Spectrum]):
+    """Concatenated wavelength, CDF and index tables of ``spectra`` (each n + 1 entries), offsets, counts."""
+    mode = spectra[0].mode
+    if any(sp.mode != mode for sp in spectra):
+        raise LensrtError("the spectra of one stream call must all be discrete or all tabulated",
+                          hint="trace discrete lines and tabulated spectra in separate calls")
+    nms, cdfs, tabs, offs, ns = [], [], [], [], []
+    off = 0
+    for sp in spectra:
+        lens.check_wavelengths([sp.wavelength_nm.min(), sp.wavelength_nm.max()])
+        n = len(sp.cdf) - 1
+        nm = np.asarray(sp.wavelength_nm, dtype=np.float64)
+        if mode == SPECTRUM_DISCRETE:  # pad the lines to n + 1 entries, as the CDF has
+            tabs.append(np.concatenate([index_table(lens, nm), index_table(lens, nm[-1:])]))
+            nm = np.concatenate([nm, nm[-1:]])
+        nms.append(nm)
+        cdfs.append(np.asarray(sp.cdf, dtype=np.float64))
+        offs.append(off)
+        ns.append(n)
+        off += n + 1
+    table = np.concatenate(tabs) if mode == SPECTRUM_DISCRETE else np.zeros((1, 1))
+    return mode, np.concatenate(nms), np.concatenate(cdfs), table, offs, ns
+
+
 def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_source: int, *,
-           spectrum: Spectrum | None = None, channels: Channels | None = None, sampler: str = "sobol",
-           seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
-           iris: Iris | None = None, stop_radius_mm: float | None = None, clip: bool = True,
-           rays_per_launch: int | None = None, threads_per_batch: int | None = None,
+           spectrum: Spectrum | Sequence[Spectrum] | None = None, channels: Channels | None = None,
+           sampler: str = "sobol", seed: int = 0, batches: int = 32, precision: str = "float32",
+           device: str | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
+           clip: bool = True, rays_per_launch: int | None = None, threads_per_batch: int | None = None,
            replicas: int | None = None, cpu_workers: int | None = None,
            device_reduce: bool | None = None, batch_histograms: bool = False, kernel: str = "auto",
            histogram: bool = True) -> StreamResult:
@@ -384,30 +407,39 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     ----------
     lens : Lens
     sources : sequence of StreamSource
-        Built with :func:`stream_source`; the iris and stop radius must match those given here.
+        Built with :func:`stream_source` / :func:`stream_sources`; the iris and stop radius must
+        match those given here.
     grid : Grid
-        Histogram bins; each source's grid is centred on its ``centre_mm``.
+        Histogram bins; each source's grid is centred on its ``centre_mm`` (bin size: the grid's,
+        or the source's own ``pixel_mm``).
     rays_per_source : int
         Rounded down to a multiple of ``batches``.
-    spectrum : Spectrum, optional
-        Wavelength distribution (default: the lens's wavelengths and weights).
+    spectrum : Spectrum or sequence of Spectrum, optional
+        Wavelength distribution (default: the lens's wavelengths and weights); several (all
+        discrete or all tabulated): source ``s`` samples ``spectrum[s.spectrum]``.
     channels : Channels, optional
         Spectral responses, one histogram channel each (default: one channel of weight 1).
     sampler : {'random', 'stratified', 'sobol', 'r2'}
     seed : int
-        Same seed, device and inputs -> bit-identical histogram and statistics.
+        The seed of every source that names none. Same seed, device and inputs -> bit-identical
+        histogram and statistics.
     batches : int
         Independent randomisations, for standard errors (>= 2).
     precision, device
         As for :func:`lensrt.trace.trace`.
-    rays_per_launch, threads_per_batch, replicas : optional
-        Work split (chunks bound the time per launch; memory does not grow with rays),
-        threads looping over rays, and histogram copies against atomic contention.
+    rays_per_launch : int, optional
+        Bounds the rays of one launch (the time per launch); results do not depend on it.
+    threads_per_batch : int, optional
+        Slots (threads) per batch, each tracing a contiguous run of rays (default:
+        :func:`slot_layout` of the rays per batch). The moment sums depend on it (their order
+        of addition), histograms and counts do not.
+    replicas : int, optional
+        Histogram copies on a GPU against atomic contention (summed on the device).
     cpu_workers : int, optional
         On the CPU, host threads running slices of each launch concurrently (default: the
         CPU cores this process may use); results do not depend on it.
     device_reduce : bool, optional
-        Sum the per-thread slots with a kernel on the device (default: on GPUs only).
+        Ignored (kept for compatibility): the slots are always added on the device, in slot order.
     batch_histograms : bool
         Keep one histogram per batch (``StreamResult.batch_histograms``, for per-pixel standard
         errors); memory grows by the number of batches.
@@ -416,9 +448,16 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     histogram : bool
         Bin the rays. False: counts and moments only (transmission, pupil areas, centroids,
         RMS radii); the specialised kernel then skips the binning, and the histogram is zero.
+
+    Notes
+    -----
+    ``StreamResult.seconds`` is the wall-clock time of the call (set-up, launches, copies);
+    ``extra["kernel_seconds"]`` the device time of the launches alone (CUDA events on a GPU,
+    the launches' wall-clock time on the CPU).
     """
     from ..device import warp
     wp = warp()
+    t_call = time.perf_counter()
     if not sources:
         raise LensrtError("a stream needs at least one source")
     if batches < 2:
@@ -436,9 +475,16 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     shape, consts = shape_and_constants(packed, clip)
     variant = choose_kernel(kernel, dev, shape, S * B * n_b)
     want_hist = bool(histogram)
-    spectrum = spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights) if spectrum is None else spectrum
-    use_table = int(spectrum.mode == SPECTRUM_DISCRETE)
-    table = index_table(lens, spectrum.wavelength_nm) if use_table else np.zeros((1, 1))
+    if spectrum is None:
+        spectra = [spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights)]
+    elif isinstance(spectrum, Spectrum):
+        spectra = [spectrum]
+    else:
+        spectra = list(spectrum)
+    if not spectra or any(not (0 <= s.spectrum < len(spectra)) for s in sources):
+        raise LensrtError("every source's spectrum index must name one of the call's spectra")
+    mode, nm, cdf, table, spec_off, spec_n = _spectrum_tables(lens, spectra)
+    use_table = int(mode == SPECTRUM_DISCRETE)
     if channels is None:
         chan_mode, n_chan, chan, nm0, dnm = 0, 1, np.zeros((1, 2)), 0.0, 1.0
     else:
@@ -450,110 +496,125 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     plane = grid.nx * grid.ny
     if grid.nx < 1 or grid.ny < 1 or grid.pixel_mm <= 0 or grid.dy_mm <= 0:
         raise LensrtError("the histogram grid needs positive sizes")
-    if threads_per_batch is None:
-        threads_per_batch = max(1, min(GPU_THREADS[variant] // (S * B), n_b // 64)) if is_gpu else 1
-    T = int(threads_per_batch)
-    n_threads = S * B * T
+    if any(s.pixel_mm is not None and not (s.pixel_mm > 0 and (s.pixel_y_mm or s.pixel_mm) > 0) for s in sources):
+        raise LensrtError("a source's pixel size must be positive")
+    slot_rays, n_slots = slot_layout(n_b, threads_per_batch)
+    hb = B if batch_histograms else 1
     if is_gpu:
         workers = 1
         if replicas is None:
-            replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan, 1)))
+            replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan * hb, 1)))
     else:  # Warp's CPU atomics are plain adds: one histogram replica per worker thread
-        workers = max(1, min(int(cpu_workers or _cpu_count()), n_threads))
-        replicas = workers
-    hb = B if batch_histograms else 1
+        workers = 0  # set per launch below
+        replicas = max(1, int(cpu_workers or _cpu_count()))
     hist_len = replicas * layers * hb * n_chan * plane
     if hist_len >= 2**31:
         raise LensrtError(f"histogram of {hist_len} bins is too large (limit 2^31)")
     if rays_per_launch is None:
         rays_per_launch = (1 << 30) if is_gpu else (1 << 22)
-    chunk = max(1, min(int(rays_per_launch) // (S * B), _EPOCH))
+    cap = LAUNCH_SLOTS["gpu" if is_gpu else "cpu"]
+    per_launch = max(1, min(int(rays_per_launch) // (S * B * slot_rays), cap // (S * B)))
+    per_launch = min(per_launch, n_slots, max(1, _EPOCH // slot_rays))
+    # per-source integers: seed, index mixed into it, spectrum table entries
+    src_int = np.zeros((S, SRC_INT_COLS), dtype=np.int32)
+    seeds = [int(seed if s.seed is None else s.seed) & 0x7FFFFFFF for s in sources]
+    src_int[:, SRC_INT["seed"]] = seeds
+    src_int[:, SRC_INT["index"]] = [j if s.rng_index is None else int(s.rng_index) for j, s in enumerate(sources)]
+    src_int[:, SRC_INT["spec_off"]] = [spec_off[s.spectrum] for s in sources]
+    src_int[:, SRC_INT["spec_n"]] = [spec_n[s.spectrum] for s in sources]
     # device arrays
     src = wp.array(_source_rows(lens, sources, grid), dtype=real, device=dev)
-    nm = np.asarray(spectrum.wavelength_nm, dtype=np.float64)
+    src_i = wp.array(src_int, dtype=wp.int32, device=dev)
     spec_nm = wp.array(nm, dtype=real, device=dev)
-    spec_cdf = wp.array(spectrum.cdf, dtype=real, device=dev)
+    spec_cdf = wp.array(cdf, dtype=real, device=dev)
     tab = wp.array(table, dtype=real, device=dev)
     chan_arr = wp.array(chan, dtype=real, device=dev)
     hist = wp.zeros(hist_len, dtype=wp.int64, device=dev)
-    stats = wp.zeros((n_threads, N_STATS), dtype=wp.float64, device=dev)
-    counts = wp.zeros((n_threads, N_COUNTS), dtype=wp.int64, device=dev)
+    max_threads = S * B * per_launch
+    stats = wp.zeros((max_threads, N_STATS), dtype=wp.float64, device=dev)
+    counts = wp.zeros((max_threads, N_COUNTS), dtype=wp.int64, device=dev)
+    tot_stats = wp.zeros((S * B, N_STATS), dtype=wp.float64, device=dev)
+    tot_counts = wp.zeros((S * B, N_COUNTS), dtype=wp.int64, device=dev)
     rec = wp.zeros((1, 1, N_RECORD), dtype=real, device=dev)
     spec = None
     if variant == "specialised":
         spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, want_hist),
                              GPU_TUNING[precision] if is_gpu else DEFAULT_TUNING)
         pconst = params(spec, consts, dev)
-    device_reduce = is_gpu if device_reduce is None else bool(device_reduce)
-    dev_stats = wp.zeros((S * B, N_STATS), dtype=wp.float64, device=dev) if device_reduce else None
-    dev_counts = wp.zeros((S * B, N_COUNTS), dtype=wp.int64, device=dev) if device_reduce else None
-    red_chunk = 64
-    n_chunks = -(-T // red_chunk)
-    if device_reduce:
-        part_stats = wp.zeros((S * B, N_STATS, n_chunks), dtype=wp.float64, device=dev)
-        part_counts = wp.zeros((S * B, N_COUNTS, n_chunks), dtype=wp.int64, device=dev)
-    n_strata = int(math.isqrt(n_b))
-    tot_stats = np.zeros((S, B, N_STATS))
-    tot_counts = np.zeros((S, B, N_COUNTS), dtype=np.int64)
+    n_wstrata, n_strata = strata(n_b, spectra)
     launches = 0
+    pool = ThreadPoolExecutor(replicas) if (not is_gpu and replicas > 1) else None
+    if is_gpu:
+        ev0, ev1 = wp.Event(dev, enable_timing=True), wp.Event(dev, enable_timing=True)
+        wp.get_stream(dev).record_event(ev0)
     t0 = time.perf_counter()
     start = 0
-    bounds = [n_threads * w // workers for w in range(workers + 1)]
-    pool = ThreadPoolExecutor(workers) if workers > 1 else None
     try:
         while start < n_b:
             epoch, local = divmod(start, _EPOCH)
-            count = min(chunk, n_b - start, _EPOCH - local)
-            tail = [hist, grid.nx, grid.ny, real(1.0 / grid.pixel_mm), real(1.0 / grid.dy_mm),
-                    layers, 1 if workers > 1 else int(replicas), hb]
+            count = min(per_launch * slot_rays, n_b - start, _EPOCH - local)
+            ns = -(-count // slot_rays)
+            n_threads = S * B * ns
+            workers = 1 if is_gpu else max(1, min(replicas, n_threads))
+            bounds = [n_threads * w // workers for w in range(workers + 1)]
+            tail = [hist, grid.nx, grid.ny, layers, 1 if not is_gpu else int(replicas), hb]
             if spec is None:
-                common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src,
-                          int(spectrum.mode), spec_nm, spec_cdf, use_table, tab,
+                common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src, src_i,
+                          int(mode), spec_nm, spec_cdf, use_table, tab,
                           chan_mode, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          code, int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
+                          code, int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
             else:
-                common = [pconst, src, spec_nm, spec_cdf, tab, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          int(seed) & 0x7FFFFFFF, int(epoch), B, T, int(local), int(count), n_strata]
+                common = [pconst, src, src_i, spec_nm, spec_cdf, tab, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
+                          int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
 
             def run(w: int) -> None:
+                extra = [bounds[w], w if not is_gpu else 0, stats, counts]
                 if spec is None:
-                    wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev,
-                              inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts, rec])
+                    wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev, inputs=common + extra + [rec])
                 else:
-                    wp.launch(spec.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
-                              inputs=common + [bounds[w], w if workers > 1 else 0, stats, counts])
+                    wp.launch(spec.kernel, dim=bounds[w + 1] - bounds[w], device=dev, inputs=common + extra)
 
-            if pool is None:
+            if pool is None or workers == 1:
                 run(0)
             else:
                 list(pool.map(run, range(workers)))
             launches += 1
-            if device_reduce:  # sum the threads' slots on the device, in a fixed order (two stages)
-                wp.launch(k.reduce_partial, dim=S * B * (N_STATS + N_COUNTS) * n_chunks, device=dev,
-                          inputs=[stats, counts, T, red_chunk, n_chunks, part_stats, part_counts])
-                wp.launch(k.reduce_final, dim=S * B * (N_STATS + N_COUNTS), device=dev,
-                          inputs=[part_stats, part_counts, n_chunks, dev_stats, dev_counts])
-            else:
-                tot_stats += stats.numpy().reshape(S, B, T, N_STATS).sum(axis=2)
-                tot_counts += counts.numpy().reshape(S, B, T, N_COUNTS).sum(axis=2)
+            # the launch's slots added to the totals, in slot order (kernels.fold_slots)
+            wp.launch(k.fold_slots, dim=S * B * (N_STATS + N_COUNTS), device=dev,
+                      inputs=[stats, counts, ns, tot_stats, tot_counts])
             start += count
+        length = layers * hb * n_chan * plane
+        if replicas > 1:
+            out = wp.empty(length, dtype=wp.int64, device=dev)
+            wp.launch(k.sum_replicas, dim=length, device=dev, inputs=[hist, int(replicas), length, out])
+        else:
+            out = hist
+        if is_gpu:
+            wp.get_stream(dev).record_event(ev1)
     finally:
         if pool is not None:
             pool.shutdown()
-    if device_reduce:
-        tot_stats = dev_stats.numpy().reshape(S, B, N_STATS)
-        tot_counts = dev_counts.numpy().reshape(S, B, N_COUNTS)
-    h = hist.numpy().reshape(replicas, layers, hb, n_chan, grid.ny, grid.nx).sum(axis=0)
+    if is_gpu:
+        kernel_seconds = wp.get_event_elapsed_time(ev0, ev1) * 1e-3
+    else:
+        kernel_seconds = time.perf_counter() - t0
+    h = out.numpy().reshape(layers, hb, n_chan, grid.ny, grid.nx)
+    stats_h = tot_stats.numpy().reshape(S, B, N_STATS)
+    counts_h = tot_counts.numpy().reshape(S, B, N_COUNTS)
     if not want_hist:
         h[...] = 0
-    seconds = time.perf_counter() - t0
-    per_batch = h.astype(np.float64) / float(2**FIXED_POINT_BITS)
-    histogram = h.sum(axis=1).astype(np.float64) / float(2**FIXED_POINT_BITS)
-    return StreamResult(histogram, n_b * B, B, tot_stats, tot_counts,
-                        np.array([s.box.area_mm2 for s in sources]), spectrum.total,
+    unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
+    per_batch = h * unit if batch_histograms else None
+    histogram = (h.sum(axis=1) if hb > 1 else h[:, 0]) * unit
+    seconds = time.perf_counter() - t_call
+    extra = {"threads_per_batch": n_slots, "slot_rays": slot_rays, "replicas": int(replicas),
+             "cpu_workers": 1 if is_gpu else int(replicas), "kernel": variant, "shape": describe(shape),
+             "layers_of_sources": [s.layer for s in sources], "stat_names": STAT_NAMES,
+             "kernel_seconds": float(kernel_seconds), "source_seeds": seeds,
+             "spectrum_totals": [spectra[s.spectrum].total * 1.0 for s in sources]}
+    if any(s.pixel_mm is not None for s in sources):
+        extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
+    return StreamResult(histogram, n_b * B, B, stats_h, counts_h,
+                        np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid, seconds, precision, dev,
-                        sampler, int(seed), launches, per_batch if batch_histograms else None,
-                        {"threads_per_batch": T, "replicas": int(replicas), "cpu_workers": workers,
-                         "kernel": variant, "shape": describe(shape),
-                         "layers_of_sources": [s.layer for s in sources],
-                         "stat_names": STAT_NAMES})
+                        sampler, int(seed), launches, per_batch, extra)

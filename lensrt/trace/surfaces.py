@@ -60,7 +60,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
     @func
     def conic_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
         # roots t1 = F / q, t2 = q / A with q = B + sign(B) sqrt(B^2 - A F); the vertex-branch one
-        # (1 - c (1 + k) z > 0), nearer the axis when both are; ok = 0 when there is none
+        # (1 - c (1 + k) z > 0); when both are, the one where the ray crosses toward the surface's
+        # +z side (d . n = sign(B) sqrt(disc) at t1: t1 when B >= 0); ok = 0 when there is none
         F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
         B = N - c * (x * L + y * M + kp1 * z * N)
         A = c * (L * L + M * M + kp1 * N * N)
@@ -72,24 +73,24 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             q = B + root
             if B < real(0.0):
                 q = B - root
-            best_r2 = real(0.0)
+            ok1 = int(0)
+            t1 = real(0.0)
             if q != real(0.0):
                 t1 = F / q
                 if c * kp1 * (z + t1 * N) < real(1.0):
-                    px = x + t1 * L
-                    py = y + t1 * M
-                    t = t1
-                    best_r2 = px * px + py * py
-                    ok = int(1)
+                    ok1 = int(1)
+            ok2 = int(0)
+            t2 = real(0.0)
             if A != real(0.0):
                 t2 = q / A
                 if c * kp1 * (z + t2 * N) < real(1.0):
-                    px = x + t2 * L
-                    py = y + t2 * M
-                    r2 = px * px + py * py
-                    if ok == 0 or r2 < best_r2:
-                        t = t2
-                        ok = int(1)
+                    ok2 = int(1)
+            if ok1 != 0 and (ok2 == 0 or B >= real(0.0)):
+                t = t1
+                ok = int(1)
+            elif ok2 != 0:
+                t = t2
+                ok = int(1)
         return ok, t
 
     @func
@@ -182,7 +183,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
     @func
     def refract(L: real, M: real, N: real, nx: real, ny: real, nz: real, n1: real, n2: real, angles: int):
         # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when
-        # asked), cos I
+        # asked), min(cos I, cos I') (near 90 deg either way the ray is ill-conditioned)
         cos_i = L * nx + M * ny + N * nz
         sx = nx
         sy = ny
@@ -207,10 +208,12 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             cz = L * sy - M * sx
             sin_i = wp.sqrt(cx * cx + cy * cy + cz * cz)
             ang_i = wp.atan2(sin_i, cos_i)
+        cos_min = cos_i
         if k < real(0.0):
             status = int(TIR)
         else:
             cos_r = wp.sqrt(k)
+            cos_min = wp.min(cos_i, cos_r)
             g = cos_r - mu * cos_i
             L2 = mu * L + g * sx
             M2 = mu * M + g * sy
@@ -221,7 +224,7 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             N2 = N2 * inv
             if angles != 0:
                 ang_r = wp.atan2(mu * sin_i, cos_r)
-        return status, L2, M2, N2, ang_i, ang_r, cos_i
+        return status, L2, M2, N2, ang_i, ang_r, cos_min
 
     @func
     def inside_iris(iris: wp.array(dtype=real), x: real, y: real) -> int:
@@ -253,7 +256,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                   index_table: wp.array2d(dtype=real), table_row: int, end: int, clip: int, plane_dz: real,
                   record: int, rec: wp.array3d(dtype=real), ray: int):
         """Trace one ray; returns status, surface, x, y, z (frame of the last surface met), L, M, N, opl,
-        and the smallest cos(incidence) met (grazing rays are ill-conditioned).
+        and the smallest cos of the angles of incidence and refraction met (grazing rays are
+        ill-conditioned).
 
         Refracts at surfaces 0 .. end-1 and stops on surface ``end`` (``end = n_surfaces``:
         the plane ``plane_dz`` behind the image surface). ``table_row >= 0`` takes indices
@@ -290,6 +294,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
             if i == n_surfaces:
                 z = z - plane_dz  # the plane may stand apart from the image surface
             st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+            if st == int(OK) and L * nx + M * ny + N * nz < real(0.0):
+                st = int(MISSED)  # met from behind (from the medium after it): no sequential path
             if st != int(OK):
                 status = st
                 where = i
@@ -323,8 +329,8 @@ def surface_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
                             status = int(INVALID)
                             where = i
                         else:
-                            st, L, M, N, ang_i, ang_r, cos_i = refract(L, M, N, nx, ny, nz, n1, n2, record)
-                            min_cos = wp.min(min_cos, cos_i)
+                            st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
+                            min_cos = wp.min(min_cos, cos_ir)
                             if st != int(OK):
                                 status = st
                                 where = i

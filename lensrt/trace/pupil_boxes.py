@@ -1,0 +1,219 @@
+"""Boxes of the real (vignetted) entrance pupils of many field points at once, for stream sources.
+
+A stream source samples its rays uniformly over a rectangle in the plane through
+the paraxial entrance-pupil centre perpendicular to the beam (infinite object)
+or to the line from the object point (finite object). :func:`pupil_boxes` finds
+that rectangle for every field point by tracing grids of rays through every
+aperture -- a coarse grid over a region that surely holds the pupil (everything
+that passes surface 1), then a finer grid over what passed -- so each box hugs
+the *real* pupil, cat's eyes included; vignetted rays are rejected in the kernel.
+
+All field points share each pass: one float64 store-kernel trace per wavelength
+and pass, whatever their number (a PSF map, a bokeh map, the lights of a scene).
+The passing rays traced to the plane also give each field point's *footprint*
+(the bounding box of its spot) for free. :func:`pupil_box` is the one-field
+case (used by :func:`lensrt.trace.stream.stream_source`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.model import Iris, Lens
+from .aiming import FieldPoint, aim_frames, pupil_geometry, rays_through_points
+
+__all__ = ["PupilBox", "pupil_box", "pupil_boxes", "box_wavelengths"]
+
+
+@dataclass(frozen=True)
+class PupilBox:
+    """A rectangle [a0, a1] x [b0, b1] in the aim plane through ``centre`` spanned by e1, e2 (mm)."""
+
+    centre: tuple[float, float, float]
+    axis: tuple[float, float, float]
+    e1: tuple[float, float, float]
+    e2: tuple[float, float, float]
+    a0: float
+    a1: float
+    b0: float
+    b1: float
+
+    @property
+    def area_mm2(self) -> float:
+        return max(self.a1 - self.a0, 0.0) * max(self.b1 - self.b0, 0.0)
+
+    def points(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        c, e1, e2 = (np.asarray(v) for v in (self.centre, self.e1, self.e2))
+        return c + np.asarray(a)[:, None] * e1 + np.asarray(b)[:, None] * e2
+
+
+def box_wavelengths(lens: Lens, wavelengths_nm: Sequence[float] | None) -> list[float]:
+    """The wavelengths :func:`pupil_box` traces: the lens's shortest, primary and longest (default),
+    else the shortest, first and longest of those given."""
+    wls = list(lens.wavelengths.nm) if wavelengths_nm is None else [float(v) for v in wavelengths_nm]
+    return sorted({min(wls), max(wls), lens.wavelengths.primary_nm if wavelengths_nm is None else wls[0]})
+
+
+def _as_field_points(fields) -> list[FieldPoint]:
+    if isinstance(fields, np.ndarray) or (len(fields) and not isinstance(fields[0], FieldPoint)):
+        obj = np.atleast_2d(np.asarray(fields, dtype=np.float64))
+        return [FieldPoint(False, None, tuple(float(v) for v in p)) for p in obj]
+    return list(fields)
+
+
+def _surface1_boxes(lens: Lens, fps: list[FieldPoint], c: np.ndarray, w: np.ndarray, e1: np.ndarray,
+                    e2: np.ndarray) -> np.ndarray:
+    """(S, 4) boxes a0, a1, b0, b1 in each aim plane that hold every ray passing surface 1."""
+    s1 = lens.surfaces[0]
+    sd = s1.semi_diameter_mm
+    if sd is None:
+        geom = pupil_geometry(lens)
+        sd = 4.0 * geom.ep_radius_mm + abs(geom.ep_z_mm)
+    sag = float(s1.sag(min(sd, s1.max_semi_diameter_mm)))
+    out = np.empty((len(fps), 4))
+    inf = np.array([fp.infinite for fp in fps], dtype=bool)
+    if inf.any():  # a collimated beam: the aperture's disc and sag, seen along the beam
+        ca, cb = -(e1[inf] @ c), -(e2[inf] @ c)
+        half = sd + abs(sag)
+        out[inf] = np.stack([ca - half, ca + half, cb - half, cb + half], axis=1)
+    if (~inf).any():  # an object point: the cone through the aperture's rims, projected on the plane
+        obj = np.array([fp.point_mm for fp in fps if not fp.infinite], dtype=np.float64)
+        wf, e1f, e2f = w[~inf], e1[~inf], e2[~inf]
+        phi = np.linspace(0.0, 2.0 * np.pi, 181)
+        rim = np.concatenate([np.stack([sd * np.cos(phi), sd * np.sin(phi), np.full_like(phi, z)], axis=1)
+                              for z in (0.0, sag)])
+        v = rim[None, :, :] - obj[:, None, :]  # (S, M, 3)
+        along = np.einsum("smk,sk->sm", v, wf)
+        dist = np.einsum("sk,sk->s", c[None, :] - obj, wf)
+        bad = np.any(along <= 0.0, axis=1) | (dist <= 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            proj = obj[:, None, :] + v * (dist[:, None] / along)[:, :, None] - c[None, None, :]
+        a = np.einsum("smk,sk->sm", proj, e1f)
+        b = np.einsum("smk,sk->sm", proj, e2f)
+        pad = 0.02 * (a.max(axis=1) - a.min(axis=1) + b.max(axis=1) - b.min(axis=1))
+        fin = np.stack([a.min(axis=1) - pad, a.max(axis=1) + pad, b.min(axis=1) - pad, b.max(axis=1) + pad], axis=1)
+        fin[bad] = np.array([-10.0 * sd, 10.0 * sd, -10.0 * sd, 10.0 * sd])
+        out[~inf] = fin
+    return out
+
+
+def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray, e2: np.ndarray, box: np.ndarray,
+               n: int, wls: list[float], plane_z_mm: float | None, trace_kw: dict, device: str | None):
+    """Trace an n x n grid over each field point's box at every wavelength (one trace per wavelength).
+
+    Returns (lo, hi, cell, footprint): per field point the min/max aim coordinates (a, b) of the
+    passing grid points (inf/-inf when none passed), the cell size (a, b) and the footprint
+    x_min, x_max, y_min, y_max of the passing rays on the plane.
+    """
+    from .api import RayBatch, trace
+    S = len(fps)
+    t = (np.arange(n) + 0.5) / n
+    ga = box[:, 0:1] + t[None, :] * (box[:, 1:2] - box[:, 0:1])  # (S, n)
+    gb = box[:, 2:3] + t[None, :] * (box[:, 3:4] - box[:, 2:3])
+    A = np.repeat(ga, n, axis=1)  # (S, n*n): rays of field point k are the k-th row
+    B = np.tile(gb, (1, n))
+    src = np.repeat(np.arange(S), n * n)
+    pts = c[None, :] + A.reshape(-1, 1) * e1[src] + B.reshape(-1, 1) * e2[src]
+    o, d = rays_through_points(fps, pts, src)
+    ok = np.zeros((S, n * n), dtype=bool)
+    foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
+    for wl in wls:
+        res = trace(lens, RayBatch(o, d, np.full(len(o), wl)), "float64", device, plane_z_mm=plane_z_mm, **trace_kw)
+        got = res.ok.reshape(S, n * n)
+        ok |= got
+        for k in (0, 1):
+            v = res.position_mm[:, k].reshape(S, n * n)
+            foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
+            foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
+    lo = np.stack([np.where(ok, A, np.inf).min(axis=1), np.where(ok, B, np.inf).min(axis=1)], axis=1)
+    hi = np.stack([np.where(ok, A, -np.inf).max(axis=1), np.where(ok, B, -np.inf).max(axis=1)], axis=1)
+    cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
+    return lo, hi, cell, foot
+
+
+def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """The passing region's bounds padded by 1.5 cells, within ``box``; unchanged where nothing passed."""
+    lit = np.isfinite(lo[:, 0])
+    out = box.copy()
+    out[:, 0] = np.where(lit, np.maximum(lo[:, 0] - 1.5 * cell[:, 0], box[:, 0]), box[:, 0])
+    out[:, 1] = np.where(lit, np.minimum(hi[:, 0] + 1.5 * cell[:, 0], box[:, 1]), box[:, 1])
+    out[:, 2] = np.where(lit, np.maximum(lo[:, 1] - 1.5 * cell[:, 1], box[:, 2]), box[:, 2])
+    out[:, 3] = np.where(lit, np.minimum(hi[:, 1] + 1.5 * cell[:, 1], box[:, 3]), box[:, 3])
+    return out
+
+
+def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = None, *,
+                plane_z_mm: float | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
+                device: str | None = None, coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0,
+                footprint: bool = False):
+    """Real pupil boxes of many field points (module docstring).
+
+    Parameters
+    ----------
+    fields : sequence of FieldPoint, or array (S, 3)
+        Field points (infinite or finite), or object points in the lens frame (mm).
+    wavelengths_nm : sequence of float, optional
+        Every wavelength is traced (default: the lens's shortest, primary and longest).
+    plane_z_mm : float, optional
+        Plane of the footprints (default: the image surface).
+    iris, stop_radius_mm, device
+        As for :func:`lensrt.trace.trace`.
+    coarse, fine : int
+        Rays per side of the two grids.
+    min_cells_across_pupil : int
+        Raise ``coarse`` (up to 128) until the coarse grid has that many cells across the paraxial
+        entrance pupil's diameter (a front element much larger than the pupil: wide angles, fisheyes).
+    footprint : bool
+        Also return the (S, 4) footprints x_min, x_max, y_min, y_max (mm; NaN when nothing passes).
+
+    Returns
+    -------
+    list of PupilBox (area 0 where no ray passes), and the footprints when asked for.
+    """
+    fps = _as_field_points(fields)
+    if not fps:
+        return ([], np.zeros((0, 4))) if footprint else []
+    wls = sorted({float(v) for v in (wavelengths_nm if wavelengths_nm is not None
+                                     else box_wavelengths(lens, None))})
+    c, w, e1, e2 = aim_frames(fps, pupil_geometry(lens))
+    kw = {"iris": iris, "stop_radius_mm": stop_radius_mm}
+    box1 = _surface1_boxes(lens, fps, c, w, e1, e2)
+    if min_cells_across_pupil:
+        width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
+        need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
+        coarse = max(coarse, min(128, need))
+    lo, hi, cell, foot = _grid_pass(lens, fps, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
+    lit = np.isfinite(lo[:, 0])
+    box2 = _shrink(box1, lo, hi, cell)
+    lo2, hi2, cell2, foot2 = _grid_pass(lens, fps, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device)
+    lit2 = np.isfinite(lo2[:, 0])
+    final = _shrink(box2, lo2, hi2, cell2)  # a sliver the fine grid missed keeps the coarse box
+    foot = np.where(lit2[:, None], foot2, foot)
+    boxes = []
+    ct = tuple(float(v) for v in c)
+    for k in range(len(fps)):
+        a0, a1, b0, b1 = (float(v) for v in final[k]) if lit[k] else (0.0, 0.0, 0.0, 0.0)
+        boxes.append(PupilBox(ct, tuple(float(v) for v in w[k]), tuple(float(v) for v in e1[k]),
+                              tuple(float(v) for v in e2[k]), a0, a1, b0, b1))
+    if not footprint:
+        return boxes
+    foot[~lit] = np.nan
+    return boxes, foot
+
+
+def pupil_box(lens: Lens, fp: FieldPoint, wavelengths_nm: Sequence[float] | None = None, *,
+              iris: Iris | None = None, stop_radius_mm: float | None = None, device: str | None = None,
+              coarse: int = 128, fine: int = 64) -> PupilBox:
+    """The box of the real (vignetted) entrance pupil of field point ``fp`` (:func:`pupil_boxes` for one).
+
+    Traced in float64 with every aperture, at :func:`box_wavelengths`. An empty box (area 0) means
+    no ray gets through.
+    """
+    if not isinstance(fp, FieldPoint):
+        raise LensrtError("pupil_box needs a FieldPoint (lensrt.trace.aiming.field_point)")
+    return pupil_boxes(lens, [fp], box_wavelengths(lens, wavelengths_nm), iris=iris, stop_radius_mm=stop_radius_mm,
+                       device=device, coarse=coarse, fine=fine)[0]
