@@ -31,6 +31,12 @@ def _executor(ctx: ReportContext):
     return LocalExecutor(ctx.device)
 
 
+def _groups(ctx: ReportContext, n_fields: int) -> int | None:
+    """Work items of a map: on the CPU up to 8 groups of fields, so the progress bar moves (the map is
+    the same bits for any grouping, and on the CPU no slower); on a GPU the stage's default (one launch)."""
+    return None if ctx.device.startswith("cuda") else max(1, min(n_fields, 8))
+
+
 def _budget(ctx: ReportContext, share: float, n_fields: int) -> dict:
     """Setup keywords for a time budget: seconds per field and the high preset's rays as the cap."""
     from .options import QUALITIES
@@ -64,7 +70,8 @@ def psf_section(ctx: ReportContext, sec: Section) -> None:
         fields = sensor_grid_fields(ctx.lens, grid_sensor, rows_cols, setup.plane_z_mm, ctx.device)
         try:
             with _executor(ctx) as ex:
-                pmap = run_psf_map(setup, fields, o.seed, ex, ctx.progress, rows_cols, grid_sensor)
+                pmap = run_psf_map(setup, fields, o.seed, ex, ctx.progress, rows_cols, grid_sensor,
+                                      groups=_groups(ctx, len(fields)))
             break
         except LensrtError as err:
             if attempt == 2:
@@ -157,7 +164,8 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
         fields = image_height_fields(ctx.lens, heights, setup.plane_z_mm, ctx.device)
         try:
             with _executor(ctx) as ex:
-                pmap = run_psf_map(setup, fields, o.seed, ex, ctx.progress, None, None)
+                pmap = run_psf_map(setup, fields, o.seed, ex, ctx.progress, None, None,
+                                      groups=_groups(ctx, len(fields)))
             break
         except LensrtError as err:
             if len(heights) <= 2:
