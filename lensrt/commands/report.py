@@ -77,7 +77,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     options = ReportOptions(quality=args.quality, sensor=args.sensor, object_distance_mm=distance,
                             f_number=args.f_number, coc_mm=args.coc_mm, pixel_pitch_um=args.pixel_pitch_um,
                             time_budget_s=args.time_budget, device=args.device, precision=args.precision,
-                            seed=args.seed, command_line=" ".join(["lensrt"] + [shlex.quote(a) for a in getattr(args, "argv", sys.argv[1:])]))
+                            seed=args.seed, command_line=" ".join(
+                                ["lensrt"] + [shlex.quote(a) for a in getattr(args, "argv", sys.argv[1:])]))
     lens = load_lens(args.file, **reader_options(args))
     if not args.quiet:
         sys.stderr.write(f"lensrt report: {lens.name or lens.path} -> {args.out}/ (quality {args.quality}; "

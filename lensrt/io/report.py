@@ -196,7 +196,8 @@ def render_html(report: "Report") -> str:
         status = (f'<div class="status ok">All {n_ok} sections made'
                   + (f" ({len(skipped)} skipped)" if skipped else "") + f" in {report.seconds:.0f} s.</div>")
     fno = f"f/{o.f_number:g} (stopped down)" if o.f_number else f"f/{s['f_number']:.3g} (the lens file's)"
-    facts = [("lens file", str(s.get("lens_file") or s.get("path") or "-")), ("sensor", o.sensor), ("focus", _focus_text(report)), ("aperture", fno),
+    facts = [("lens file", str(s.get("lens_file") or s.get("path") or "-")), ("sensor", o.sensor),
+             ("focus", _focus_text(report)), ("aperture", fno),
              ("quality", f"{o.quality}: compare {q.compare_rays:,} rays per field, PSF map {q.psf_grid[0]} x "
                          f"{q.psf_grid[1]} x {q.psf_rays:,} rays, MTF {q.mtf_fields} heights x {q.mtf_rays:,} rays, "
                          f"bokeh {q.bokeh_grid[0]} x {q.bokeh_grid[1]} cells x 2 sources x {q.bokeh_rays:,} rays"
@@ -267,7 +268,8 @@ def _monte_carlo_html(report: "Report") -> str:
 def _run_html(report: "Report") -> str:
     env = report.environment
     o = report.options
-    rows = [("command line", f'<div class="cmd">{html.escape(env.get("command_line") or "(called from Python)")}</div>'),
+    cmd = html.escape(env.get("command_line") or "(called from Python)")
+    rows = [("command line", f'<div class="cmd">{cmd}</div>'),
             ("lensrt", env["lensrt"]), ("python", env["python"]), ("numpy", str(env.get("numpy"))),
             ("warp", str(env.get("warp"))), ("matplotlib", str(env.get("matplotlib"))),
             ("platform", env["platform"]), ("device", report.device_name),

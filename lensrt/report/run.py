@@ -76,7 +76,8 @@ class Report:
         return list(dict.fromkeys(out))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers, "options": self.options.to_dict(),
+        return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers,
+                "options": self.options.to_dict(),
                 "lens_changes": self.lens_notes, "device": self.device, "device_name": self.device_name,
                 "seconds": self.seconds, "environment": self.environment,
                 "ok": not self.failed, "failed_sections": [s.key for s in self.failed],

@@ -104,7 +104,8 @@ def psf_section(ctx: ReportContext, sec: Section) -> None:
     sec.files([(files["exr"], "every PSF as a layer of one multi-layer EXR (1/mm^2, with per-pixel standard "
                               "errors; read with lensrt.io.psf_files.read_psf_map_exr)"),
                (files["json"], "the same without pixels: fields, estimates, run")])
-    sec.data["psf_map"] = {"grid": list(rows_cols), "sensor": fmt.name, "grid_sensor": grid_sensor, "rays_total": pmap.rays,
+    sec.data["psf_map"] = {"grid": list(rows_cols), "sensor": fmt.name, "grid_sensor": grid_sensor,
+                           "rays_total": pmap.rays,
                            "seconds": pmap.seconds, "setup": setup.to_dict(), "files": files}
 
 
