@@ -49,6 +49,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import warnings
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for reports that record it
     shown = warnings.showwarning
     warnings.showwarning = _show_warning
     try:

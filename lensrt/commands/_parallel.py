@@ -64,16 +64,12 @@ def executor_from_args(args: argparse.Namespace, uses_device: bool = True) -> An
 
 
 def progress_printer(args: argparse.Namespace | None = None, label: str = "items") -> Callable[[int, int], None] | None:
-    """A progress callback that redraws ``done/total`` on stderr when stderr is a terminal (else None)."""
+    """A progress callback that draws a ``done/total`` bar on stderr when stderr is a terminal (else None);
+    see :mod:`lensrt.commands._progress`."""
     if not sys.stderr.isatty():
         return None
-
-    def show(done: int, total: int) -> None:
-        sys.stderr.write(f"\r{label} {done}/{total}")
-        if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-    return show
+    from ._progress import ProgressBar
+    return ProgressBar(label)
 
 
 def run_summary_line(result: Any) -> str:

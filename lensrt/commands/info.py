@@ -8,7 +8,7 @@ from typing import Any
 
 from ._common import add_lens_argument, emit, print_json
 
-__all__ = ["register", "info_data"]
+__all__ = ["register", "info_data", "first_order_rows", "seidel_rows"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -90,22 +90,8 @@ def _fmt(v: Any, spec: str = ".4f") -> str:
     return format(v, spec)
 
 
-def cmd_info(args: argparse.Namespace) -> int:
-    from ..io.table import format_table
-    from ..loading import load_lens
-    from ..paraxial import SEIDEL_NAMES
-    lens = load_lens(args.file)
-    d = info_data(lens, args.wavelength_nm, args.object_distance_mm, args.sensor, args.coc_mm)
-    if args.json:
-        print_json(d)
-        return 0
-    obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
-    emit(lens.name or str(lens.path))
-    emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
-    if d["image_virtual"]:
-        emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
-             f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
-             f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
+def first_order_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """(quantity, value, unit) rows of the first-order table from :func:`info_data`'s dict."""
     rows = [
         ("effective focal length f_E = 1/Phi", d["efl_mm"], "mm"),
         ("front / rear focal length f, f'", f"{_fmt(d['front_focal_length_mm'])} / {_fmt(d['rear_focal_length_mm'])}", "mm"),
@@ -130,8 +116,12 @@ def cmd_info(args: argparse.Namespace) -> int:
         ("Lagrange invariant H", d["lagrange_invariant"], "mm"),
         ("Petzval sum (sum Phi/(n n'))", _fmt(d["petzval_sum_per_mm"], ".6g"), "1/mm"),
     ]
-    emit(format_table([(a, _fmt(b) if not isinstance(b, str) else b, c) for a, b, c in rows],
-                      ["quantity", "value", "unit"]))
+    return [(a, _fmt(b) if not isinstance(b, str) else b, c) for a, b, c in rows]
+
+
+def seidel_rows(lens, d: dict[str, Any]) -> list[list]:
+    """Per-surface Seidel rows (``STO`` for the stop) and the ``SUM`` row, columns as :data:`SEIDEL_NAMES`."""
+    from ..paraxial import SEIDEL_NAMES
     seidel = d["seidel"]
     per = seidel["per_surface_mm"]
     scale = max(abs(v) for k in SEIDEL_NAMES for v in per[k]) or 1.0
@@ -139,6 +129,27 @@ def cmd_info(args: argparse.Namespace) -> int:
              + [per[k][i] if abs(per[k][i]) > 1e-12 * scale else 0.0 for k in SEIDEL_NAMES]
              for i in range(lens.n_surfaces)]
     srows.append(["SUM"] + [seidel[f"{k}_mm"] for k in SEIDEL_NAMES])
+    return srows
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from ..io.table import format_table
+    from ..loading import load_lens
+    lens = load_lens(args.file)
+    d = info_data(lens, args.wavelength_nm, args.object_distance_mm, args.sensor, args.coc_mm)
+    if args.json:
+        print_json(d)
+        return 0
+    obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
+    emit(lens.name or str(lens.path))
+    emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
+    if d["image_virtual"]:
+        emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
+             f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
+             f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
+    emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
+    seidel = d["seidel"]
+    srows = seidel_rows(lens, d)
     emit("")
     emit(format_table(srows, ["surf", "S_I sph", "S_II coma", "S_III ast", "S_IV ptz", "S_V dist",
                               "C_I axcol", "C_II latcol"], digits=6,

@@ -3,11 +3,12 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["format_table", "to_jsonable", "dumps_json"]
+__all__ = ["format_table", "format_cell", "Table", "to_jsonable", "dumps_json"]
 
 
 def _cell(value: Any, digits: int) -> str:
@@ -23,6 +24,11 @@ def _cell(value: Any, digits: int) -> str:
     return str(value)
 
 
+def format_cell(value: Any, digits: int = 4) -> str:
+    """One table cell as text: floats with ``digits`` decimals, None as "-", inf/nan spelled out."""
+    return _cell(value, digits)
+
+
 def format_table(rows: Sequence[Sequence[Any]], headers: Sequence[str], digits: int = 4,
                  title: str | None = None) -> str:
     """Right-aligned text table; floats with ``digits`` decimals."""
@@ -35,6 +41,20 @@ def format_table(rows: Sequence[Sequence[Any]], headers: Sequence[str], digits: 
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in cells]
     return "\n".join(lines)
+
+
+@dataclass
+class Table:
+    """A table before it is laid out: as text (:meth:`text`, :func:`format_table`) or as HTML
+    (:func:`lensrt.io.report.html_table`)."""
+
+    rows: Sequence[Sequence[Any]]
+    headers: Sequence[str]
+    digits: int = 4
+    title: str | None = None
+
+    def text(self) -> str:
+        return format_table(self.rows, self.headers, self.digits, self.title)
 
 
 def to_jsonable(value: Any) -> Any:

@@ -1,0 +1,193 @@
+"""Build a lens report: run every section (each one's failure stays in its section), then write
+``report.json`` and ``index.html`` into the output folder."""
+from __future__ import annotations
+
+import datetime as _dt
+import platform
+import sys
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from ..errors import LensrtError
+from .model import ReportContext, Section
+from .options import ReportOptions, prepare_lens
+
+__all__ = ["SECTIONS", "Report", "build_report", "section_keys"]
+
+
+#: (key, title on the page, label on the terminal, module:function) of every section, in page order
+SECTIONS: tuple[tuple[str, str, str, str], ...] = (
+    ("lens", "Prescription and layout", "prescription and layout", "sections_lens:lens_section"),
+    ("first_order", "First-order data beside real rays", "first-order data, real rays (compare)",
+     "sections_lens:first_order_section"),
+    ("aberrations", "Paraxial against real: distortion, focus, spherical aberration, colour",
+     "distortion, focus, colour", "sections_compare:aberrations_section"),
+    ("image_quality", "Spots, ray fans, pupils and relative illumination", "spots, fans, illumination",
+     "sections_compare:image_quality_section"),
+    ("psf", "PSF map", "PSF map", "sections_psf:psf_section"),
+    ("mtf", "MTF", "MTF", "sections_psf:mtf_section"),
+    ("bokeh", "Bokeh", "bokeh map", "sections_bokeh:bokeh_section"),
+    ("dof", "Depth of field and hyperfocal distance", "depth of field", "sections_bokeh:dof_section"),
+)
+
+
+def section_keys() -> list[str]:
+    return [s[0] for s in SECTIONS]
+
+
+def _function(spec: str) -> Callable[[ReportContext, Section], None]:
+    from importlib import import_module
+    module, name = spec.split(":")
+    return getattr(import_module(f"{__package__}.{module}"), name)
+
+
+@dataclass
+class Report:
+    """A finished report: its sections, where its files are, and how it was made."""
+
+    lens_name: str
+    options: ReportOptions
+    sections: list[Section]
+    out_dir: Path
+    device: str
+    device_name: str
+    seconds: float
+    environment: dict[str, Any]
+    lens_notes: list[str] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+    key_numbers: list[dict[str, Any]] = field(default_factory=list)
+    html_path: Path | None = None
+    json_path: Path | None = None
+
+    @property
+    def failed(self) -> list[Section]:
+        return [s for s in self.sections if not s.ok]
+
+    @property
+    def monte_carlo(self) -> list[dict]:
+        return [dict(section=s.title, **m.to_dict()) for s in self.sections for m in s.monte_carlo]
+
+    def referenced_files(self) -> list[str]:
+        out = [f for s in self.sections for f in s.referenced_files()]
+        return list(dict.fromkeys(out))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers,
+                "options": self.options.to_dict(),
+                "lens_changes": self.lens_notes, "device": self.device, "device_name": self.device_name,
+                "seconds": self.seconds, "environment": self.environment,
+                "ok": not self.failed, "failed_sections": [s.key for s in self.failed],
+                "monte_carlo": self.monte_carlo, "files": self.referenced_files() + ["index.html"],
+                "sections": [s.to_dict() for s in self.sections]}
+
+
+def _environment(command_line: str) -> dict[str, Any]:
+    from .. import __version__
+    env: dict[str, Any] = {"lensrt": __version__, "python": platform.python_version(),
+                           "platform": platform.platform(), "machine": platform.machine(),
+                           "command_line": command_line,
+                           "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")}
+    for mod in ("numpy", "warp", "matplotlib"):
+        m = sys.modules.get(mod)
+        env[mod] = getattr(m, "__version__", None) if m is not None else None
+    return env
+
+
+def _lens_summary(lens) -> dict[str, Any]:
+    import math
+
+    from ..paraxial import first_order
+    fo = first_order(lens, None, math.inf)
+    f = lens.fields
+    full = (f"{2 * math.degrees(f.max_radial):.1f} deg" if f.kind == "angle" else f"{2 * f.max_radial:.1f} mm")
+    return {"efl_mm": fo.efl_mm, "f_number": fo.f_number, "full_field": full, "surfaces": lens.n_surfaces,
+            "object": "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm",
+            "length_mm": lens.length_mm}
+
+
+def _lens_file_text(path) -> str:
+    """A library lens by its name, any other file by its path."""
+    from ..library import library_dir
+    if not path:
+        return "-"
+    p = Path(path).resolve()
+    try:
+        if p.parent == library_dir().resolve():
+            return f"{p.stem} (lensrt's lens library, {p.name})"
+    except Exception:  # noqa: BLE001 - a missing library folder is no reason to fail here
+        pass
+    return str(path)
+
+
+def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None, *,
+                 skip: Sequence[str] = (), stream=None, quiet: bool = False) -> Report:
+    """Run the report's sections on ``lens`` and write ``index.html`` and ``report.json`` into ``out_dir``.
+
+    A section that raises keeps what it made so far and records the error (``Report.failed``);
+    the others run on. Bad options or a lens that cannot be prepared raise :class:`LensrtError`
+    before anything is written. Progress goes to ``stream`` (stderr) unless ``quiet``.
+    """
+    from ..commands._progress import StepProgress
+    from ..device import describe_device, resolve_device
+    from ..io.report import write_html
+    from ..io.table import dumps_json
+    options = options or ReportOptions()
+    unknown = [k for k in skip if k not in section_keys()]
+    if unknown:
+        raise LensrtError(f"unknown section(s) {', '.join(unknown)} to skip", hint=f"use {', '.join(section_keys())}")
+    t0 = time.perf_counter()
+    analysed, notes = prepare_lens(lens, options)
+    device = resolve_device(options.device)
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise LensrtError(f"cannot create the output folder {out}: {err.strerror}") from None
+    ctx = ReportContext(analysed, lens, options, out, device, notes)
+    steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
+    sections = []
+    for key, title, label, spec in SECTIONS:
+        sec = Section(key, title)
+        sections.append(sec)
+        if key in skip:
+            sec.data["skipped"] = True
+            continue
+        ctx.progress = steps.start(label)
+        t_sec = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                _function(spec)(ctx, sec)
+            except LensrtError as err:
+                sec.errors.append(str(err))
+            except Exception as err:  # noqa: BLE001 - a failing section must not take the report with it
+                sec.errors.append(f"internal error: {type(err).__name__}: {err} (a bug in lensrt; the traceback is "
+                                  "in report.json)")
+                sec.traceback = traceback.format_exc()
+        sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
+                                          if not issubclass(w.category, DeprecationWarning)))
+        sec.seconds = time.perf_counter() - t_sec
+        note = sec.errors[0][:100] if not sec.ok else \
+            (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
+        steps.finish(sec.ok, note)
+    env = _environment(options.command_line)
+    report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
+                    0.0, env, notes, _lens_summary(analysed))
+    try:
+        from .key_numbers import key_numbers
+        report.key_numbers = key_numbers(ctx, sections)
+    except Exception as err:  # noqa: BLE001 - the headline numbers are a convenience, never a failure
+        report.summary["key_numbers_error"] = f"{type(err).__name__}: {err}"
+    report.summary["path"] = str(lens.path) if lens.path else None
+    report.summary["lens_file"] = _lens_file_text(lens.path)
+    report.summary["source"] = lens.source
+    report.seconds = time.perf_counter() - t0
+    report.json_path = out / "report.json"
+    report.html_path = out / "index.html"
+    report.json_path.write_text(dumps_json(report.to_dict()) + "\n")
+    write_html(report, report.html_path)
+    return report
