@@ -92,6 +92,48 @@ def test_mtf_json_plots_and_through_focus(capsys, tmp_path):
         assert (out / name).stat().st_size > 1000, name
 
 
+def test_mtf_of_a_psf_wider_than_the_grid_cap_stops_at_its_grid_nyquist(capsys, tmp_path, monkeypatch):
+    """A wide PSF whose grid would need more pixels than the per-batch histogram cap gets a coarser
+    pitch: its MTF curve stops at that grid's Nyquist frequency (NaN / null after), all curves stay on
+    one frequency axis, and the plots and JSON are written (this crashed in matplotlib, and a 4096^2 x
+    32-batch histogram took minutes, on the 28 mm f/1.4's corner)."""
+    from lensrt.analysis import raypsf
+    monkeypatch.setattr(raypsf, "HIST_BYTES_MAX", 8 * 8 * 40 * 40)  # 8 batches: at most 40 pixels a side
+    out = tmp_path / "mtf"
+    d = run_json(capsys, ["mtf", LENS, "--field", "0,1", "--method", "geometric", "--n-freqs", "17",
+                          "--pixel-pitch-um", "2", "--out", str(out)] + FAST)
+    ends = []
+    for f in d["fields"]:
+        assert len(f["freqs_cpmm"]) == 17 and f["freqs_cpmm"][-1] == 500.0
+        lens_s = [math.nan if v is None else v for v in f["lens_sagittal"]]
+        assert len(lens_s) == 17 and len(f["system_tangential"]) == 17 and len(f["diffraction_limit"]) == 17
+        n_ok = int(np.sum(np.isfinite(lens_s)))
+        assert np.all(np.isfinite(lens_s[:n_ok])) and not np.any(np.isfinite(lens_s[n_ok:]))  # a prefix
+        assert f["curve_ends_cpmm"] == pytest.approx(f["freqs_cpmm"][n_ok - 1])
+        ends.append(f["curve_ends_cpmm"])
+    for f, psf in zip(d["fields"], d["psf"]):
+        assert psf["grid"]["shape"][0] <= 40
+        assert f["curve_ends_cpmm"] <= 0.5e3 / psf["grid"]["pitch_um"] * (1 + 1e-9)  # the grid's Nyquist
+    assert min(ends) < 500.0  # a wide field's curve stops early
+    assert max(len(f["metadata"].get("mtf_beyond_grid_nyquist_cpmm", [])) for f in d["psf"]) > 0
+    for name in ("mtf.png", "mtf_system.png", "mtf_field.png", "mtf.json"):
+        assert (out / name).stat().st_size > 1000, name
+
+
+def test_psf_grid_cap_keeps_per_batch_histograms_within_the_memory_cap():
+    from lensrt.analysis import raypsf
+    from lensrt.analysis.psf_setup import make_setup
+    from lensrt.loading import load_lens
+    setup = make_setup(load_lens(LENS), None, "image", "cpu", max_pitch_um=1.0, batches=32, pixels=64)
+    pitch_um, pixels, half = raypsf._window(setup, 5.0)  # a 10 mm wide PSF would need 11000 pixels
+    assert pixels == 1024 and 32 * 8 * pixels ** 2 <= raypsf.HIST_BYTES_MAX
+    assert pitch_um == pytest.approx(2.0 * half * 1e3 / pixels) and pixels * pitch_um >= 2e3 * half
+    pitch_um, pixels, _ = raypsf._window(setup, 0.1)  # a narrower one gets the pitch asked for
+    assert pitch_um == pytest.approx(1.0) and pixels == 222
+    pitch_um, pixels, _ = raypsf._window(setup, 0.01)  # a narrow one keeps its 64 pixels, finer
+    assert pitch_um < 1.0 and pixels == 64
+
+
 def test_converge_prints_slopes(capsys, tmp_path):
     assert main(["psf", LENS, "--field", "0.7", "--converge", "--rays", "16384", "--batches", "8", "--device", "cpu",
                  "--wavelength-nm", "587.6", "--pixels", "32", "--out", str(tmp_path)]) == 0

@@ -78,23 +78,43 @@ def diffraction_limit_f_number(lens: Lens) -> float:
     return float(first_order(lens).working_f_number)
 
 
-def mtf_curves(result: PsfResult, lens: Lens, detector: Detector | None = None) -> dict:
+def _on_axis(values, n: int) -> np.ndarray:
+    """``values`` (a curve that may stop early) on an axis of ``n`` frequencies, NaN past its end."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    out = np.full(n, np.nan)
+    out[:min(n, v.size)] = v[:n]
+    return out
+
+
+def mtf_curves(result: PsfResult, lens: Lens, detector: Detector | None = None,
+               freqs_cpmm: Sequence[float] | None = None) -> dict:
     """Lens, diffraction-limit, detector, OLPF and system MTF curves of one PSF (module docstring).
 
     Needs a result computed with ``setup.mtf_curve_cpmm`` (its estimates ``mtf_curve_sagittal`` and
     ``mtf_curve_tangential``). Arrays are over ``freqs_cpmm``; "S"/"T" curves along the sagittal and
     tangential directions.
+
+    A wide PSF's grid may be too coarse for the highest frequencies asked for (its curve stops at the
+    grid's Nyquist frequency, :mod:`lensrt.analysis.raypsf`). Given ``freqs_cpmm`` (the setup's
+    ``mtf_curve_cpmm``), every array is on that common axis, the lens (and system) MTF NaN beyond the
+    curve's end, which ``curve_ends_cpmm`` gives; so curves of several field points line up.
     """
     if "mtf_curve_sagittal" not in result.estimates:
         raise LensrtError("this PSF carries no MTF curve", hint="compute it with mtf_curve_cpmm set")
-    f = np.asarray(result.metadata["mtf_curve_freqs_cpmm"], dtype=np.float64)
+    own = np.asarray(result.metadata["mtf_curve_freqs_cpmm"], dtype=np.float64)
+    f = own if freqs_cpmm is None else np.asarray(freqs_cpmm, dtype=np.float64)
+    if f.size < own.size or not np.allclose(f[:own.size], own, rtol=1e-12, atol=0.0):
+        raise LensrtError("the common frequency axis does not start with this PSF's curve frequencies",
+                          hint="pass the setup's mtf_curve_cpmm")
     s, t = result.estimates["mtf_curve_sagittal"], result.estimates["mtf_curve_tangential"]
     n_w = diffraction_limit_f_number(lens)
-    out = {"freqs_cpmm": f, "lens_sagittal": np.asarray(s.value), "lens_sagittal_stderr": np.asarray(s.stderr),
-           "lens_tangential": np.asarray(t.value), "lens_tangential_stderr": np.asarray(t.stderr),
+    out = {"freqs_cpmm": f, "lens_sagittal": _on_axis(s.value, f.size),
+           "lens_sagittal_stderr": _on_axis(s.stderr, f.size),
+           "lens_tangential": _on_axis(t.value, f.size), "lens_tangential_stderr": _on_axis(t.stderr, f.size),
            "diffraction_limit": polychromatic_diffraction_mtf(f, result.wavelengths_nm, result.weights, n_w),
            "diffraction_f_number": n_w, "kind": result.kind, "reference_mm": list(result.reference_mm),
-           "samples": result.samples, "seconds": result.seconds}
+           "samples": result.samples, "seconds": result.seconds,
+           "curve_ends_cpmm": float(own[-1]) if own.size else 0.0}
     if detector is not None:
         tang = tangential_angle_rad(result.reference_mm)
         for name, ang in (("sagittal", tang + 0.5 * math.pi), ("tangential", tang)):
@@ -119,11 +139,14 @@ def mtf_against_field(results: Sequence[PsfResult]) -> dict:
     rows = [r for r in results if "mtf_sagittal" in r.estimates]
     if not rows:
         raise LensrtError("no PSF carries MTF estimates at reference frequencies")
-    freqs = rows[0].metadata["mtf_freqs_cpmm"]
-    rows = [r for r in rows if r.metadata["mtf_freqs_cpmm"] == freqs]
+    # a coarse grid (wide PSF) leaves out reference frequencies past its Nyquist frequency: the
+    # longest list is the common axis, the missing tail NaN
+    freqs = max((r.metadata["mtf_freqs_cpmm"] for r in rows), key=len)
+    rows = [r for r in rows if r.metadata["mtf_freqs_cpmm"] == freqs[:len(r.metadata["mtf_freqs_cpmm"])]]
     h = np.array([math.hypot(*r.reference_mm) for r in rows])
     order = np.argsort(h, kind="stable")
-    pick = lambda key, attr: np.array([np.atleast_1d(getattr(rows[i].estimates[key], attr)) for i in order])  # noqa: E731
+    pick = lambda key, attr: np.array([_on_axis(getattr(rows[i].estimates[key], attr), len(freqs))  # noqa: E731
+                                       for i in order])
     return {"freqs_cpmm": np.asarray(freqs, dtype=np.float64), "image_height_mm": h[order],
             "sagittal": pick("mtf_sagittal", "value"), "tangential": pick("mtf_tangential", "value"),
             "sagittal_stderr": pick("mtf_sagittal", "stderr"), "tangential_stderr": pick("mtf_tangential", "stderr"),

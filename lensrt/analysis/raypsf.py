@@ -8,7 +8,11 @@ For one field point (:func:`geometric_psf_at`):
 2. the grid: ``setup.pixels`` square pixels; unless ``setup.pitch_um`` fixes it,
    the pitch is chosen so that the grid holds every ray of a 48 x 48 pilot grid
    over the pupil (at the spectrum's shortest, primary and longest wavelength)
-   with a 10 % margin;
+   with a 10 % margin; a ``max_pitch_um`` (to sample an MTF up to 1 / (2 pitch))
+   adds pixels, but never past :data:`HIST_BYTES_MAX` of per-batch histograms
+   (B x pixels^2 float64 -- 1024 pixels a side at 32 batches): a wide PSF then
+   gets a coarser pitch, and its MTF stops at that grid's Nyquist frequency
+   (listed in ``metadata["mtf_beyond_grid_nyquist_cpmm"]``);
 3. ``setup.rays`` Monte Carlo rays (sampler, seed, ``setup.batches`` independent
    batches) are traced and binned by the stream kernel, with per-batch
    histograms and moment sums;
@@ -53,6 +57,8 @@ __all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_fiel
 
 #: smallest automatic half-width of a geometric PSF grid (mm): 2 um
 _MIN_HALF_MM = 2e-3
+#: memory cap of the per-batch histograms of an automatically enlarged grid (module docstring, step 2)
+HIST_BYTES_MAX = 256 << 20
 
 
 def round_seed(seed: int, r: int) -> int:
@@ -116,7 +122,9 @@ def _window(setup: PsfSetup, half: float) -> tuple[float, int, float]:
         return float(setup.pitch_um), pixels, half
     pitch_um = 2.0 * half * UM_PER_MM / pixels
     if setup.max_pitch_um is not None and pitch_um > setup.max_pitch_um:
-        pixels = min(4096, int(math.ceil(2.0 * half * UM_PER_MM / setup.max_pitch_um)))
+        cap = min(4096, int(math.sqrt(HIST_BYTES_MAX / (8.0 * setup.batches))))
+        cap = max(pixels, cap - cap % 2)
+        pixels = min(cap, int(math.ceil(2.0 * half * UM_PER_MM / setup.max_pitch_um)))
         pixels += pixels % 2
         pitch_um = max(setup.max_pitch_um, 2.0 * half * UM_PER_MM / pixels)
     return float(pitch_um), pixels, half

@@ -85,7 +85,7 @@ def cmd_mtf(args: argparse.Namespace) -> int:
     with executor_from_args(args, uses_device=True) as ex:
         pmap = run_psf_map(setup, fields, args.seed, ex, progress_printer(args, "fields"), shape,
                            args.sensor if args.grid else None)
-    curves = [mtf_curves(r, lens, detector) for r in pmap.results]
+    curves = [mtf_curves(r, lens, detector, freqs) for r in pmap.results]
     vs_field = mtf_against_field(pmap.results)
     focus = None
     if dz is not None:

@@ -84,18 +84,11 @@ def cmd_render(args: argparse.Namespace) -> int:
         if note:
             emit(f"  note         lens not loaded ({note}); lens-dependent choices use defaults")
         return 0
-    from importlib import import_module
-    try:
-        integrator = import_module("lensrt.render.integrator")
-    except ModuleNotFoundError as err:
-        if err.name != "lensrt.render.integrator":
-            raise
-        raise LensrtError("this build of lensrt has no render integrator yet (lensrt/render/integrator.py)",
-                          hint="`lensrt render SCENE --plan` shows what a render would do") from None
+    from ._render_run import run
     lens, note = _load_lens_or_note(scene, args.lens)
     if lens is None:
         raise LensrtError(f"cannot load the scene's lens: {note}")
-    return int(integrator.run_cli(args, scene, lens) or 0)
+    return int(run(args, scene, lens) or 0)
 
 
 def _preview(args: argparse.Namespace, scene) -> int:

@@ -37,7 +37,7 @@ from .camera import Camera, setup_camera
 from .passes import REGIONS, PassSum, RenderSetup, device_pass, prepare_setup
 from .plan import Plan, plan_render
 
-__all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_pixels", "run_cli",
+__all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_pixels",
            "ProgressFn"]
 
 #: progress callback: (passes done, passes planned, seconds so far, estimated seconds left or None)
@@ -434,9 +434,3 @@ def _render_with_executor(setup: RenderSetup, executor, acc: PassSum, rule: Stop
             if stop is not None:
                 break
     return acc.spec, stop
-
-
-def run_cli(args, scene, lens) -> int:
-    """``lensrt render SCENE``: render, write the outputs, print a summary (see lensrt.commands.render)."""
-    from .render_cli import run
-    return run(args, scene, lens)

@@ -175,7 +175,7 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
             heights = heights[:-1]
     if dropped:
         why += " Left out: " + "; ".join(dropped) + "."
-    curves = [_padded(mtf_curves(r, ctx.lens, detector), freqs, r) for r in pmap.results]
+    curves = [mtf_curves(r, ctx.lens, detector, freqs) for r in pmap.results]
     vs_field = mtf_against_field(pmap.results)
     name = ctx.lens.name or "lens"
     sel = list(range(len(curves))) if len(curves) <= 4 else \
@@ -236,27 +236,6 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
                             "MTF against field")])
     sec.data["mtf"] = {"reference_freqs_cpmm": list(ref), "mtf_vs_field": vs_field, "seconds": pmap.seconds,
                        "rays_total": pmap.rays, "methods": kinds}
-
-
-def _padded(curves: dict, freqs: np.ndarray, result) -> dict:
-    """Curves on the common frequency axis ``freqs``: a curve that stops early (its PSF grid's Nyquist
-    frequency, :func:`lensrt.analysis.raypsf.add_mtf_estimates`) is padded with NaN."""
-    f = np.asarray(curves["freqs_cpmm"])
-    n = f.size
-    if n == freqs.size:
-        return curves
-    out = dict(curves)
-    for k, v in curves.items():
-        if isinstance(v, np.ndarray) and v.shape[:1] == (n,) and k != "freqs_cpmm":
-            pad = np.full(freqs.size, np.nan)
-            pad[:n] = v
-            out[k] = pad
-    out["freqs_cpmm"] = freqs
-    from ..analysis.mtf import polychromatic_diffraction_mtf
-    out["diffraction_limit"] = polychromatic_diffraction_mtf(freqs, result.wavelengths_nm, result.weights,
-                                                             curves["diffraction_f_number"])
-    out["curve_ends_cpmm"] = float(f[-1]) if n else 0.0
-    return out
 
 
 def _mtf_record(pmap, vs_field: dict) -> MonteCarlo:

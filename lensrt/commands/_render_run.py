@@ -1,6 +1,7 @@
 """``lensrt render SCENE``: options -> :func:`lensrt.render.integrator.render` -> files and a summary.
 
-Called by :mod:`lensrt.commands.render` (which parses the arguments and loads the scene and lens).
+Called by :mod:`lensrt.commands.render` (which parses the arguments and loads the scene and lens);
+the command layer's half of the render, so that :mod:`lensrt.render` never imports the CLI.
 """
 from __future__ import annotations
 
@@ -9,12 +10,13 @@ import time
 from typing import Any
 
 from ..errors import LensrtError
+from ._common import emit, print_json
 
 __all__ = ["run", "options_from_args", "progress_bar"]
 
 
 def options_from_args(args) -> Any:
-    from .integrator import RenderOptions
+    from ..render.integrator import RenderOptions
     window = None
     if getattr(args, "window", None):
         try:
@@ -59,16 +61,15 @@ def progress_bar(stream=None):
 
 
 def run(args, scene, lens) -> int:
-    from ..commands._common import emit, print_json
-    from .integrator import render
-    from .output import write_outputs
+    from ..render.integrator import render
+    from ..render.output import write_outputs
     from contextlib import nullcontext
     options = options_from_args(args)
     context: Any = nullcontext(None)
     if getattr(args, "devices", None) or getattr(args, "workers", 0) or getattr(args, "scheduler", None):
         if args.device is not None:
             raise LensrtError("give --device (one device, this process) or --devices/--workers/--scheduler, not both")
-        from ..commands._parallel import executor_from_args
+        from ._parallel import executor_from_args
         context = executor_from_args(args, uses_device=True)
     quiet = bool(args.json)
     if not quiet:
@@ -104,8 +105,8 @@ def run(args, scene, lens) -> int:
     if result.regions:
         emit("  illuminance Y on the sensor (lux, mean +- standard error, batch means over passes):")
         for name, est in result.regions.items():
-            rel = est.stderr / est.value if est.value else float("nan")
-            emit(f"    {name:<12} {est.value:.5g} +- {est.stderr:.2g}  ({100 * rel:.2g} %)")
+            rel = f"({100 * est.stderr / est.value:.2g} %)" if est.value else "(no light reached it)"
+            emit(f"    {name:<12} {est.value:.5g} +- {est.stderr:.2g}  {rel}")
     for n in result.notes:
         emit(f"  note: {n}")
     for kind, path in files.items():
