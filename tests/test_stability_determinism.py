@@ -145,8 +145,15 @@ def _cuda() -> bool:
 def test_cpu_against_cuda(sources):
     """The same rays on both: float64 to 1e-9 mm (fused multiply-adds and libm differ), float32
     within the float32 bound of the float64 CPU trace; statuses equal but for a few rays at an
-    edge. Streams with the same seed trace the same rays: counts to 0.1 %, histograms to 1e-3 of
-    their total (rays within rounding of a bin edge), moments to 1e-5 relative."""
+    edge. Streams with the same seed trace the same rays: counts to 0.1 %, total weight to 1e-6.
+    float64 histograms to 1e-9 of their total (identical on an H100, 2026-11-21). float32
+    histograms differ by the rays that float32 rounding moves across a bin edge: a ray displaced
+    by (dx, dy) crosses an edge of pitch p with probability (|dx| + |dy|) / p and moves its weight
+    from one bin to another (twice its weight of L1 difference), so the L1 difference is held to
+    3 x 2 mean(|dx| + |dy|) / p of the total, the displacement measured between the devices on the
+    store trace of the same kernels (observed: 1.06e-3 against a bound of 4.5e-3). Per-batch
+    centroids and RMS radii from the moment sums: a centroid moves by at most the largest ray
+    displacement, an RMS radius by at most twice it (triangle inequality; float64: 1e-9 mm)."""
     rays = _rays(20000)
     cpu64 = trace(LENS, rays, "float64", "cpu")
     gpu64 = trace(LENS, rays, "float64", "cuda:0")
@@ -157,13 +164,33 @@ def test_cpu_against_cuda(sources):
     gpu32 = trace(LENS, rays, "float32", "cuda:0")
     ok32 = ok & (gpu32.status == cpu64.status) & ~cpu64.grazing
     assert np.max(np.abs(gpu32.position_mm[ok32] - cpu64.position_mm[ok32])) < F32_BOUND_MM
-    a = _stream(sources, "cpu", threads_per_batch=4)
-    b = _stream(sources, "cuda:0", threads_per_batch=4)
-    _identical(b, _stream(sources, "cuda:0", threads_per_batch=4))  # same device: bit-identical
-    ca, cb = a.batch_counts.sum(axis=(0, 1)), b.batch_counts.sum(axis=(0, 1))
-    assert np.all(np.abs(ca - cb) <= 1e-3 * ca.sum())
-    assert np.abs(a.histogram - b.histogram).sum() <= 1e-3 * a.histogram.sum()
-    # the moments agree closely when no ray changed status between the devices (else one ray's
-    # weight in ~500 per batch moves them by ~1e-3)
-    rtol = 1e-5 if np.array_equal(a.batch_counts[..., :6], b.batch_counts[..., :6]) else 1e-2
-    np.testing.assert_allclose(b.batch_stats, a.batch_stats, rtol=rtol, atol=1e-9)
+    cpu32 = trace(LENS, rays, "float32", "cpu")
+    both = ok32 & (cpu32.status == gpu32.status)
+    shift = np.abs(gpu32.position_mm[both, :2] - cpu32.position_mm[both, :2]).sum(axis=1)
+    pitch = 0.01  # _stream's grid
+    for prec in ("float64", "float32"):
+        a = _stream(sources, "cpu", threads_per_batch=4, precision=prec)
+        b = _stream(sources, "cuda:0", threads_per_batch=4, precision=prec)
+        _identical(b, _stream(sources, "cuda:0", threads_per_batch=4, precision=prec))  # same device: same bits
+        ca, cb = a.batch_counts.sum(axis=(0, 1)), b.batch_counts.sum(axis=(0, 1))
+        assert np.all(np.abs(ca - cb) <= 1e-3 * ca.sum())
+        total = a.histogram.sum()
+        assert abs(b.histogram.sum() - total) <= 1e-6 * total
+        l1 = np.abs(a.histogram - b.histogram).sum() / total
+        assert l1 <= (1e-9 if prec == "float64" else 3.0 * 2.0 * shift.mean() / pitch), (prec, l1, shift.mean())
+        if np.array_equal(a.batch_counts, b.batch_counts):  # the same rays reached the plane on both
+            tol = 1e-9 if prec == "float64" else 2.0 * shift.max()
+            ma, mb = _centroid_rms(a.batch_stats), _centroid_rms(b.batch_stats)
+            assert np.all(np.abs(ma[..., :2] - mb[..., :2]) <= tol), prec
+            assert np.all(np.abs(ma[..., 2] - mb[..., 2]) <= 2.0 * tol), prec
+        else:  # a ray changed status: one weight in ~400 per batch
+            np.testing.assert_allclose(b.batch_stats[..., :2], a.batch_stats[..., :2], rtol=1e-2)
+
+
+def _centroid_rms(stats: np.ndarray) -> np.ndarray:
+    """Per-batch (centroid x, centroid y, RMS radius) in mm from moment sums (n_ok, sum_w, sum_wx,
+    sum_wy, sum_wxx, sum_wyy, ...)."""
+    w = stats[..., 1]
+    cx, cy = stats[..., 2] / w, stats[..., 3] / w
+    rms = np.sqrt(np.maximum(stats[..., 4] / w - cx * cx + stats[..., 5] / w - cy * cy, 0.0))
+    return np.stack([cx, cy, rms], axis=-1)

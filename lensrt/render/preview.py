@@ -33,11 +33,13 @@ def _kernel() -> Any:
     if _KERNEL is None:
         wp = warp()
         from . import scene_kernels as sk
-        N_WL = wp.constant(globals()["N_WL"])  # noqa: N806
 
+        # n_wl is a runtime argument on purpose: a loop over a compile-time constant is unrolled by
+        # Warp (up to 16 trips), which inlined scene_radiance 16 times and made the CUDA compile of
+        # this kernel take more than 3 minutes on an H100 (2026-11-21)
         @wp.kernel
         def pinhole_xyz(scn: sk.SceneData, cmfs: wp.array2d(dtype=float), w: int, h: int, sw: float, sh: float,
-                        f: float, spp: int, seed: int, km: float, out: wp.array3d(dtype=float)):
+                        f: float, spp: int, seed: int, km: float, n_wl: int, out: wp.array3d(dtype=float)):
             i, j = wp.tid()
             st = wp.rand_init(seed, i * w + j)
             span = scn.dlam * float(scn.n_lam - 1)
@@ -51,8 +53,8 @@ def _kernel() -> Any:
                 # a comb of N_WL evenly spaced wavelengths with one random offset (hero-wavelength
                 # style, Wilkie et al. 2014): no lens, so all wavelengths share the ray
                 u0 = wp.randf(st)
-                for q in range(N_WL):
-                    lam = scn.lam0 + (float(q) + u0) / float(N_WL) * span
+                for q in range(n_wl):
+                    lam = scn.lam0 + (float(q) + u0) / float(n_wl) * span
                     rad = sk.scene_radiance(scn, wp.vec3(0.0, 0.0, 0.0), d, lam, u)
                     fx = (lam - scn.lam0) / scn.dlam
                     m = wp.min(int(fx), scn.n_lam - 2)
@@ -60,7 +62,7 @@ def _kernel() -> Any:
                     for c in range(3):
                         acc[c] += rad * ((1.0 - t) * cmfs[c, m] + t * cmfs[c, m + 1])
             for c in range(3):
-                out[i, j, c] = acc[c] * km * span / float(spp * N_WL)
+                out[i, j, c] = acc[c] * km * span / float(spp * n_wl)
 
         _KERNEL = pinhole_xyz
     return _KERNEL
@@ -88,7 +90,7 @@ def preview_pinhole(scene: Scene, width_px: int = 360, focal_length_mm: float = 
         out = wp.zeros((h, width_px, 3), dtype=float, device=dev)
         wp.launch(_kernel(), dim=(h, width_px), device=dev,
                   inputs=[packed.data, cm, width_px, h, sen.width_mm, sen.height_mm, float(focal_length_mm),
-                          samples_per_pixel // 2, 2 * seed + k, LUMINOUS_EFFICACY_LM_PER_W, out])
+                          samples_per_pixel // 2, 2 * seed + k, LUMINOUS_EFFICACY_LM_PER_W, N_WL, out])
         halves.append(out.numpy().astype(np.float64))
     value = 0.5 * (halves[0] + halves[1])
     stderr = 0.5 * np.abs(halves[0] - halves[1])
