@@ -204,14 +204,81 @@ def test_same_seed_same_image_bit_for_bit(monkeypatch):
     assert not np.array_equal(a.irradiance, d.irradiance)
 
 
-def test_passes_on_an_executor_give_the_same_bits():
+def _same_estimates(a, b, rel: float = 1e-12) -> None:
+    """Region and through-the-lens estimates of two renders of the same passes agree to ``rel``."""
+    assert a.regions.keys() == b.regions.keys() and len(a.regions) == 6
+    for name in a.regions:
+        for f in ("value", "stderr"):
+            x, y = getattr(a.regions[name], f), getattr(b.regions[name], f)
+            assert abs(x - y) <= rel * abs(x), (name, f, x, y)
+    assert a.through.value == b.through.value and a.through.stderr == b.through.stderr
+    assert a.through_fraction == b.through_fraction
+
+
+def test_fixed_samples_on_an_executor_run_tiles_with_the_same_bits():
+    """A fixed sample count on two devices: one Job of row-band tiles; the image bits of one device (3
+    passes: the mean is times 1/6), its per-pass hits, and region means to 1e-12 (tile sums, other order)."""
     from lensrt.parallel import LocalExecutor
     scene, opts = _small_default()
+    opts = dataclasses.replace(opts, samples_per_pixel=6)
+    a = render(scene, options=opts)
+    seen = []
+    with LocalExecutor("cpu,cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex,
+                   progress=lambda *p: seen.append(p))
+    assert b.executor_items == "tiles" and b.executor_item_count == 6 and a.executor_items is None
+    assert b.summary()["executor_items"] == "tiles"
+    for f in ("irradiance", "xyz", "xyz_stderr"):
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    assert b.passes == a.passes == 3 and b.samples == a.samples and b.stop_reason == "samples"
+    _same_estimates(a, b)
+    assert len(b.history) == 1 and b.history[0]["passes"] == 3
+    assert b.history[0]["rel_error"] == a.history[-1]["rel_error"]
+    assert seen and seen[-1][:2] == (3, 3) and seen[-1][3] == 0.0
+
+
+def test_tiles_with_a_window_equal_one_device():
+    from lensrt.parallel import LocalExecutor
+    scene, opts = _small_default(window=(3, 20, 5, 40))
+    a = render(scene, options=opts)
+    with LocalExecutor("cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex)
+    assert b.executor_items == "tiles" and b.executor_item_count == 3
+    assert np.array_equal(a.irradiance, b.irradiance) and np.array_equal(a.xyz_stderr, b.xyz_stderr)
+    _same_estimates(a, b)
+
+
+def test_progressive_runs_on_an_executor_keep_pass_rounds():
+    """A target error needs a decision after every pass: rounds of one pass per device, one history row
+    per pass, and the same passes and bits as one device (the error measure is computed from the same sums)."""
+    from lensrt.parallel import LocalExecutor
+    scene, opts = _small_default()
+    opts = dataclasses.replace(opts, samples_per_pixel=None, target_rel_error=0.3)
     a = render(scene, options=opts)
     with LocalExecutor("cpu,cpu") as ex:
         b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex)
+    assert b.executor_items == "passes" and b.executor_item_count == b.passes
+    assert b.stop_reason == a.stop_reason == "target_error" and b.passes == a.passes >= 4
+    assert len(b.history) == b.passes
     assert np.array_equal(a.irradiance, b.irradiance) and np.array_equal(a.xyz_stderr, b.xyz_stderr)
-    assert b.passes == a.passes == 2
+    _same_estimates(a, b, rel=0.0)
+
+
+def test_tile_region_sums_add_up_to_the_region_sums():
+    """Any split of the pixels into ranges (row-aligned or not): the tiles' region sums add up to the sums
+    over each region; the span a tile copies covers every region pixel it holds."""
+    from lensrt.render.jobs import tile_region_span, tile_region_sums
+    from lensrt.render.passes import region_slices
+    shape = (23, 17)
+    y = np.random.default_rng(1).random(shape)
+    want = [y[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
+    cuts = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
+    got = np.zeros(len(want))
+    for p0, p1 in zip(cuts[:-1], cuts[1:]):
+        span = tile_region_span(p0, p1, shape)
+        if span is not None:
+            got += tile_region_sums(y.reshape(-1)[span[0]:span[1]], span[0], span[1], shape)
+    assert np.allclose(got, want, rtol=1e-13, atol=0)
 
 
 def test_render_job_workload_reduces_in_pass_order():

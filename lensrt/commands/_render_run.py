@@ -89,8 +89,10 @@ def run(args, scene, lens) -> int:
         print_json(s)
         return 0
     rows, cols = result.shape
+    items = {"tiles": f", {result.executor_item_count} row tiles with all passes each",
+             "passes": f", {result.executor_item_count} one-pass items in rounds"}.get(result.executor_items, "")
     emit(f"{scene.name}: {cols} x {rows} px, {result.samples_per_pixel} samples/pixel ({result.passes} passes, "
-         f"stopped by {result.stop_reason}), {result.mode} on {result.device}")
+         f"stopped by {result.stop_reason}), {result.mode} on {result.device}{items}")
     emit(f"  {result.samples:.4g} paths in {result.seconds:.3g} s = {result.samples_per_second:.3g} paths/s; "
          f"set-up {result.setup_seconds.get('total_before_passes', 0.0):.3g} s; wall {total:.3g} s")
     if result.through is not None:

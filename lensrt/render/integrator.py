@@ -16,6 +16,9 @@ What it does (camera paths; README "Rendering" has the whole story):
 * progressive: passes of ``spp_per_pass`` paths per pixel until the sample count, a time budget
   or a target relative error is reached (:class:`lensrt.stats.StopRule`), with per-pixel
   standard errors by batch means over passes;
+* on a :mod:`lensrt.parallel` executor: a fixed sample count as one Job of row-band tiles, each
+  rendering all its passes on its device (:func:`lensrt.render.jobs.render_tiles_job`); a time
+  budget or target error as rounds of one pass per device slot (each pass decides whether to go on);
 * point-source-only scenes are splatted from the light side instead (:mod:`lensrt.render.splat`).
 
 What it does not do: no inter-reflections (one bounce), no specular or refractive scene
@@ -46,6 +49,9 @@ ProgressFn = Callable[[int, int, float, "float | None"], None]
 MAX_SPP_OPEN = 65536
 #: largest image whose error measure is recomputed after every pass without a target error
 ERROR_EVERY_PASS_MAX_PIXELS = 1_000_000
+#: row-band tiles per device slot (or Dask worker) of a fixed-sample-count render on an executor:
+#: a few per slot, so that a slow tile does not leave the other slots idle at the end
+TILES_PER_SLOT = 3
 
 
 @dataclass(frozen=True)
@@ -110,6 +116,11 @@ class RenderResult:
     cpu_seconds: float = float("nan")
     #: ``through_fraction`` with its standard error (batch means over passes; None with one pass)
     through: Estimate | None = None
+    #: the work items on an executor: "tiles" (row bands, each with every pass) or "passes" (rounds of one
+    #: pass per device slot); None in this process
+    executor_items: str | None = None
+    #: how many items (tiles, or passes) the executor ran
+    executor_item_count: int = 0
 
     def position_of(self, row, col) -> tuple[np.ndarray, np.ndarray]:
         """Sensor-plane (x_mm, y_mm) of (row, col) of this image (the camera's one map, shifted by the window)."""
@@ -147,6 +158,7 @@ class RenderResult:
                 "through_lens": self.through.to_dict() if self.through is not None else None,
                 "regions_Y_lux": {k: v.to_dict() for k, v in self.regions.items()},
                 "history": self.history, "setup_seconds": self.setup_seconds, "notes": self.notes,
+                "executor_items": self.executor_items, "executor_item_count": int(self.executor_item_count),
                 "camera": self.camera.to_dict(), "plan": self.plan.to_dict()}
 
 
@@ -286,8 +298,15 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
            progress: ProgressFn | None = None) -> RenderResult:
     """Render ``scene`` (a loaded :class:`~lensrt.render.scene_model.Scene`) through ``lens`` (default: its own).
 
-    ``executor``: a :mod:`lensrt.parallel` executor to spread passes over devices or workers
-    (rounds of one pass per device slot); ``None`` renders in this process on ``options.device``.
+    ``executor``: a :mod:`lensrt.parallel` executor to spread the work over devices or workers;
+    ``None`` renders in this process on ``options.device``. With a fixed sample count (no time
+    budget and no target error, from ``options`` or the scene) it runs one Job of row-band tiles
+    (:data:`TILES_PER_SLOT` per device slot or worker, at most one per row), each rendering every
+    pass of its tile on its device: the same image bits as one device, the same per-pass paths
+    through the lens, region means equal to about 1e-15 relative (summed tile by tile), and one
+    ``history`` row (at the end; the progress callback follows the tiles). A time budget or target
+    error needs a decision after every pass, so those run as rounds of one pass per device slot
+    (each pass's whole image comes back to the host). ``result.executor_items`` says which ran.
     """
     from ..device import resolve_device
     from ..loading import load_lens
@@ -323,11 +342,17 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
         info["times"]["pack_scene_and_lens"] = time.perf_counter() - t0
     t_loop = time.perf_counter()
     cpu0 = time.process_time()
+    items = None
     if executor is None:
         spec, stop = _render_in_process(prep, acc, rule, t_loop, n_px, history, progress, planned, pass_times)
+    elif rule.time_budget_s is None and rule.target_error is None:
+        acc, n_items = _render_tiles(setup, executor, t_loop, planned, progress)
+        stop = _after_pass(acc, rule, t_loop, n_px, history, progress, planned, pass_times)
+        spec, items = acc.spec, ("tiles", n_items)
     else:
         spec, stop = _render_with_executor(setup, executor, acc, rule, t_loop, n_px, history, progress, planned,
                                            pass_times)
+        items = ("passes", acc.passes)
     seconds = time.perf_counter() - t_loop
     cpu_seconds = time.process_time() - cpu0
     if history and history[-1].get("rel_error") is None:
@@ -348,6 +373,8 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
                        acc.hits / max(spp_total * n_px, 1),
                        {**info["times"], "total_before_passes": t_loop - t_start}, notes, setup.window)
     res.cpu_seconds = cpu_seconds
+    if items is not None:
+        res.executor_items, res.executor_item_count = items
     if acc.passes >= 2:
         v, se = batch_means(np.asarray(acc.pass_hits, dtype=np.float64) / (setup.spp_per_pass * n_px))
         res.through = Estimate(float(v), float(se), spp_total * n_px, seconds, f"batch means over {acc.passes} passes",
@@ -409,14 +436,37 @@ def _after_pass(acc: PassSum, rule: StopRule, t_loop: float, n_px: int, history:
     return reason
 
 
+def _executor_slots(executor) -> int:
+    """Items an executor runs at once: its devices, or its workers on a Dask cluster."""
+    slots = max(1, len(getattr(executor, "devices", [None])))
+    if callable(getattr(executor, "n_workers", None)):
+        slots = max(slots, int(executor.n_workers()))
+    return slots
+
+
+def _render_tiles(setup: RenderSetup, executor, t_loop: float, planned: int, progress) -> tuple[PassSum, int]:
+    """All ``planned`` passes as one Job of row-band tiles (:func:`lensrt.render.jobs.render_tiles_job`): the
+    reduced :class:`PassSum` (spectral sums, moments, per-pass hits and region means) and the tile count."""
+    from .jobs import render_tiles_job
+    job = render_tiles_job(setup, planned, TILES_PER_SLOT * _executor_slots(executor))
+    n = len(job.items)
+
+    def tiles_done(done: int, total: int) -> None:
+        # passes are not done one by one here: report the fraction of tiles in as passes (the end is
+        # reported by the caller, with the history row)
+        if progress is not None and 0 < done < total:
+            elapsed = time.perf_counter() - t_loop
+            progress(planned * done // total, planned, elapsed, elapsed * (total - done) / done)
+
+    return executor.run(job, progress=tiles_done).value.pass_sum, n
+
+
 def _render_with_executor(setup: RenderSetup, executor, acc: PassSum, rule: StopRule, t_loop: float, n_px: int,
                           history: list, progress, planned: int, pass_times: list[float]):
-    """Rounds of one pass per device slot as :mod:`lensrt.parallel` Jobs, reduced in pass order."""
+    """Rounds of one pass per device slot (or Dask worker) as :mod:`lensrt.parallel` Jobs, reduced in pass order."""
     from ..parallel import Job, make_items
     from .passes import run_pass_item
-    slots = max(1, len(getattr(executor, "devices", [None])))
-    if callable(getattr(executor, "n_workers", None)):       # a Dask cluster: one pass per worker per round
-        slots = max(slots, int(executor.n_workers()))
+    slots = _executor_slots(executor)
     stop = None
     while stop is None:
         first = acc.passes

@@ -9,8 +9,14 @@ order in float64). Each item returns a whole image, so the host's share grows wi
 renders every pass of its tile and sums them on its device (the float64 pass sums and moment
 sums of :mod:`lensrt.render.passes`, in pass order), returning the tile's sums once. The host
 only places tiles, and the value is the same bits as :func:`render_job` 's (a pixel's paths
-depend on the pixel index and the pass seed only). ``render_workload`` registers the tiled job
-as the ``render`` workload of ``benchmarks/bench_multigpu.py``.
+depend on the pixel index and the pass seed only). A tile also returns, per pass, its paths through
+the lens and the sums of Y over its part of each region of
+:func:`lensrt.render.passes.region_slices` (copying from the device only the rows of the tile that
+meet a region), so that the reduced :class:`lensrt.render.passes.PassSum` carries the per-pass
+data of a pass-by-pass render: the same hit counts, and region means equal to about 1e-15
+relative (tile sums added in tile order instead of one sum over the region).
+:func:`lensrt.render.integrator.render` runs this job for a fixed sample count on an executor;
+``render_workload`` registers it as the ``render`` workload of ``benchmarks/bench_multigpu.py``.
 """
 from __future__ import annotations
 
@@ -18,15 +24,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .passes import PassSum, RenderSetup, prepare_setup, run_pass_item
+from .passes import REGIONS, PassSum, RenderSetup, prepare_setup, region_slices, run_pass_item
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
-           "run_tile_item", "render_workload", "WORKLOAD_SIZES"]
+           "run_tile_item", "tile_region_span", "tile_region_sums", "render_workload", "WORKLOAD_SIZES"]
 
 
 @dataclass
 class RenderSums:
-    """A reduced render: spectral sum over passes (pixels * bands, float64), per-pixel XYZ mean and stderr."""
+    """A reduced render: spectral sum over passes (pixels * bands, float64), per-pixel XYZ mean and stderr;
+    ``pass_sum`` the :class:`PassSum` they come from (per-pass hits and region means included)."""
 
     spec_sum: np.ndarray
     xyz: np.ndarray
@@ -34,9 +41,15 @@ class RenderSums:
     passes: int
     samples_per_pixel: int
     hits: int
+    pass_sum: PassSum | None = None
+
+    @classmethod
+    def of(cls, acc: PassSum) -> "RenderSums":
+        return cls(acc.spec, acc.xyz_mean(), acc.xyz_stderr(), acc.passes, acc.samples_per_pixel, acc.hits, acc)
 
     def irradiance(self, shape: tuple[int, int], n_bands: int) -> np.ndarray:
-        return (self.spec_sum / self.samples_per_pixel).astype(np.float32).reshape(shape + (n_bands,))
+        """The mean over all paths as float32 (times 1 / samples, as the one-device render's finalize kernel)."""
+        return (self.spec_sum * (1.0 / self.samples_per_pixel)).astype(np.float32).reshape(shape + (n_bands,))
 
 
 @dataclass(frozen=True)
@@ -56,7 +69,7 @@ class PassReduction:
         return acc
 
     def finish(self, acc: PassSum) -> RenderSums:
-        return RenderSums(acc.spec, acc.xyz_mean(), acc.xyz_stderr(), acc.passes, acc.samples_per_pixel, acc.hits)
+        return RenderSums.of(acc)
 
 
 def render_job(setup: RenderSetup, passes: int, first: int = 0):
@@ -69,7 +82,9 @@ def render_job(setup: RenderSetup, passes: int, first: int = 0):
 
 @dataclass
 class TileResult:
-    """One tile's sums over all passes (float64): spectral (pixels * bands), XYZ and XYZ squared, paths through."""
+    """One tile's sums over all passes (float64): spectral (pixels * bands), XYZ and XYZ squared, paths through;
+    per pass: ``pass_hits`` (passes,) paths through the lens and ``region_y`` (passes, regions) the sums of
+    the per-pixel Y sums over the tile's part of each region (:func:`tile_region_sums`)."""
 
     first: int
     end: int
@@ -77,12 +92,43 @@ class TileResult:
     xyz1: np.ndarray
     xyz2: np.ndarray
     hits: int
+    pass_hits: np.ndarray
+    region_y: np.ndarray
     seconds: float = 0.0
+
+
+def tile_region_span(first: int, end: int, shape: tuple[int, int]) -> tuple[int, int] | None:
+    """The pixels [a, b) of the tile [first, end) that lie on rows meeting a region of
+    :func:`region_slices` (``None`` when no row of the tile does): what a pass copies from the device."""
+    cols = shape[1]
+    ra, rb = first // cols, -(-end // cols)
+    rows = [(max(r0, ra), min(r1, rb)) for r0, r1, _, _ in region_slices(shape)]
+    rows = [(a, b) for a, b in rows if a < b]
+    if not rows:
+        return None
+    return max(first, min(a for a, _ in rows) * cols), min(end, max(b for _, b in rows) * cols)
+
+
+def tile_region_sums(y: np.ndarray, first: int, end: int, shape: tuple[int, int]) -> np.ndarray:
+    """Sums (float64) of the per-pixel values ``y`` of pixels [first, end) over the part of each region of
+    :func:`region_slices` that they cover (one entry per region, 0 where they cover none)."""
+    cols = shape[1]
+    ra, rb = first // cols, -(-end // cols)
+    rows = np.zeros((rb - ra) * cols)             # whole rows; pixels outside the range add exact zeros
+    rows[first - ra * cols:end - ra * cols] = y
+    rows = rows.reshape(rb - ra, cols)
+    out = np.zeros(len(REGIONS))
+    for k, (r0, r1, c0, c1) in enumerate(region_slices(shape)):
+        a, b = max(r0, ra), min(r1, rb)
+        if a < b:
+            out[k] = rows[a - ra:b - ra, c0:c1].sum()
+    return out
 
 
 def run_tile_item(item, prep, device: str) -> TileResult:
     """The ``run`` of a tiled render Job: ``item.params`` = (first pixel, end pixel, passes); every pass of
-    the tile summed on the device in pass order (the arithmetic of the one-device render)."""
+    the tile summed on the device in pass order (the arithmetic of the one-device render), with each
+    pass's paths through the lens and its Y sums over the tile's part of the regions."""
     import time
     from ..device import warp
     from .passes import device_pass
@@ -96,20 +142,27 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     spec_sum = wp.zeros(n * s.n_bands, dtype=wp.float64, device=device)
     s1 = wp.zeros((n, 3), dtype=wp.float64, device=device)
     s2 = wp.zeros((n, 3), dtype=wp.float64, device=device)
-    hits = 0
+    pass_hits = np.zeros(passes, dtype=np.int64)
+    region_y = np.zeros((passes, len(REGIONS)))
+    span = tile_region_span(p0, p1, s.shape)
     buf = None
     for index in range(passes):
         buf = device_pass(prep, index, buf, (p0, p1))
         launch_sliced(k.accumulate, n * s.n_bands, lambda base: [buf.spec[base:], spec_sum[base:]], device)
         wp.launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
-        hits += int(buf.hits.numpy().astype(np.int64).sum())
-    return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), hits, time.perf_counter() - t0)
+        pass_hits[index] = int(buf.hits.numpy().astype(np.int64).sum())
+        if span is not None:
+            y = buf.xyz[span[0] - p0:span[1] - p0].numpy()[:, 1].astype(np.float64)
+            region_y[index] = tile_region_sums(y, span[0], span[1], s.shape)
+    return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), int(pass_hits.sum()), pass_hits, region_y,
+                      time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)
 class TileReduction:
-    """Places :class:`TileResult` s into the image; finishes as :class:`RenderSums`
-    (a :class:`lensrt.parallel.Reduction`)."""
+    """Places :class:`TileResult` s into the image and adds their per-pass counts in tile order; finishes as
+    :class:`RenderSums` whose ``pass_sum`` has the per-pass hits and region means (a
+    :class:`lensrt.parallel.Reduction`)."""
 
     n_pixels: int
     n_bands: int
@@ -119,19 +172,25 @@ class TileReduction:
 
     def start(self) -> dict:
         return {"spec": np.zeros(self.n_pixels * self.n_bands), "xyz1": np.zeros((self.n_pixels, 3)),
-                "xyz2": np.zeros((self.n_pixels, 3)), "hits": 0}
+                "xyz2": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
+                "region_y": np.zeros((self.passes, len(REGIONS)))}
 
     def add(self, acc: dict, index: int, result: TileResult) -> dict:
         acc["spec"][result.first * self.n_bands:result.end * self.n_bands] = result.spec_sum
         acc["xyz1"][result.first:result.end] = result.xyz1
         acc["xyz2"][result.first:result.end] = result.xyz2
-        acc["hits"] += int(result.hits)
+        acc["pass_hits"] += result.pass_hits
+        acc["region_y"] += result.region_y
         return acc
 
     def finish(self, acc: dict) -> RenderSums:
         ps = PassSum(self.n_pixels, self.n_bands, self.shape, self.spp_per_pass)
-        ps.xyz1, ps.xyz2, ps.passes, ps.hits = acc["xyz1"], acc["xyz2"], self.passes, acc["hits"]
-        return RenderSums(acc["spec"], ps.xyz_mean(), ps.xyz_stderr(), ps.passes, ps.samples_per_pixel, ps.hits)
+        ps.spec, ps.xyz1, ps.xyz2, ps.passes = acc["spec"], acc["xyz1"], acc["xyz2"], self.passes
+        ps.pass_hits = [int(h) for h in acc["pass_hits"]]
+        ps.hits = sum(ps.pass_hits)
+        counts = np.array([(r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in region_slices(self.shape)], dtype=np.float64)
+        ps.region_means = (acc["region_y"] / (counts * self.spp_per_pass)).tolist()
+        return RenderSums.of(ps)
 
 
 def render_tiles_job(setup: RenderSetup, passes: int, tiles: int):
