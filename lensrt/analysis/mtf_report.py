@@ -34,7 +34,8 @@ from .mtf import (detector_mtf, nyquist_cpmm, olpf_mtf, polychromatic_diffractio
 from .psf import PsfResult
 from .psf_setup import PsfSetup
 
-__all__ = ["Detector", "mtf_curves", "mtf_against_field", "through_focus", "diffraction_limit_f_number"]
+__all__ = ["Detector", "mtf_curves", "mtf_against_field", "through_focus", "diffraction_limit_f_number",
+           "reference_table"]
 
 
 @dataclass(frozen=True)
@@ -251,3 +252,27 @@ def _through_focus_geometric(setup: PsfSetup, geom, dz: np.ndarray, fr: np.ndarr
             else:
                 se[name].append(np.full(fr.size, np.nan))
     return np.array(sag), np.array(tan), res.rays_total, {k: np.array(v) for k, v in se.items()}
+
+
+def reference_table(fields: Sequence[FieldSpec], results: Sequence[PsfResult], freqs_cpmm: Sequence[float]
+                    ) -> tuple[list[list], list[str]]:
+    """Rows and headings of a table of S and T MTF at the reference frequencies per field point:
+    label, image height, method, rays, seconds, then "value +- standard error" per frequency and
+    direction ("-" where a coarse PSF grid left the frequency out; no error for deterministic MTFs)."""
+    rows = []
+    for f, r in zip(fields, results):
+        s, t = r.estimates.get("mtf_sagittal"), r.estimates.get("mtf_tangential")
+        cells = []
+        for j in range(len(freqs_cpmm)):
+            for e in (s, t):
+                if e is None or j >= np.size(e.value):
+                    cells.append("-")
+                else:
+                    v, se = float(np.atleast_1d(e.value)[j]), float(np.atleast_1d(e.stderr)[j])
+                    cells.append(f"{v:.3f}" + (f" +- {se:.1g}" if se else ""))
+        rows.append([f.label, f"{math.hypot(*r.reference_mm):.3f}", r.kind.replace("diffraction-", "d-"),
+                     f"{r.samples:.3g}", r.seconds] + cells)
+    heads = ["field", "height (mm)", "method", "rays", "seconds"]
+    for v in freqs_cpmm:
+        heads += [f"S {v:.3g}", f"T {v:.3g}"]
+    return rows, heads

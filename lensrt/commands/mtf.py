@@ -111,22 +111,8 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
     emit(f"{lens.name or lens.path}: MTF at {', '.join(f'{v:.3g}' for v in fr)} cycles/mm "
          f"(10/20/40 lp/mm scaled to the sensor), spectrum {setup.spectrum.name}, focus {setup.focus['focus']}; "
          f"sensor Nyquist {detector.nyquist_cpmm:.4g} cycles/mm ({detector.pixel_pitch_um:g} um pixels)")
-    rows = []
-    for f, r in zip(fields, pmap.results):
-        s, t = r.estimates.get("mtf_sagittal"), r.estimates.get("mtf_tangential")
-        cells = []
-        for j in range(len(fr)):
-            for e in (s, t):
-                if e is None or j >= np.size(e.value):
-                    cells.append("-")
-                else:
-                    v, se = float(np.atleast_1d(e.value)[j]), float(np.atleast_1d(e.stderr)[j])
-                    cells.append(f"{v:.3f}" + (f" +- {se:.1g}" if se else ""))
-        rows.append([f.label, f"{math.hypot(*r.reference_mm):.3f}", r.kind.replace("diffraction-", "d-"),
-                     f"{r.samples:.3g}", r.seconds] + cells)
-    heads = ["field", "height (mm)", "method", "rays", "seconds"]
-    for v in fr:
-        heads += [f"S {v:.3g}", f"T {v:.3g}"]
+    from ..analysis.mtf_report import reference_table
+    rows, heads = reference_table(fields, pmap.results, fr)
     emit(format_table(rows, heads, digits=3))
     if focus:
         rows = [[f.label] + [f"{v * 1e3:+.1f}" for v in d["best_focus_mm"]["sagittal"]]

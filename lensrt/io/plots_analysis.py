@@ -22,24 +22,16 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..analysis.pupils import RealPupils
     from ..analysis.vignetting import Vignetting
 
+from .figures import new_figure, save_figure
+
 __all__ = ["plot_spots", "plot_ray_fans", "plot_opd_fans", "plot_field_curvature_distortion",
            "plot_grid_distortion", "plot_relative_illumination", "plot_longitudinal", "plot_pupils",
            "write_compare_plots", "wavelength_colour"]
 
 
-def _figure(width_in: float, height_in: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=(width_in, height_in), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig, path: str | Path) -> Path:
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p)
-    return p
+def _fig110(width_in: float, height_in: float):
+    """The analysis plots' figures (110 dpi)."""
+    return new_figure(width_in, height_in, dpi=110)
 
 
 def wavelength_colour(nm: float) -> str:
@@ -61,7 +53,7 @@ def plot_spots(path: str | Path, spots: Sequence["SpotDiagram"], airy_radius_mm:
     n = len(spots)
     if n == 0:
         raise ValueError("no spot diagrams to draw")
-    fig = _figure(max(2.9 * n + 0.4, 6.0), 3.9)
+    fig = _fig110(max(2.9 * n + 0.4, 6.0), 3.9)
     axes = fig.subplots(1, n, squeeze=False)[0]
     half = max(max(s.geometric_radius_mm for s in spots), airy_radius_mm or 0.0) * UM_PER_MM * 1.08
     for ax, s in zip(axes, spots):
@@ -86,7 +78,7 @@ def plot_spots(path: str | Path, spots: Sequence["SpotDiagram"], airy_radius_mm:
     ref = "primary chief ray" if spots[0].reference == "chief" else "centroid"
     fig.suptitle(title or f"Spot diagrams on the plane z = {spots[0].plane_z_mm:.3f} mm, relative to the {ref}",
                  fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _fan_axes(fig, fans, key_t: str, key_s: str, scale: float, ylabel: str, title: str):
@@ -118,28 +110,28 @@ def plot_ray_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], t
     """Transverse ray aberration (um) against pupil coordinate: tangential e_y(Py) and sagittal e_x(Px)."""
     if not fans:
         raise ValueError("no ray fans to draw")
-    fig = _figure(7.2, 2.3 * len(fans) + 0.6)
+    fig = _fig110(7.2, 2.3 * len(fans) + 0.6)
     _fan_axes(fig, fans, "ey_mm", "ex_mm", UM_PER_MM, "ray aberration (um)",
               title or f"Ray fans on z = {fans[0][0].plane_z_mm:.3f} mm: e_y against Py, e_x against Px\n"
                        "(relative to the primary wavelength's chief ray)")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_opd_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], title: str = "") -> Path:
     """OPD (waves) against pupil coordinate, tangential and sagittal fans."""
     if not fans:
         raise ValueError("no OPD fans to draw")
-    fig = _figure(7.2, 2.3 * len(fans) + 0.6)
+    fig = _fig110(7.2, 2.3 * len(fans) + 0.6)
     _fan_axes(fig, fans, "opd_waves", "opd_waves", 1.0, "OPD (waves)",
               title or "OPD fans (waves): path to the reference sphere about the chief ray's image point\n"
                        "minus the chief ray's; + = longer path")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_field_curvature_distortion(path: str | Path, fc: "FieldCurvature", dist: "DistortionCurve",
                                     title: str = "") -> Path:
     """Field curvature (S, T, Petzval, third order; mm along z) and distortion (%) against field."""
-    fig = _figure(8.4, 4.2)
+    fig = _fig110(8.4, 4.2)
     a1, a2 = fig.subplots(1, 2, sharey=True)
     f = np.degrees(fc.object_value) if fc.infinite else fc.object_value
     flabel = "field angle (deg)" if fc.infinite else "object height (mm)"
@@ -183,12 +175,12 @@ def plot_field_curvature_distortion(path: str | Path, fc: "FieldCurvature", dist
     a2.legend(fontsize=7)
     if title:
         fig.suptitle(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_grid_distortion(path: str | Path, grid: "GridDistortion", title: str = "") -> Path:
     """Ideal grid (grey) and real chief-ray points (mm); displacements exaggerated when small (said in the title)."""
-    fig = _figure(5.6, 5.6)
+    fig = _fig110(5.6, 5.6)
     ax = fig.add_subplot()
     gx, gy = grid.ideal_x_mm, grid.ideal_y_mm
     dmax = grid.max_abs_distortion_percent
@@ -210,12 +202,12 @@ def plot_grid_distortion(path: str | Path, grid: "GridDistortion", title: str = 
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=2)
     ax.set_title(title or f"Grid distortion, {grid.wavelength_nm:g} nm, z = {grid.plane_z_mm:.3f} mm; largest "
                           f"|distortion| {dmax:.3g} %", fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_relative_illumination(path: str | Path, vig: "Vignetting", title: str = "") -> Path:
     """Relative illumination (both methods) and the unvignetted fraction against field, with cos^4."""
-    fig = _figure(6.6, 4.3)
+    fig = _fig110(6.6, 4.3)
     ax = fig.add_subplot()
     f = np.degrees(vig.object_value) if vig.infinite else vig.object_value
     flabel = "field angle (deg)" if vig.infinite else "object height (mm)"
@@ -237,13 +229,13 @@ def plot_relative_illumination(path: str | Path, vig: "Vignetting", title: str =
     ax.set_xlim(0, float(np.max(f)) * 1.02 if np.max(f) > 0 else 1)
     ax.grid(alpha=0.25)
     ax.legend(fontsize=8, loc="lower left")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_longitudinal(path: str | Path, lsa: "LongitudinalAberration", chrom: "ChromaticFocalShift",
                       title: str = "") -> Path:
     """Longitudinal spherical aberration against zone (per wavelength) and the chromatic focal shift."""
-    fig = _figure(8.4, 4.2)
+    fig = _fig110(8.4, 4.2)
     a1, a2 = fig.subplots(1, 2)
     for k, w in enumerate(lsa.wavelengths_nm):
         z = np.concatenate([[lsa.paraxial_focus_z_mm[k] - lsa.reference_z_mm], lsa.lsa_mm[k]])
@@ -268,12 +260,12 @@ def plot_longitudinal(path: str | Path, lsa: "LongitudinalAberration", chrom: "C
     a2.legend(fontsize=7)
     if title:
         fig.suptitle(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_pupils(path: str | Path, pupils: "RealPupils", title: str = "") -> Path:
     """The real entrance pupil seen from each field point (every aperture), across the beam (mm)."""
-    fig = _figure(5.8, 5.4)
+    fig = _fig110(5.8, 5.4)
     ax = fig.add_subplot()
     r = 0.5 * pupils.paraxial["entrance_pupil_diameter_mm"]
     t = np.linspace(0, 2 * np.pi, 300)
@@ -295,7 +287,7 @@ def plot_pupils(path: str | Path, pupils: "RealPupils", title: str = "") -> Path
     lim = max([r] + [float(np.max(np.abs(np.concatenate([o.a_mm, o.b_mm])))) for o in pupils.outlines]) * 1.25
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def write_compare_plots(c: "Comparison", directory: str | Path) -> list[Path]:

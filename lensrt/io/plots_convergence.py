@@ -20,7 +20,7 @@ _ORDER = ["random", "stratified", "sobol", "r2"]
 
 def plot_error_vs_time(path: str | Path, data: dict, title: str = "") -> Path:
     """The figure of the module docstring from :func:`lensrt.analysis.convergence.converge` output."""
-    from .plots_psf import _figure, _save
+    from .figures import new_figure as _figure, save_figure as _save
     scale = float(data.get("display_scale", 1.0))
     unit = data.get("display_unit", "")
     fig = _figure(10.0, 4.4)

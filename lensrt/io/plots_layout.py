@@ -17,17 +17,11 @@ import numpy as np
 
 from ..prescription.model import Lens
 
+from .figures import new_figure
+
 __all__ = ["plot_layout", "element_outlines"]
 
 _FIELD_COLOURS = ("#1f4fb4", "#2a9d3b", "#d2361f", "#8b3fb0", "#c98a00", "#138c8c")
-
-
-def _figure(width_in: float, height_in: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=(width_in, height_in), dpi=120, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
 
 
 def _profile(lens: Lens, i: int, r: np.ndarray) -> np.ndarray:
@@ -70,7 +64,7 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
     ymax = max(sds)
     length = float(vz[-1] - vz[0])
     z_start = -0.25 * max(length, 4 * ymax)
-    fig = _figure(8.6, 4.6)
+    fig = new_figure(8.6, 4.6)
     ax = fig.add_subplot()
     for poly in element_outlines(lens):
         ax.fill(poly[:, 0], poly[:, 1], color="#cfe3f4", zorder=1)

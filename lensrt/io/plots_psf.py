@@ -15,24 +15,10 @@ from ..units import UM_PER_MM
 if TYPE_CHECKING:  # pragma: no cover
     from ..analysis.psf import PsfResult
 
+from .figures import new_figure, save_figure
+
 __all__ = ["plot_mtf_curves", "plot_mtf_vs_field", "plot_through_focus", "plot_psf", "plot_psf_mosaic",
            "nice_length", "plot_system_mtf", "plot_convergence"]
-
-
-def _figure(width_in: float, height_in: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width_in, height_in), dpi=120, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _save(fig, path: str | Path) -> Path:
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p)
-    return p
 
 
 def nice_length(span: float) -> float:
@@ -51,7 +37,7 @@ def plot_mtf_curves(path: str | Path, freqs_cpmm: np.ndarray, curves: Sequence[t
     diffraction limit on the same frequencies (drawn in grey); the sensor
     Nyquist frequency is a vertical line.
     """
-    fig = _figure(6.4, 4.2)
+    fig = new_figure(6.4, 4.2)
     ax = fig.add_subplot()
     if diffraction is not None:
         ax.plot(freqs_cpmm, diffraction, color="0.55", lw=2.5, alpha=0.6, label="diffraction limit")
@@ -67,12 +53,12 @@ def plot_mtf_curves(path: str | Path, freqs_cpmm: np.ndarray, curves: Sequence[t
            ylabel="MTF", title=title or "MTF (S solid, T dashed)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=2)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_mtf_vs_field(path: str | Path, data: dict, title: str = "") -> Path:
     """MTF against image height at fixed frequencies (``lensrt.analysis.mtf.mtf_vs_field`` output)."""
-    fig = _figure(6.4, 4.2)
+    fig = new_figure(6.4, 4.2)
     ax = fig.add_subplot()
     h = data["image_height_mm"]
     for j, f in enumerate(data["freqs_cpmm"]):
@@ -83,12 +69,12 @@ def plot_mtf_vs_field(path: str | Path, data: dict, title: str = "") -> Path:
            ylabel="MTF", title=title or "MTF against field (S solid, T dashed)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=2)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
     """Through-focus MTF (``lensrt.analysis.mtf.through_focus_mtf`` output), focus shift in um."""
-    fig = _figure(6.4, 4.2)
+    fig = new_figure(6.4, 4.2)
     ax = fig.add_subplot()
     z_um = np.asarray(data["focus_mm"]) * UM_PER_MM
     for j, f in enumerate(data["freqs_cpmm"]):
@@ -98,7 +84,7 @@ def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
     ax.set(ylim=(0, 1.02), xlabel="focus shift (um)", ylabel="MTF", title=title or "Through-focus MTF")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=2)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> None:
@@ -126,7 +112,7 @@ def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> Non
 
 def plot_psf(path: str | Path, result: "PsfResult", log: bool = False, title: str = "") -> Path:
     """One PSF image (peak-normalised; ``log``: log10 down to 1e-6) with a um scale bar."""
-    fig = _figure(5.0, 4.4)
+    fig = new_figure(5.0, 4.4)
     ax = fig.add_subplot()
     _psf_axes(ax, result, log)
     rms = result.estimates.get("rms_radius_mm")
@@ -136,7 +122,7 @@ def plot_psf(path: str | Path, result: "PsfResult", log: bool = False, title: st
         err = f" +- {rms.stderr * UM_PER_MM:.2g}" if rms.stderr else ""
         sub += f"\nRMS radius {rms.value * UM_PER_MM:.3g}{err} um"
     ax.set_title((title + "\n" if title else "") + sub, fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int | None = None,
@@ -147,7 +133,7 @@ def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int
         raise ValueError("no PSFs to draw")
     ncols = ncols or int(math.ceil(math.sqrt(n)))
     nrows = int(math.ceil(n / ncols))
-    fig = _figure(1.6 * ncols + 0.4, 1.6 * nrows + 0.6)
+    fig = new_figure(1.6 * ncols + 0.4, 1.6 * nrows + 0.6)
     axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
@@ -156,13 +142,13 @@ def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int
         x, y = res.reference_mm
         ax.set_title(f"({x:.1f}, {y:.1f}) mm", fontsize=7)
     fig.suptitle(title or f"PSF map ({results[0].kind}, tiles peak-normalised)", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
     """Lens, OLPF, detector and system MTF of one field point (``lensrt.analysis.mtf_report.mtf_curves``
     output with a detector), sagittal solid, tangential dashed, the diffraction limit and Nyquist marked."""
-    fig = _figure(6.4, 4.2)
+    fig = new_figure(6.4, 4.2)
     ax = fig.add_subplot()
     f = np.asarray(curves["freqs_cpmm"])
     ax.plot(f, curves["diffraction_limit"], color="0.55", lw=2.5, alpha=0.6,
@@ -181,7 +167,7 @@ def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
            title=title or "System MTF = lens x OLPF x detector (S solid, T dashed)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=2)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_convergence(path: str | Path, data: dict, title: str = "") -> Path:

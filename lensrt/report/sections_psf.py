@@ -2,7 +2,6 @@
 field at the reference frequencies, the camera system) with the diffraction limit."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -135,7 +134,7 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
     """MTF curves at real image heights from the centre to the corner of the sensor, against field at
     10/20/40 lp/mm (scaled to the format), and the system MTF with the sensor's pixels."""
     from ..analysis.mtf import reference_frequencies_cpmm
-    from ..analysis.mtf_report import Detector, mtf_against_field, mtf_curves
+    from ..analysis.mtf_report import Detector, mtf_against_field, mtf_curves, reference_table
     from ..analysis.psf_map import run_psf_map
     from ..analysis.psf_setup import make_setup
     from ..analysis.fields import image_height_fields
@@ -208,22 +207,7 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
                + _mtf_caption(rec))
     sec.figure(p2, "MTF against image height at the reference frequencies. " + _mtf_caption(rec))
     sec.mc(rec)
-    rows = []
-    for f, r in zip(pmap.fields, pmap.results):
-        s, t = r.estimates.get("mtf_sagittal"), r.estimates.get("mtf_tangential")
-        cells = []
-        for j in range(len(ref)):
-            for e in (s, t):
-                if e is None or j >= np.size(e.value):
-                    cells.append("-")
-                else:
-                    v, se = float(np.atleast_1d(e.value)[j]), float(np.atleast_1d(e.stderr)[j])
-                    cells.append(f"{v:.3f}" + (f" +- {se:.1g}" if se else ""))
-        rows.append([f.label, f"{math.hypot(*r.reference_mm):.3f}", r.kind.replace("diffraction-", "d-"),
-                     f"{r.samples:.3g}", r.seconds] + cells)
-    heads = ["field", "height (mm)", "method", "rays", "seconds"]
-    for v in ref:
-        heads += [f"S {v:.3g}", f"T {v:.3g}"]
+    rows, heads = reference_table(pmap.fields, pmap.results, ref)
     sec.table(Table(rows, heads, digits=3, title="MTF at the reference frequencies (cycles/mm), +- one standard "
                                                  "error (none for deterministic diffraction MTFs)"))
     sec.figure(p3, "Lens, 4-spot OLPF, detector aperture and system MTF on axis "
