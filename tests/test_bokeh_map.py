@@ -71,6 +71,13 @@ def test_map_is_the_same_on_any_number_of_devices(dgauss):
     assert np.array_equal(one.sensor_xyz, two.sensor_xyz) and np.array_equal(one.var_y, two.var_y)
     assert [r["transmission"] for r in one.sources] == [r["transmission"] for r in two.sources]
     assert one.digest() == two.digest()
+    # every source draws its own random numbers: chunking the sources into items of 1 or all 12 (other
+    # launches, other groups, other window sizes in a launch) gives the same bits
+    for per_item in (1, 12):
+        again = bokeh_map(dgauss, f, executor=LocalExecutor("cpu"), **{**kw, "sources_per_item": per_item})
+        assert np.array_equal(one.sensor_xyz, again.sensor_xyz) and np.array_equal(one.var_y, again.var_y)
+        assert [r["seed"] for r in again.sources] == [r["seed"] for r in one.sources]
+    assert len({r["seed"] for r in one.sources}) == 12
     other = bokeh_map(dgauss, f, executor=LocalExecutor("cpu"), **{**kw, "seed": 8})
     assert not np.array_equal(one.sensor_xyz, other.sensor_xyz) and other.digest() != one.digest()
     d = one.to_dict()

@@ -4,8 +4,9 @@ Registered as the workload ``"bokeh-map"`` (:func:`bokeh_map_workload`) for
 ``benchmarks/bench_multigpu.py``. Each item traces its sources' pupil boxes and
 streams them (:mod:`.bokeh_trace`) on its device and returns one window per
 source; the reduction adds the windows into the frame in item and source order
-(float64 on the host), so the image is bit-identical for any number of devices
-or workers on the same kind of device.
+(float64 on the host). Each source draws its own random numbers (seed, source index),
+so the image is bit-identical for any number of devices or workers on the same kind
+of device and for any chunking of the sources into items.
 """
 from __future__ import annotations
 
@@ -101,9 +102,10 @@ def _run(item, prepared: dict, device: str) -> dict:
     t_box = time.perf_counter() - t0
     outs = stream_windows(setup.lens, obj, boxes, foot, setup.frame, setup.focus.sensor_z_mm, light,
                           setup.rays_per_source, intensity_cd=item.params["intensity_cd"], iris=setup.iris,
-                          stop_radius_mm=setup.stop_radius_mm, sampler=setup.sampler, seed=item.seed,
+                          stop_radius_mm=setup.stop_radius_mm, sampler=setup.sampler, seed=int(item.params["seed"]),
                           batches=setup.batches, precision=setup.precision, device=device,
-                          batch_noise=setup.batch_noise, target_error=setup.target_error)
+                          batch_noise=setup.batch_noise, target_error=setup.target_error,
+                          source_ids=range(int(item.params["first"]), int(item.params["first"]) + len(obj)))
     return {"outs": outs, "first": int(item.params["first"]), "box_seconds": t_box,
             "seconds": time.perf_counter() - t0}
 
@@ -149,13 +151,16 @@ def bokeh_job(setup: BokehSetup, sources: Sequence[dict], seed: int = 0, sources
     ``sources`` are dicts with at least ``object_mm`` (x, y, z in the lens frame) and optionally
     ``intensity_cd`` (default ``setup.intensity_cd``); every key is copied into the image's
     per-source record. Items are chunks of ``sources_per_item``
-    sources in order; each item's seed comes from (seed, item index).
+    sources in order. Every source draws its random numbers from (seed, its index in ``sources``)
+    (:func:`lensrt.analysis.bokeh_trace.stream_windows`), so the image is the same bits for any
+    ``sources_per_item`` and any number of devices or workers of one kind (fixed ray counts).
     """
     from ..parallel import Job, make_items
     if not sources:
         raise LensrtError("a bokeh image needs at least one source")
     n = max(1, int(sources_per_item))
-    params = [{"first": i, "object_mm": [[float(v) for v in s["object_mm"]] for s in sources[i:i + n]],
+    params = [{"first": i, "seed": int(seed),
+               "object_mm": [[float(v) for v in s["object_mm"]] for s in sources[i:i + n]],
                "intensity_cd": [float(s.get("intensity_cd", setup.intensity_cd)) for s in sources[i:i + n]]}
               for i in range(0, len(sources), n)]
     meta = [dict(s) for s in sources]

@@ -268,11 +268,15 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                    iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
                    seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
                    batch_noise: bool = False, hist_budget_bytes: int = 96 << 20, target_error: float | None = None,
-                   time_budget_s: float | None = None) -> list[SourceOut]:
+                   time_budget_s: float | None = None, source_ids: Sequence[int] | None = None) -> list[SourceOut]:
     """Stream every source into its own window of ``frame`` (module docstring); one record per source.
 
     Sources go into stream launches in groups whose histograms (3 channels per window, int64)
-    fit ``hist_budget_bytes``; launch g uses the seed ``hash(seed, g)``. ``batch_noise`` keeps
+    fit ``hist_budget_bytes``. Every source draws its own random numbers: round r of source
+    ``source_ids[k]`` (default k) uses the seed ``hash(seed, id, r)`` and index 0, so a source's
+    window is the same bits whichever sources share its launch (grouping, chunking into work
+    items, devices of one kind); a progressive group stops on its worst member, so there the
+    number of rounds can depend on the group. ``batch_noise`` keeps
     per-batch histograms and gives each pixel's variance by batch means (else the Poisson
     estimate, see :func:`poisson_var_y`). ``intensity_cd`` is one luminous intensity (cd) for
     all sources or one per source. ``target_error`` (relative, e.g. 0.02) / ``time_budget_s``
@@ -283,6 +287,13 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
     from ..trace.stream import Grid, StreamSource, stream
     obj = np.atleast_2d(np.asarray(obj, dtype=np.float64))
     inten = np.broadcast_to(np.asarray(intensity_cd, dtype=np.float64), (len(obj),))
+    ids = list(range(len(obj))) if source_ids is None else [int(v) for v in source_ids]
+    if len(ids) != len(obj):
+        raise LensrtError(f"{len(ids)} source ids for {len(obj)} sources")
+
+    def source_seed(k: int, r: int) -> int:
+        key = [int(seed), ids[k]] if r == 0 else [int(seed), ids[k], r]
+        return int(np.random.SeedSequence(key).generate_state(1)[0]) & 0x7FFFFFFF
     outs: list[SourceOut | None] = [None] * len(obj)
     wins: dict[int, tuple[int, int, int, int]] = {}
     for k in range(len(obj)):
@@ -318,17 +329,18 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
             ix0, _, iy0, _ = wins[k]
             centre = (frame.x0_mm + (ix0 + 0.5 * gx) * p, frame.y0_mm + (iy0 + 0.5 * gy) * p)
             sources.append(StreamSource(FieldPoint(False, None, tuple(float(v) for v in obj[k])), boxes[k],
-                                        float(plane_z_mm), centre, j, "isotropic"))
-        gseed = int(np.random.SeedSequence([int(seed), g]).generate_state(1)[0]) & 0x7FFFFFFF
+                                        float(plane_z_mm), centre, j, "isotropic", seed=source_seed(k, 0),
+                                        rng_index=0))
         progressive = target_error is not None or time_budget_s is not None
         n_next = int(rays_per_source)
         if progressive:
             n_next = min(n_next, max(1 << 16, batches * 256))
         res, r, reason, t0 = None, 0, "rays", time.perf_counter()
         while True:
-            rseed = gseed if r == 0 else int(np.random.SeedSequence([int(seed), g, r]).generate_state(1)[0]) & 0x7FFFFFFF
+            if r:
+                sources = [replace(src, seed=source_seed(k, r)) for src, k in zip(sources, members)]
             got = stream(lens, sources, Grid(gx, gy, p), max(batches, (n_next // batches) * batches), spectrum=spectrum,
-                         channels=channels, sampler=sampler, seed=rseed, batches=batches, precision=precision,
+                         channels=channels, sampler=sampler, seed=int(seed), batches=batches, precision=precision,
                          device=device, iris=iris, stop_radius_mm=stop_radius_mm, batch_histograms=batch_noise)
             res = got if res is None else _merge_rounds(res, got)
             r += 1
@@ -336,7 +348,8 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                 break
             if target_error is not None:
                 worst = max(_source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                        batch_noise, 0.0, gseed).stats["noise_rms"] for j, k in enumerate(members))
+                                        batch_noise, 0.0, source_seed(k, 0)).stats["noise_rms"]
+                            for j, k in enumerate(members))
                 if worst <= target_error:
                     reason = "target_error"
                     break
@@ -353,7 +366,7 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
         share = res.seconds / len(members)
         for j, k in enumerate(members):
             outs[k] = _source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                  batch_noise, share, gseed)
+                                  batch_noise, share, source_seed(k, 0))
             if progressive:
                 outs[k].stats.update({"rounds": r, "stop_reason": reason, "target_error": target_error,
                                       "time_budget_s": time_budget_s})
