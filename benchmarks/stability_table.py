@@ -8,8 +8,9 @@ maximum and 99th percentile over the rays *not* flagged grazing (an angle of inc
 refraction beyond 80 deg somewhere), then the maximum including the grazing rays, the
 fraction of OK rays flagged grazing, and how many rays changed status between the precisions.
 "max / bound" is the largest ratio, over the non-grazing rays, of the difference to the general
-per-ray bound 2e-4 mm + 2e-6 L / N' (``tests/stability_cases.f32_ray_bound_mm``: L the optical
-path, N' the final z direction cosine) that ``tests/test_stability_random.py`` asserts.
+per-ray bound 2e-4 mm + 2e-6 L / (N' c) (``tests/stability_cases.f32_ray_bound_mm``: L the optical
+path, N' the final z direction cosine, c the smallest cosine of incidence or refraction along the
+ray) that ``tests/test_stability_random.py`` asserts.
 
 Cases:
 
@@ -68,7 +69,7 @@ def compare(lens, rays: RayBatch, device: str, clip: bool = True) -> dict:
     def stat(sel: np.ndarray, fn) -> float:
         return float(fn(d[sel])) if sel.any() else float("nan")
 
-    ratio = d / f32_ray_bound_mm(r64.opl_mm, r64.direction[:, 2])
+    ratio = d / f32_ray_bound_mm(r64.opl_mm, r64.direction[:, 2], r64.min_cos_incidence)
     return {"rays": len(rays), "ok": int(both.sum()), "max": stat(steady, np.max),
             "bound": float(np.max(ratio[steady])) if steady.any() else float("nan"),
             "p99": stat(steady, lambda v: np.percentile(v, 99.0)), "max_all": stat(both, np.max),

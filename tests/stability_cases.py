@@ -27,23 +27,28 @@ F32_BOUND_MM = 1e-4
 #: float32 direction cosines against float64 (non-grazing rays)
 F32_BOUND_DIRECTION = 1e-5
 #: float32 against float64 for *any* lens, per non-grazing ray: the rounding of direction
-#: cosines (6e-8) grows along the path and is magnified on the image plane by 1 / N' for a ray
-#: that meets it obliquely (N': its final z direction cosine), so the bound is
-#: F32_RAY_BOUND_MM + F32_RAY_BOUND_PER_MM x L / N' with L the ray's optical path (mm).
-#: Measured: the worst ray of the tests' 450 random lenses reached 0.46 of it, of the 40 in
-#: benchmarks/stability_table.py 0.82, of the 28 mm f/1.4 opened to f/0.95 0.87 (steep rays through
-#: strongly bent elements, far image planes); the library lenses at their own apertures stay below
-#: 1e-4 mm (README, "Numerical stability").
+#: cosines (6e-8) grows along the path, is magnified on the image plane by 1 / N' for a ray that
+#: meets it obliquely (N': its final z direction cosine), and by refraction near grazing, where
+#: dI'/dI = n cos I / (n' cos I') grows as 1 / cos: so the bound is
+#: F32_RAY_BOUND_MM + F32_RAY_BOUND_PER_MM x L / (N' c) with L the ray's optical path (mm) and c the
+#: smallest cosine of incidence or refraction along the ray (``RayResult.min_cos_incidence``).
+#: Measured: the worst ray of the tests' 450 random lenses reached 0.46 of the bound without the
+#: 1 / c term; with it, of the 40 random lenses in benchmarks/stability_table.py and the lenses
+#: opened to f/0.95, 0.58 (a ray at 79 deg on the 28 mm f/1.4's hemispherical surface, which
+#: reached 2.1 x the bound without the 1 / c term). The library lenses at their own apertures stay
+#: below 1e-4 mm (README, "Numerical stability").
 F32_RAY_BOUND_MM = 2e-4
 F32_RAY_BOUND_PER_MM = 2e-6
 WL_D = 587.5618
 
 
-def f32_ray_bound_mm(opl_mm: np.ndarray, n_final: np.ndarray) -> np.ndarray:
-    """Per-ray float32 bound (mm): :data:`F32_RAY_BOUND_MM` + :data:`F32_RAY_BOUND_PER_MM` x L / N'."""
+def f32_ray_bound_mm(opl_mm: np.ndarray, n_final: np.ndarray, min_cos: np.ndarray) -> np.ndarray:
+    """Per-ray float32 bound (mm): :data:`F32_RAY_BOUND_MM` + :data:`F32_RAY_BOUND_PER_MM` x L / (N' c)
+    (c: the ray's smallest cosine of incidence or refraction, ``RayResult.min_cos_incidence``)."""
     L = np.abs(np.asarray(opl_mm, dtype=np.float64))
     N = np.maximum(np.abs(np.asarray(n_final, dtype=np.float64)), 1e-3)
-    return F32_RAY_BOUND_MM + F32_RAY_BOUND_PER_MM * L / N
+    c = np.clip(np.asarray(min_cos, dtype=np.float64), 1e-3, 1.0)
+    return F32_RAY_BOUND_MM + F32_RAY_BOUND_PER_MM * L / (N * c)
 
 
 def library(name: str) -> Lens:
