@@ -135,6 +135,10 @@ def _resolve_reference(q: Quantity, reference: Any, counts: Sequence[int], seed:
             raise LensrtError(f"the reference ({n_ref} {q.sample_unit}) must have at least the largest count "
                               f"({max(counts)})", hint="a reference should have 8-16 x the largest count")
     e = q.run(n_ref, q.reference_sampler, q.reference_precision, repeat_seed(seed, 999_983))
+    if float(e.value) == 0.0 and float(e.stderr) == 0.0:  # e.g. a field where every ray is vignetted
+        raise LensrtError(f"{q.label}: the reference run ({e.samples} {q.sample_unit}) is exactly 0 with no spread, "
+                          "so there is no Monte Carlo error to study",
+                          hint="choose a field, region or window that light reaches")
     return Reference(float(e.value), float(e.stderr), int(e.samples), float(e.seconds), "high-sample run",
                      f"{e.samples} {q.sample_unit}, {q.reference_sampler}, {q.reference_precision}, {e.method}")
 

@@ -44,6 +44,10 @@ class FieldSpec:
     target_mm: tuple[float, float] | None = None
     grid_index: tuple[int, int] | None = None
 
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.hx) and math.isfinite(self.hy)):
+            raise LensrtError(f"field {self.label or (self.hx, self.hy)} is not a finite number")
+
     def to_dict(self) -> dict:
         return {"hx": self.hx, "hy": self.hy, "label": self.label,
                 "target_mm": None if self.target_mm is None else list(self.target_mm),
@@ -52,11 +56,17 @@ class FieldSpec:
 
 @dataclass(frozen=True)
 class ChiefTable:
-    """Signed image height (mm, along +y) of the real chief ray against the normalised radial field |H|."""
+    """Signed image height (mm, along +y) of the real chief ray against the normalised radial field |H|.
+
+    ``clear_height_mm`` is the largest |height| up to which the chief ray also passes every clear
+    aperture (traced with clipping): beyond it the beam is vignetted at least down to a cat's eye,
+    and may not pass at all (a circular fisheye's rim).
+    """
 
     h: np.ndarray
     height_mm: np.ndarray
     plane_z_mm: float
+    clear_height_mm: float = math.inf
 
     @property
     def sign(self) -> float:
@@ -99,7 +109,7 @@ def _table(lens: Lens, plane_z_mm: float, h_max: float, n: int, device: str | No
     to_stop = kernel_to_stop(lens, device)
     o, d, aimed = chief_rays(lens, fps, wl, to_stop, fallback=False) if fps else (np.zeros((0, 3)),) * 2 + (
         np.zeros(0, dtype=bool),)
-    hs, ys = [0.0], [0.0]
+    hs, ys, clear = [0.0], [0.0], 0.0
     for k, h in enumerate(hs_all):
         if not aimed[k]:
             ok_k = aim_rays(lens, fps[k], np.zeros(1), np.zeros(1), wl, "real", to_stop)
@@ -109,7 +119,9 @@ def _table(lens: Lens, plane_z_mm: float, h_max: float, n: int, device: str | No
     good = np.nonzero(~aimed)[0]
     m = int(good[0]) if len(good) else len(fps)
     if m:
-        r = trace(lens, RayBatch(o[:m], d[:m], np.full(m, wl)), "float64", device, clip=False, plane_z_mm=plane_z_mm)
+        batch = RayBatch(o[:m], d[:m], np.full(m, wl))
+        r = trace(lens, batch, "float64", device, clip=False, plane_z_mm=plane_z_mm)
+        passes = trace(lens, batch, "float64", device, clip=True, plane_z_mm=plane_z_mm).ok
         for k in range(m):
             if not r.ok[k]:
                 break
@@ -118,9 +130,11 @@ def _table(lens: Lens, plane_z_mm: float, h_max: float, n: int, device: str | No
                 break  # no longer monotonic: the end of the usable coverage
             hs.append(float(hs_all[k]))
             ys.append(y)
+            if passes[:k + 1].all():
+                clear = abs(y)
     if len(hs) < 3:
         raise LensrtError("the real chief ray cannot be traced off axis: no field mapping")
-    return ChiefTable(np.array(hs), np.array(ys), float(plane_z_mm))
+    return ChiefTable(np.array(hs), np.array(ys), float(plane_z_mm), clear)
 
 
 def chief_height_table(lens: Lens, plane_z_mm: float, h_max: float | None = None, n: int = 49,

@@ -129,7 +129,12 @@ def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | N
         info["axial_rms_radius_mm"] = rms
     else:  # pragma: no cover - parse_focus allows only the bases above
         raise LensrtError(f"unknown focus base {spec.base!r}")
+    z = float(base + spec.offset_mm)
+    last_z = float(lens.vertex_z_mm()[lens.n_surfaces - 1])
+    if not z > last_z:  # rays would be extended backwards through the lens to a plane in front of its end
+        raise LensrtError(f"focus {spec}: the observation plane z = {z:.6g} mm is not behind the last surface "
+                          f"(z = {last_z:.6g} mm)", hint="give a smaller shift")
     info["base_z_mm"] = float(base)
-    info["z_mm"] = float(base + spec.offset_mm)
+    info["z_mm"] = z
     info["shift_from_image_mm"] = float(base + spec.offset_mm - lens.image_z_mm)
     return info

@@ -302,26 +302,32 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
         fp = object_field_point(lens, spec.object_value)
         rays = aim_batch(lens, fp, pup[:, 0], pup[:, 1], wl, "real", device)
         r = trace64(lens, rays, device)
-        if not (r.ok.all() and rays.aimed.all()):
-            continue
+        good = r.ok & rays.aimed
         o, d = rays.origin_mm, rays.direction
         p, v = r.position_mm, r.direction
-        on_axis = abs(spec.object_value) < 1e-12
-        if on_axis:
-            ep_z[k], xp_z[k] = fo.entrance_pupil_z_mm, fo.exit_pupil_z_mm
-        else:
-            ep_z[k] = float(o[0, 2] - o[0, 1] * d[0, 2] / d[0, 1])
-            xp_z[k] = float(p[0, 2] - p[0, 1] * v[0, 2] / v[0, 1]) if abs(v[0, 1]) > 1e-12 else math.inf
+        if good[0]:  # the chief ray: pupil positions
+            if abs(spec.object_value) < 1e-12:
+                ep_z[k], xp_z[k] = fo.entrance_pupil_z_mm, fo.exit_pupil_z_mm
+            else:
+                ep_z[k] = float(o[0, 2] - o[0, 1] * d[0, 2] / d[0, 1])
+                xp_z[k] = float(p[0, 2] - p[0, 1] * v[0, 2] / v[0, 1]) if abs(v[0, 1]) > 1e-12 else math.inf
+        # sizes from each pair of stop-rim rays that exists (a fast wide angle's lower rim ray may miss a
+        # surface's sphere off axis: that size stays NaN, the others are still reported)
         c, w, e1, e2 = pupil_frame(lens, fp)
         t = ((c - o) @ w) / (d @ w)
         q = o + t[:, None] * d - c
-        ent_t[k] = abs(float((q[1] - q[2]) @ e2))
-        ent_s[k] = abs(float((q[3] - q[4]) @ e1))
+        tan_ok, sag_ok = bool(good[1] and good[2]), bool(good[3] and good[4])
+        if tan_ok:
+            ent_t[k] = abs(float((q[1] - q[2]) @ e2))
+        if sag_ok:
+            ent_s[k] = abs(float((q[3] - q[4]) @ e1))
         if math.isfinite(xp_z[k]):
-            s = (xp_z[k] - p[:, 2]) / v[:, 2]
-            x = p + s[:, None] * v
-            ex_t[k] = abs(float(x[1, 1] - x[2, 1]))
-            ex_s[k] = abs(float(x[3, 0] - x[4, 0]))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = p + ((xp_z[k] - p[:, 2]) / v[:, 2])[:, None] * v
+            if tan_ok:
+                ex_t[k] = abs(float(x[1, 1] - x[2, 1]))
+            if sag_ok:
+                ex_s[k] = abs(float(x[3, 0] - x[4, 0]))
         if outlines:
             try:
                 outs.append(pupil_outline(lens, spec.object_value, wl, n_azimuth=n_azimuth, device=device))

@@ -142,6 +142,8 @@ def build_quantity(args: argparse.Namespace):
     hy = 0.7 if args.field is None else args.field
     f = normalised_fields([hy])[0]
     if args.quantity == "mtf":
+        if not (args.freq_cpmm > 0 and math.isfinite(args.freq_cpmm)):
+            raise LensrtError(f"--freq-cpmm {args.freq_cpmm:g} must be a positive frequency (cycles/mm)")
         setup = make_setup(lens, spec, args.focus, dev, rays=1 << 16, batches=args.batches, pixels=128,
                            ee_fractions=(), mtf_freqs_cpmm=(), max_pitch_um=0.4e3 / args.freq_cpmm)
         return CQ.PsfMtf(setup, f, args.freq_cpmm, args.azimuth, dev)
@@ -164,20 +166,17 @@ def converge_table(data: dict) -> str:
            f"reported standard error (ratio measured / expected, expected = hypot(reported, reference's); about 1 "
            f"when the reported errors are honest)"]
     rows = [[r["sampler"], r["precision"], r["samples"], f"{r['seconds']:.3g}", f"{r['rms_error'] * sc:.3g}",
-             f"{r['rms_stderr'] * sc:.3g}", r["error_ratio"] if r["error_ratio"] is not None else float("nan"),
+             f"{r['rms_stderr'] * sc:.3g}", r["error_ratio"],
              f"{r['bias'] * sc:+.2g}", "ref." if r["reference_limited"] else ""] for r in data["runs"]]
     out.append(format_table(rows, ["sampler", "precision", data["sample_unit"], "seconds", f"RMS error{unit}",
                                    f"RMS stderr{unit}", "ratio", f"bias{unit}", "limited"], digits=2))
     gains = {(g["sampler"], g["precision"]): g for g in data["gains"]}
-
-    def num(v):
-        return float("nan") if v is None else v
-    rows = []
+    rows = []  # None (nothing to fit or divide) prints as "-"
     for s in data["slopes"]:
         g = gains[(s["sampler"], s["precision"])]
-        rows.append([s["sampler"], s["precision"], num(s["error_vs_seconds"]), num(s["error_vs_samples"]),
-                     num(s["stderr_vs_samples"]), num(s["pooled_error_ratio"]), num(g["variance_ratio"]),
-                     num(g["variance_ratio_reported"]), num(g["efficiency_ratio"])])
+        rows.append([s["sampler"], s["precision"], s["error_vs_seconds"], s["error_vs_samples"],
+                     s["stderr_vs_samples"], s["pooled_error_ratio"], g["variance_ratio"],
+                     g["variance_ratio_reported"], g["efficiency_ratio"]])
     out.append(format_table(rows, ["sampler", "precision", "slope(error, s)", f"slope(error, {data['sample_unit']})",
                                    "slope(stderr, samples)", "pooled ratio", "variance gain", "(reported)",
                                    "efficiency gain"],
@@ -186,13 +185,14 @@ def converge_table(data: dict) -> str:
                                   "over the points; gains over random sampling of the same precision at the largest "
                                   "count: variance ratio (measured errors; reported standard errors), and variance x "
                                   "seconds"))
+    if any(s["points"] < 2 for s in data["slopes"]):
+        out.append("-: fewer than two points are not limited by the reference's error, so no error slope; "
+                   "give a larger --reference (or fewer --samples)")
     out.append(f"{data['seconds']:.3g} s in all")
     return "\n".join(out)
 
 
 def cmd_converge(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from ..analysis.convergence import converge, default_counts
     from ..errors import LensrtError
     from ..io.table import dumps_json
@@ -220,9 +220,9 @@ def cmd_converge(args: argparse.Namespace) -> int:
     data["lens"] = getattr(getattr(q, "lens", None), "name", None) or args.file
     data["command"] = "lensrt converge " + " ".join(_argv_of(args))
     if args.out:
+        from ..io.paths import output_dir
         from ..io.plots_convergence import plot_error_vs_time
-        d = Path(args.out)
-        d.mkdir(parents=True, exist_ok=True)
+        d = output_dir(args.out)
         plot_error_vs_time(d / "converge.png", data)
         data["files"] = [str(d / "converge.json"), str(d / "converge.png")]
         (d / "converge.json").write_text(dumps_json(data) + "\n")

@@ -148,9 +148,11 @@ def comparison_tables(c: "Comparison") -> dict[str, "Table | str"]:
              par["exit_pupil_diameter_mm"], "-"]]
     areas = {round(o.object_value, 12): o.area_mm2 for o in pu.outlines}
     for k, s in enumerate(c.fields):
-        rows.append(["real", c.field_number(s), pu.entrance_pupil_z_mm[k], pu.entrance_tangential_mm[k],
-                     pu.entrance_sagittal_mm[k], pu.exit_pupil_z_mm[k], pu.exit_tangential_mm[k],
-                     pu.exit_sagittal_mm[k], areas.get(round(s.object_value, 12), math.nan)])
+        # "-": a size whose stop-rim rays do not exist, an area where no ray passes
+        rows.append(["real", c.field_number(s)] + [_f(float(v), ".3f") for v in (
+            pu.entrance_pupil_z_mm[k], pu.entrance_tangential_mm[k], pu.entrance_sagittal_mm[k],
+            pu.exit_pupil_z_mm[k], pu.exit_tangential_mm[k], pu.exit_sagittal_mm[k],
+            areas.get(round(s.object_value, 12), math.nan))])
     out["pupils"] = Table(rows, ["pupils", fkey, "EP z_mm", "EP tan_mm", "EP sag_mm", "XP z_mm",
                                     "XP tan_mm", "XP sag_mm", "vignetted EP area_mm2"], digits=3,
                              title=f"Pupils at {p:g} nm (real: chief ray's axis crossings; sizes of the stop-rim rays; "
@@ -158,7 +160,7 @@ def comparison_tables(c: "Comparison") -> dict[str, "Table | str"]:
                                    f"{pu.real_working_f_number:.4f} (paraxial {par['working_f_number']:.4f})")
     vg = c.vignetting
     rows = [[math.degrees(v) if c.infinite else v, _est(vg.vignetting_fraction[k]),
-             _est(vg.relative_illumination[k]), vg.relative_illumination_exit_pupil[k], vg.cos4[k]]
+             _est(vg.relative_illumination[k]), _f(float(vg.relative_illumination_exit_pupil[k])), vg.cos4[k]]
             for k, v in enumerate(vg.object_value)]
     out["vignetting"] = Table(rows, [okey, "unvignetted fraction", "rel. illumination",
                                     "RI exit pupil", "cos^4"], digits=4,
