@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.set_defaults(func=cmd_show)
 
     c = lsub.add_parser("convert", help="convert any supported file to the native TOML format")
-    c.add_argument("input", metavar="IN")
+    c.add_argument("input", metavar="IN", help="lens file (.toml, .zmx, .seq, .dat) or library lens name")
     c.add_argument("output", metavar="OUT.toml")
     add_reader_options(c)
     c.set_defaults(func=cmd_convert)
@@ -96,13 +96,15 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from ..errors import LensrtError
     from ..prescription.formats import read_lens
     from ..prescription.formats.native import write_native
+    from ..io.paths import output_file
+    from ..library import resolve_lens_path
     from ..loading import complete_lens
     out = Path(args.output)
     if out.suffix.lower() != ".toml":
         raise LensrtError(f"output {out} must be a .toml file (the native format)")
-    lens = read_lens(args.input, **reader_options(args))
+    lens = read_lens(resolve_lens_path(args.input), **reader_options(args))  # a file or a library lens name
     complete_lens(lens)  # fail on impossible geometry before writing anything
-    write_native(lens, out)
+    write_native(lens, output_file(out))
     emit(f"wrote {out} ({lens.n_surfaces} surfaces)")
     return 0
 

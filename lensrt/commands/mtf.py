@@ -35,13 +35,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def default_mtf_fields(lens, sensor: str, plane_z_mm: float, device, n: int = 7):
-    """``n`` real image heights from 0 to the sensor's half-diagonal (or the lens's coverage, if smaller)."""
+    """``n`` real image heights from 0 to the sensor's half-diagonal, or to the lens's coverage if that is
+    smaller: where the real chief ray still passes every clear aperture (a circular fisheye's rim is dark)."""
     from ..analysis.fields import chief_height_table, image_height_fields
     from ..paraxial.photographic import sensor_format
     half = 0.5 * sensor_format(sensor).diagonal_mm
     if lens.fields.max_radial <= 0:
         return image_height_fields(lens, [0.0], plane_z_mm, device)
-    cover = chief_height_table(lens, plane_z_mm, device=device).max_height_mm
+    cover = chief_height_table(lens, plane_z_mm, device=device).clear_height_mm
     top = min(half, 0.98 * cover)
     return image_height_fields(lens, [round(v, 3) for v in np.linspace(0.0, top, n)], plane_z_mm, device)
 
@@ -122,13 +123,11 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
 
 
 def _write(args, pmap, out: dict, curves, vs_field, focus) -> dict:
-    from pathlib import Path
-
+    from ..io.paths import output_dir
     from ..io.plots_psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf, plot_through_focus
     from ..io.psf_files import write_psf_map_exr
     from ..io.table import dumps_json
-    d = Path(args.out)
-    d.mkdir(parents=True, exist_ok=True)
+    d = output_dir(args.out)
     lens = pmap.setup.lens.name or "lens"
     files = {"json": d / "mtf.json", "exr": d / "psf.exr", "png": d / "mtf.png", "system": d / "mtf_system.png",
              "field": d / "mtf_field.png"}

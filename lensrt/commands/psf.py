@@ -72,17 +72,15 @@ class _Summary:
 
 
 def _converge(args: argparse.Namespace, setup, f, dev) -> int:
-    from pathlib import Path
-
     from ..analysis.convergence import converge_psf
     from ..io.table import dumps_json, format_table
     data = converge_psf(setup, f, seed=args.seed, device=dev)
     data["lens"] = setup.lens.name
     data["device"] = dev or "auto"
     if args.out:
+        from ..io.paths import output_dir
         from ..io.plots_psf import plot_convergence
-        d = Path(args.out)
-        d.mkdir(parents=True, exist_ok=True)
+        d = output_dir(args.out)
         (d / "converge.json").write_text(dumps_json(data) + "\n")
         plot_convergence(d / "converge.png", data,
                          title=f"{setup.lens.name}\nRMS radius at {f.label}: error against run time")

@@ -95,6 +95,7 @@ def _preview(args: argparse.Namespace, scene) -> int:
     """Pinhole preview -> 8-bit sRGB PNG, exposed so that the 99th-percentile luminance is white."""
     import numpy as np
     from PIL import Image
+    from ..io.paths import output_file
     from ..render.preview import preview_pinhole
     from ..render.spectra import srgb_encode, xyz_to_linear_srgb
     width = 360 if args.width is None else args.width
@@ -106,7 +107,7 @@ def _preview(args: argparse.Namespace, scene) -> int:
     white = float(np.percentile(xyz[..., 1], 99)) or 1.0
     rgb = srgb_encode(xyz_to_linear_srgb(xyz / white))
     try:
-        Image.fromarray((rgb * 255.0 + 0.5).astype(np.uint8)).save(args.preview)
+        Image.fromarray((rgb * 255.0 + 0.5).astype(np.uint8)).save(output_file(args.preview))
     except (OSError, ValueError) as err:
         raise LensrtError(f"cannot write {args.preview!r}: {err}") from None
     emit(f"{args.preview}: pinhole view of {scene.name!r}, {xyz.shape[1]} x {xyz.shape[0]} px, "

@@ -6,7 +6,6 @@ import argparse
 import csv
 import io
 import math
-from pathlib import Path
 from typing import Any
 
 from ._common import add_lens_argument, emit
@@ -151,8 +150,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     texts = {"table": table + "\n" + run_summary_line(result) + "\n", "csv": _as_csv(rows, keys),
              "json": dumps_json(doc) + "\n"}
     if args.output:
-        path = Path(args.output)
-        kind = {".csv": "csv", ".json": "json"}.get(path.suffix.lower(), "table")
+        from ..io.paths import output_file
+        path = output_file(args.output)
+        kind = {".csv": "csv", ".json": "json", ".txt": "table"}.get(path.suffix.lower())
+        if kind is None:
+            raise LensrtError(f"cannot tell the table format of {path} from its extension",
+                              hint="name it .csv, .json or .txt")
         try:
             path.write_text(texts[kind])
         except OSError as err:

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..sensor.detector import RawFrame
+from .paths import output_file
 
 __all__ = ["write_dng"]
 
@@ -67,7 +68,7 @@ def write_dng(path: str | Path, raw: RawFrame, xyz_to_camera: np.ndarray | None 
     t.set(Tag.Model, str(raw.meta.get("sensor", "simulated")))
     t.set(Tag.DNGVersion, DNGVersion.V1_4)
     t.set(Tag.DNGBackwardVersion, DNGVersion.V1_2)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    output_file(path)
     writer = RAW2DNG()
     writer.options(t, path=str(path.parent), compress=False)
     try:

@@ -25,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import LensrtError
+from .paths import output_file
 
 __all__ = ["write_exr", "read_exr", "write_image_exr", "write_spectral_exr", "read_spectral_exr",
            "spectral_channel_name", "FICHET_UNITS"]
@@ -87,8 +88,7 @@ def write_exr(path: str | Path, channels: Mapping[str, np.ndarray], metadata: Ma
         if k in _STANDARD:
             raise LensrtError(f"metadata name {k!r} is reserved by EXR")
         header[str(k)] = _attr(v)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = output_file(path, ".exr")
     with OpenEXR.File(header, pix) as f:
         f.write(str(path))
     return path

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .paths import output_file
+
 __all__ = ["new_figure", "save_figure"]
 
 
@@ -17,7 +19,6 @@ def new_figure(width_in: float, height_in: float, dpi: int = 120):
 
 def save_figure(fig, path: str | Path) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix), creating the folder."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
+    p = output_file(path)
     fig.savefig(p)
     return p

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..units import NM_PER_MM, UM_PER_MM
+from .paths import output_dir
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..analysis.aberrations import RayFan, SpotDiagram
@@ -294,8 +295,7 @@ def write_compare_plots(c: "Comparison", directory: str | Path) -> list[Path]:
     """Every figure of ``lensrt compare --plot DIR``; returns the paths written."""
     from ..paraxial import first_order
     from .plots_layout import plot_layout
-    d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
+    d = output_dir(directory)
     p = c.primary_nm
     name = c.lens.name or "lens"
     out = [plot_layout(d / "layout.png", c.lens, [s.hy for s in c.fields], p, device=c.device)]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..prescription.model import Lens
 
-from .figures import new_figure
+from .figures import new_figure, save_figure
 
 __all__ = ["plot_layout", "element_outlines"]
 
@@ -133,7 +133,4 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
     width = 8.6
     height = (width - 1.0) * (2.6 * hi) / max(z1 - z0, 1e-9) + 1.2
     fig.set_size_inches(width, min(max(height, 3.0), 6.5))
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p)
-    return p
+    return save_figure(fig, path)

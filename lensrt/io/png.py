@@ -17,6 +17,7 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import LensrtError
+from .paths import output_file
 
 __all__ = ["write_png", "write_tiff", "write_image"]
 
@@ -52,8 +53,7 @@ def write_png(path: str | Path, image: np.ndarray, bits: int = 8, text: Mapping[
     if bits not in (8, 16):
         raise LensrtError(f"PNG bit depth {bits} must be 8 or 16")
     img = _levels(image, bits)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = output_file(path, ".png")
     if bits == 8:
         from PIL import Image, PngImagePlugin
         info = PngImagePlugin.PngInfo()
@@ -115,8 +115,7 @@ def write_tiff(path: str | Path, image: np.ndarray, bits: int = 16, description:
             + desc)
     blob = head + body
     blob += b"\0" * (pix_off - len(blob))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = output_file(path)
     with path.open("wb") as fh:
         fh.write(blob)
         fh.write(pixels)

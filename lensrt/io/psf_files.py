@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import LensrtError
+from .paths import output_dir
 
 __all__ = ["layer_names", "write_psf_map_exr", "read_psf_map_exr", "field_summary", "write_psf_outputs"]
 
@@ -115,8 +116,7 @@ def write_psf_outputs(out_dir: str | Path, pmap, stem: str = "psf", log: bool = 
     """JSON summary, multi-layer EXR and PNG (mosaic, or one PSF image) of a map into ``out_dir``."""
     from .plots_psf import plot_psf, plot_psf_mosaic
     from .table import dumps_json
-    d = Path(out_dir)
-    d.mkdir(parents=True, exist_ok=True)
+    d = output_dir(out_dir)
     paths = {"json": d / f"{stem}.json", "exr": d / f"{stem}.exr", "png": d / f"{stem}.png"}
     paths["json"].write_text(dumps_json(pmap.to_dict()) + "\n")
     write_psf_map_exr(paths["exr"], pmap)

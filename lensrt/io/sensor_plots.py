@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from .paths import output_dir, output_file
+
 __all__ = ["plot_emva", "plot_histograms"]
 
 
@@ -19,8 +21,7 @@ def _plt():
 def plot_emva(result: Any, folder: str | Path) -> list[Path]:
     """Photon-transfer (variance vs mean) and SNR-vs-photons plots of an :class:`EmvaResult`; returns the files."""
     plt = _plt()
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = output_dir(folder)
     c = result.snr_curve
     files = []
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -70,8 +71,7 @@ def plot_histograms(raw_hist: dict, out_hist: dict | None, path: str | Path) -> 
     axes[0].set_title("raw histogram")
     if out_hist:
         axes[-1].set_title("output histogram")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = output_file(path)
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return path

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ..errors import LensrtError
+from ..io.paths import output_dir
 from .model import ReportContext, Section
 from .options import ReportOptions, prepare_lens
 
@@ -142,11 +143,7 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     t0 = time.perf_counter()
     analysed, notes = prepare_lens(lens, options)
     device = resolve_device(options.device)
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise LensrtError(f"cannot create the output folder {out}: {err.strerror}") from None
+    out = output_dir(out_dir)
     ctx = ReportContext(analysed, lens, options, out, device, notes)
     steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
     sections = []
