@@ -53,6 +53,10 @@ class BokehSetup:
     #: most this (``rays_per_source`` is then the cap)
     target_error: float | None = None
 
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.intensity_cd) and self.intensity_cd > 0):
+            raise LensrtError(f"luminous intensity {self.intensity_cd!r} cd must be a positive number")
+
     def iris_used(self) -> Iris:
         return self.lens.iris if self.iris is None else self.iris
 

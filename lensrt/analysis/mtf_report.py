@@ -48,12 +48,12 @@ class Detector:
     olpf_um: float | None = None
 
     def __post_init__(self) -> None:
-        if not self.pixel_pitch_um > 0:
-            raise LensrtError(f"pixel pitch {self.pixel_pitch_um} um must be positive")
+        if not (self.pixel_pitch_um > 0 and math.isfinite(self.pixel_pitch_um)):
+            raise LensrtError(f"pixel pitch {self.pixel_pitch_um} um must be a positive number")
         if not 0 < self.fill_factor <= 1:
             raise LensrtError(f"fill factor {self.fill_factor} must be within (0, 1]")
-        if self.olpf_um is not None and self.olpf_um < 0:
-            raise LensrtError(f"OLPF separation {self.olpf_um} um must be >= 0 (0: no OLPF)")
+        if self.olpf_um is not None and not (self.olpf_um >= 0 and math.isfinite(self.olpf_um)):
+            raise LensrtError(f"OLPF separation {self.olpf_um} um must be a number >= 0 (0: no OLPF)")
 
     @property
     def aperture_um(self) -> float:

@@ -11,6 +11,10 @@ __all__ = ["add_psf_options", "parse_list", "parse_count", "setup_from_args", "f
            "print_psf_table"]
 
 
+#: the largest ray count :func:`parse_count` takes (2^62: the stream kernels' 2^32 epochs of 2^30 rays)
+MAX_COUNT = 1 << 62
+
+
 def parse_list(text: str | None, what: str) -> list[float] | None:
     """``"0,10,20"`` -> [0.0, 10.0, 20.0] (finite numbers)."""
     if text is None:
@@ -32,6 +36,8 @@ def parse_count(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (math.isfinite(v) and v >= 1):
         raise argparse.ArgumentTypeError(f"{text!r} must be a positive count")
+    if v > MAX_COUNT:  # ray indices and seeds are 64-bit: beyond this the randomisation would repeat
+        raise argparse.ArgumentTypeError(f"{text!r} is more than 2^62 ({MAX_COUNT:.3g})")
     return int(round(v))
 
 

@@ -7,6 +7,7 @@ from typing import Any
 
 from ._common import add_lens_argument, emit, print_json
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer
+from ._psf_options import parse_count
 
 __all__ = ["register", "parse_pair", "parse_list"]
 
@@ -60,7 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     a.add_argument("--blade-roundness", type=float, metavar="R",
                    help="blade curvature: 0 straight blades .. 1 a circle")
     m = p.add_argument_group("Monte Carlo")
-    m.add_argument("--rays", type=float, default=1e6, metavar="N", help="rays per source (default 1e6)")
+    m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
     m.add_argument("--sampler", choices=("sobol", "random", "stratified", "r2"), default="sobol",
                    help="pupil and wavelength samples (default sobol)")
     m.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -162,12 +163,12 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     focus = _focus(args, lens)
     iris = _iris(args, lens)
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
-    rays = int(args.rays)
-    if not (math.isfinite(args.rays) and rays >= args.batches >= 2):
-        raise LensrtError(f"--rays {args.rays:g} must be at least --batches ({args.batches}) and --batches >= 2")
+    rays = args.rays
+    if not rays >= args.batches >= 2:
+        raise LensrtError(f"--rays {rays:g} must be at least --batches ({args.batches}) and --batches >= 2")
     if not (math.isfinite(args.source_m) and args.source_m > 0):
         raise LensrtError(f"--source-m {args.source_m:g} must be a positive distance in m")
-    for name in ("target_error", "time_budget"):
+    for name in ("target_error", "time_budget", "exposure"):
         v = getattr(args, name)
         if v is not None and not (math.isfinite(v) and v > 0):
             raise LensrtError(f"--{name.replace('_', '-')} {v:g} must be positive")

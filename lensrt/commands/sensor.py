@@ -210,9 +210,16 @@ def cmd_characterize(args: argparse.Namespace) -> int:
 
 
 def _tone(text: str):
+    from ..errors import LensrtError
     from ..isp import SCurve
     if text.startswith("scurve"):
-        return SCurve(float(text.split(":", 1)[1])) if ":" in text else SCurve()
+        if ":" not in text:
+            return SCurve()
+        try:
+            return SCurve(float(text.split(":", 1)[1]))
+        except ValueError:
+            raise LensrtError(f"--tone {text!r}: the contrast after 'scurve:' must be a number",
+                              hint="e.g. scurve:1.4") from None
     return text
 
 
@@ -257,8 +264,10 @@ def cmd_expose(args: argparse.Namespace) -> int:
         if ref_e <= 0:
             raise LensrtError("the irradiance gives no signal; pass --exposure-s")
         t = args.level * clip_e / ref_e
+    if args.frames < 1 or args.dark_frames < 0:
+        raise LensrtError(f"--frames {args.frames} must be at least 1 and --dark-frames {args.dark_frames} at least 0")
     mean_e = per_s * np.float32(t)
-    frames = [electrons_to_raw(sensor, mean_e, t, rng=rng, iso=iso) for _ in range(max(1, args.frames))]
+    frames = [electrons_to_raw(sensor, mean_e, t, rng=rng, iso=iso) for _ in range(args.frames)]
     raw = frames[0] if len(frames) == 1 else average_frames(frames)
     dark = dark_frame(sensor, raw.dn.shape, t, rng=rng, iso=iso, n_frames=args.dark_frames) if args.dark_frames > 0 else None
     # white balance and exposure gain

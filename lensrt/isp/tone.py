@@ -53,7 +53,7 @@ class SCurve:
     white: float = 1.0
 
     def __post_init__(self) -> None:
-        if not (self.contrast > 0 and 0 < self.mid_grey < self.white):
+        if not (0 < self.contrast < math.inf and 0 < self.mid_grey < self.white < math.inf):
             raise LensrtError("S-curve needs contrast > 0 and 0 < mid_grey < white")
 
     def _coeffs(self) -> tuple[float, float]:

@@ -78,6 +78,11 @@ class RenderOptions:
     pupil_bins: int = 48
     window: tuple[int, int, int, int] | None = None
 
+    def __post_init__(self) -> None:
+        if not (self.band_width_nm > 0 and math.isfinite(self.band_width_nm)):
+            raise LensrtError(f"band width {self.band_width_nm!r} nm must be a positive number",
+                              hint="e.g. 10 (a multiple of the scene's wavelength step)")
+
 
 @dataclass
 class RenderResult:

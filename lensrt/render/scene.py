@@ -86,6 +86,9 @@ def load_scene(source: str | Path | None = None) -> Scene:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
         raise LensrtError(f"cannot read scene file: {err.strerror}", path=path) from None
+    except UnicodeDecodeError as err:
+        raise LensrtError(f"not a text file (byte {err.start} is not UTF-8)", path=path,
+                          hint="a scene is a TOML text file (see scenes/ for examples)") from None
     return loads_scene(text, path)
 
 

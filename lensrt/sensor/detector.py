@@ -217,6 +217,8 @@ def electrons_to_raw(sensor: Sensor, mean_electrons_e: np.ndarray, exposure_s: f
     """
     if not isinstance(rng, np.random.Generator):
         raise TypeError("rng must be a numpy.random.Generator (lensrt never uses global random state)")
+    if not (math.isfinite(exposure_s) and exposure_s >= 0):
+        raise LensrtError(f"exposure time {exposure_s!r} s must be a finite number >= 0")
     iso = sensor.base_iso if iso is None else sensor.check_iso(float(iso))
     mean_e = np.asarray(mean_electrons_e, dtype=np.float32)
     rows, cols = mean_e.shape

@@ -272,4 +272,5 @@ def sensor_from_spec(spec: dict[str, Any] | None = None, *, path: str | None = N
     try:
         return replace(base, **spec, sources={**base.sources, **{k: "user" for k in spec}})
     except TypeError as err:
-        raise LensrtError(f"bad sensor value: {err}", path=path) from None
+        raise LensrtError(f"bad sensor value: {err}", path=path,
+                          hint="numeric keys take numbers, e.g. full_well_e=45000") from None

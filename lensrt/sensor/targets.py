@@ -50,8 +50,11 @@ def colorchecker_scene(patch_px: int = 32, illuminant: str | float = "D65", whit
                        wavelength_nm: np.ndarray = STANDARD_WAVELENGTHS_NM, chart: str = CHART) -> ChartScene:
     """The 4 x 6 ColorChecker, each patch ``patch_px`` square, lit so that a perfect white reflector
     would give ``white_illuminance_lux`` on the sensor."""
-    if patch_px < 4:
-        raise LensrtError("patches need at least 4 x 4 photosites")
+    # each patch is measured inside a margin of max(2, patch_px // 4) photosites (demosaicing bleeds
+    # across patch edges): 8 x 8 is the smallest patch that leaves a box to measure
+    if patch_px < 8:
+        raise LensrtError(f"ColorChecker patches of {patch_px} x {patch_px} photosites leave nothing to measure "
+                          "inside their margins", hint="give --patch-px 8 or more")
     names, refl = colorchecker_reflectances(wavelength_nm, chart)
     white = spectral_irradiance_from_illuminance(white_illuminance_lux, illuminant, wavelength_nm)
     rows, cols = 4 * patch_px, 6 * patch_px

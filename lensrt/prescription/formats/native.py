@@ -64,6 +64,8 @@ _KEYS = {
                 "conic", "asphere", "stop", "label"},
 }
 _ASPH_KEY = re.compile(r"^A(\d+)$")
+#: the native format's name and version, as written in every file
+FORMAT_NAME, FORMAT_VERSION = "lensrt-lens", 1
 
 
 def _check_keys(table: dict, section: str, line: int | None, path: str | None) -> None:
@@ -143,6 +145,22 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
     )
 
 
+def _check_format(doc: dict, text: str, path: str | None) -> None:
+    """``format`` and ``version`` at the top level, when given, must be the ones this reader knows."""
+    def line_of(key: str) -> int | None:
+        m = re.search(rf"^[ \t]*{key}[ \t]*=", text, re.M)
+        return text.count("\n", 0, m.start()) + 1 if m else None
+    fmt = doc.get("format", FORMAT_NAME)
+    if fmt != FORMAT_NAME:
+        raise PrescriptionError(f"format = {fmt!r} is not a lensrt lens", path=path, line=line_of("format"),
+                                hint=f'a native lens file says format = "{FORMAT_NAME}"')
+    ver = doc.get("version", FORMAT_VERSION)
+    if isinstance(ver, bool) or not isinstance(ver, int) or not 1 <= ver <= FORMAT_VERSION:
+        raise PrescriptionError(f"version = {ver!r}: this lensrt reads version {FORMAT_VERSION} of the native format",
+                                path=path, line=line_of("version"),
+                                hint="upgrade lensrt for a newer file, or fix the version number")
+
+
 def loads_native(text: str, path: str | Path | None = None) -> Lens:
     """Parse native TOML text into a :class:`Lens` (semi-diameters may be left to compute)."""
     spath = str(path) if path is not None else None
@@ -154,6 +172,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
                                 hint="see the native format in the README") from None
     sections, surface_lines = _section_lines(text)
     _check_keys(doc, "", None, spath)
+    _check_format(doc, text, spath)
     if "surface" not in doc:
         raise PrescriptionError("no [[surface]] tables: this is not a lensrt lens file", path=spath,
                                 hint="a native lens lists its surfaces as [[surface]] tables")
@@ -283,7 +302,7 @@ def dumps_native(lens: Lens) -> str:
     again on load.
     """
     out = ["# lensrt lens prescription (native TOML; lengths in mm, angles in degrees)",
-           'format = "lensrt-lens"', "version = 1", "", "[lens]", f"name = {_s(lens.name)}",
+           f'format = "{FORMAT_NAME}"', f"version = {FORMAT_VERSION}", "", "[lens]", f"name = {_s(lens.name)}",
            f"source = {_s(lens.source)}"]
     notes = [(k, v) for k, v in lens.notes]
     if notes:
