@@ -33,3 +33,16 @@ def test_render_errors_exit_2(capsys, tmp_path):
     bad.write_text("[scene]\nunits = \"furlong\"\n")
     assert main(["render", str(bad), "--plan"]) == 2
     assert "'units'" in capsys.readouterr().err
+
+
+def test_band_width_that_cannot_split_the_spectrum_is_noted(capsys, tmp_path):
+    """Bands are whole numbers of the scene's wavelength steps that split its range evenly: 20 nm is
+    used as asked (no note); 7 nm cannot be, and the result says which width it got instead."""
+    base = ["render", "--width", "24", "--spp", "4", "--device", "cpu", "--json"]
+    assert main(base + ["--band-nm", "20", "-o", str(tmp_path / "a")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["band_width_nm"] == 20.0 and not any("asked for" in n for n in d["notes"])
+    assert main(base + ["--band-nm", "7", "-o", str(tmp_path / "b")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    note = [n for n in d["notes"] if "asked for" in n]
+    assert d["band_width_nm"] != 7.0 and len(note) == 1 and f"{d['band_width_nm']:g} nm wide" in note[0]

@@ -177,7 +177,9 @@ def scale_pixels(scene, width: int):
 
 
 def _bands(plan: Plan, band_width_nm: float) -> tuple[float, float, int]:
-    """(first band edge, width, count) of the output bands."""
+    """(first band edge, width, count) of the output bands: the asked width rounded to a whole number
+    of the scene's wavelength steps; the step itself when that does not split the spectrum evenly
+    (:func:`band_note` says so)."""
     if not plan.spectral:
         return float(plan.wavelength_nm), 1.0, 1
     g = plan.grid
@@ -188,6 +190,15 @@ def _bands(plan: Plan, band_width_nm: float) -> tuple[float, float, int]:
     if abs(n * bw - span) > 1e-6 * span or n < 1:
         bw, n = g.step_nm, int(round(span / g.step_nm))
     return float(g.min_nm), float(bw), n
+
+
+def band_note(plan: Plan, band_width_nm: float, used_nm: float) -> str | None:
+    """A note for the result when the output bands are not the width asked for (None when they are)."""
+    if not plan.spectral or abs(used_nm - band_width_nm) <= 1e-9 * band_width_nm:
+        return None
+    g = plan.grid
+    return (f"output bands are {used_nm:g} nm wide, not the {band_width_nm:g} nm asked for: bands are whole "
+            f"numbers of the scene's {g.step_nm:g} nm steps that split {g.min_nm:g}-{g.max_nm:g} nm evenly")
 
 
 def _wavelength_cdf(scene, plan: Plan) -> np.ndarray:
@@ -369,6 +380,9 @@ def render(scene, lens=None, options: RenderOptions = RenderOptions(), *, execut
         irr = (np.asarray(spec, dtype=np.float64) * (1.0 / spp_total)).astype(np.float32).reshape(
             setup.shape + (setup.n_bands,))
     notes = [note] if note else []
+    bnote = band_note(plan, options.band_width_nm, setup.band_width_nm)
+    if bnote:
+        notes.append(bnote)
     if plan.variant.diffraction:
         notes.append("the plan asks for diffraction; the integrator does not apply it (geometric optics only)")
     res = RenderResult(irr, setup.band_centres_nm(), setup.band_width_nm, plan.output_unit, acc.xyz_mean(),

@@ -151,7 +151,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     from ..trace.sampling import spectrum_continuous, spectrum_discrete
     from ..trace.stream import Grid, StreamSource, stream
     from .camera import setup_camera
-    from .integrator import RenderResult, _bands, _history_row, _regions, _stop_rule, relative_error
+    from .integrator import RenderResult, _bands, _history_row, _regions, band_note, _stop_rule, relative_error
     from .passes import PassSum, pass_seed
     t_start = time.perf_counter()
     dev = resolve_device(options.device)
@@ -258,6 +258,9 @@ def render_splat(scene, lens, plan, options, progress=None):
                else band0 + (np.arange(nb) + 0.5) * bw)
     notes = [f"light splat: {len(lights)} light(s), " + ", ".join(f"{L['light']['name']} ({L['k']} point(s))"
                                                                   for L in lights)]
+    bnote = band_note(plan, options.band_width_nm, bw)
+    if bnote:
+        notes.append(bnote)
     if plan.variant.diffraction:
         notes.append("the plan asks for diffraction; the integrator does not apply it (geometric optics only)")
     res = RenderResult(irr, centres, bw, plan.output_unit, acc.xyz_mean(), acc.xyz_stderr(), rays_done,
