@@ -96,3 +96,19 @@ def all_cases() -> dict[str, Lens]:
     cases["flat_1e7"] = flat_1e7_lens()
     cases["f1"] = fast_lens()
     return cases
+
+
+def max_reference_error(lens: Lens, rays, res) -> float:
+    """Largest |kernel - float64 reference tracer| over position, direction, OPL and the smallest cosine
+    of incidence of ``rays`` traced to ``res``; asserts each ray's status and surface agree."""
+    import numpy as np
+
+    from lensrt.trace.reference import trace_reference
+    worst = 0.0
+    for i in range(len(rays)):
+        ref = trace_reference(lens, rays.origin_mm[i], rays.direction[i], rays.wavelength_nm[i])
+        assert (ref.status, ref.surface) == (res.status[i], res.surface[i]), f"ray {i}"
+        got = np.r_[res.position_mm[i], res.direction[i], res.opl_mm[i], res.min_cos_incidence[i]]
+        want = np.r_[ref.x_mm, ref.y_mm, ref.z_mm, ref.L, ref.M, ref.N, ref.opl_mm, ref.min_cos_incidence]
+        worst = max(worst, float(np.max(np.abs(got - want))))
+    return worst

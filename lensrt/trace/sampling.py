@@ -276,30 +276,6 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         return x, y, real(0.3183098861837907)
 
     @func
-    def sample_cdf(u: real, mode: int, nm: wp.array(dtype=real), cdf: wp.array(dtype=real)):
-        """Wavelength from a spectrum: returns (wavelength_nm, line index or -1, pdf).
-
-        mode 0: discrete lines nm[k] with cdf[k] <= u < cdf[k+1] (pdf = the line's probability);
-        mode 1: bins [nm[k], nm[k+1]) with uniform density inside (pdf per nm).
-        """
-        n = cdf.shape[0] - 1
-        lo = int(0)
-        hi = n
-        while hi - lo > 1:  # the bin k with cdf[k] <= u < cdf[k + 1]
-            mid = (lo + hi) // 2
-            if cdf[mid] <= u:
-                lo = mid
-            else:
-                hi = mid
-        width = cdf[lo + 1] - cdf[lo]
-        if mode == 0:
-            return nm[lo], lo, width
-        f = real(0.5)
-        if width > real(0.0):
-            f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
-        return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
-
-    @func
     def sample_spectrum(u: real, mode: int, nm: wp.array(dtype=real), cdf: wp.array(dtype=real), off: int,
                         n: int):
         """Wavelength from spectrum entries off .. off + n of concatenated tables (one spectrum per
@@ -320,6 +296,15 @@ def sampling_funcs(wp: Any, real: Any, module: str) -> SimpleNamespace:
         if width > real(0.0):
             f = wp.clamp((u - cdf[lo]) / width, real(0.0), real(1.0))
         return nm[lo] + f * (nm[lo + 1] - nm[lo]), int(-1), width / (nm[lo + 1] - nm[lo])
+
+    @func
+    def sample_cdf(u: real, mode: int, nm: wp.array(dtype=real), cdf: wp.array(dtype=real)):
+        """Wavelength from a spectrum: returns (wavelength_nm, line index or -1, pdf).
+
+        mode 0: discrete lines nm[k] with cdf[k] <= u < cdf[k+1] (pdf = the line's probability);
+        mode 1: bins [nm[k], nm[k+1]) with uniform density inside (pdf per nm).
+        """
+        return sample_spectrum(u, mode, nm, cdf, 0, cdf.shape[0] - 1)
 
     ns = SimpleNamespace(hash_u32=hash_u32, sample_spectrum=sample_spectrum, reverse_bits=reverse_bits, owen=owen,
                          sobol_dim1=sobol_dim1,
