@@ -57,11 +57,15 @@ API_PACKAGE_DOCSTRING_ONLY = {"lensrt.commands"}
 
 
 def _packages(root: Path, name: str) -> list[tuple[str, list[str]]]:
-    """Every package under ``root`` (depth first) with its direct, non-package modules."""
+    """Every package under ``root`` (depth first) with its direct, public, non-package modules.
+
+    Found on disk with :func:`pkgutil.iter_modules` (nothing is imported here), so the pages
+    follow the package as it is: a moved or new module needs no edit of this file.
+    """
     modules, found = [], []
     for info in sorted(pkgutil.iter_modules([str(root)]), key=lambda i: i.name):
         full = f"{name}.{info.name}"
-        if full in API_SKIP:
+        if full in API_SKIP or info.name.startswith("_"):   # private modules: internals
             continue
         if info.ispkg:
             found.extend(_packages(root / info.name, full))
