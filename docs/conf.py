@@ -152,8 +152,29 @@ def escape_bars(app, what, name, obj, options, lines) -> None:  # noqa: ANN001, 
         lines[i] = "".join(p if k % 2 else p.replace("|", "\\|") for k, p in enumerate(parts))
 
 
+#: napoleon's output for a numpy section entry whose "name" is a sentence
+_PROSE_AS_FIELD = re.compile(r"^:(param|ivar|returns?|raises?) [^:]*\s[^:]*:")
+
+
+def check_sections(app, what, name, obj, options, lines) -> None:  # noqa: ANN001, ARG001
+    """Warn (an error under ``-W``) where napoleon read a paragraph as a parameter.
+
+    A paragraph after a numpy ``Parameters`` or ``Attributes`` section still belongs to it;
+    it belongs under a ``Notes`` heading. Runs after napoleon, on its reST output.
+    """
+    from sphinx.util import logging
+    for line in lines:
+        match = _PROSE_AS_FIELD.match(line)
+        if match and not line.startswith(":param \\*"):
+            logging.getLogger(__name__).warning(
+                "docstring of %s: prose read as a field (%r): put it under a Notes heading",
+                name, line[:60], type="lensrt", subtype="docstring")
+            return
+
+
 def setup(app) -> None:  # noqa: ANN001
     app.connect("autodoc-process-docstring", escape_bars)
+    app.connect("autodoc-process-docstring", check_sections, priority=600)
 
 
 write_api_pages()
