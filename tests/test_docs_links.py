@@ -3,7 +3,10 @@
 Fast (no Sphinx run): every relative link and image target in README.md, CHANGELOG.md and
 docs/**/*.md, outside code blocks and inline code, must name an existing file or folder. The
 Sphinx build in CI (``-W``) checks the rest of the manual; this keeps the README, which GitHub
-and PyPI show without Sphinx, from rotting. It also holds the README to its two promises:
+and PyPI show without Sphinx, from rotting. Every module, file and test the pages name
+(``lensrt.analysis.psf.map``, ``trace/api.py``, ``tests/trace/test_trace_kernels.py``) must exist,
+and every ``from lensrt... import ...`` line of its examples must import, so a move that
+forgets the manual fails here. It also holds the README to its two promises:
 the test command CI runs is the README's, verbatim, and the README stays a README (<= 250 lines).
 """
 from __future__ import annotations
@@ -47,6 +50,37 @@ def relative_targets(text: str) -> list[tuple[int, str]]:
     return found
 
 
+#: a dotted lensrt name, a path under lensrt/, tests/ or benchmarks/, or a path inside lensrt
+#: that starts at a stage folder (``trace/api.py``)
+CODE_NAME = re.compile(r"(?<![\w/.-])(lensrt(?:\.\w+)+|(?:lensrt|tests|benchmarks)/[\w/*]+\.py|"
+                       r"[a-z_]+/[\w/*]*\w\.py)")
+
+
+def missing_code_names(text: str) -> list[str]:
+    """Names of lensrt modules (and their attributes) and files in ``text`` that do not exist."""
+    missing = []
+    for name in dict.fromkeys(CODE_NAME.findall(text)):
+        if "/" in name:
+            path = name if name.startswith(("lensrt/", "tests/", "benchmarks/")) else f"lensrt/{name}"
+            if not (name.split("/")[0] in {"lensrt", "tests", "benchmarks"} or (ROOT / "lensrt" / name.split("/")[0]).is_dir()):
+                continue  # a path outside the package (docs/conf.py, out/psf.py)
+            if not list(ROOT.glob(path)):
+                missing.append(name)
+            continue
+        parts = name.rstrip(".").split(".")
+        for k in range(len(parts), 0, -1):  # the longest prefix that is a module or package
+            base = ROOT.joinpath(*parts[:k])
+            source = base.with_suffix(".py") if base.with_suffix(".py").exists() else base / "__init__.py"
+            if source.exists():
+                break
+        else:
+            missing.append(name)
+            continue
+        if k < len(parts) and not re.search(rf"\b{re.escape(parts[k])}\b", source.read_text()):
+            missing.append(name)  # an attribute its module does not define or re-export
+    return missing
+
+
 def test_link_pattern_finds_links_and_images_but_not_code() -> None:
     text = ("see [a](docs/a.md#x) and ![b](img/b.png), [web](https://x.org), [here](#top)\n"
             "`[not](code.md)`\n```\n[not](fenced.md)\n```\n")
@@ -58,6 +92,34 @@ def test_relative_links_and_images_exist(page: Path) -> None:
     missing = [f"{page.relative_to(ROOT)}:{n}: {t}" for n, t in relative_targets(page.read_text())
                if not (page.parent / t).exists()]
     assert not missing, "links to files that do not exist:\n" + "\n".join(missing)
+
+
+def test_code_name_check_finds_moved_modules() -> None:
+    text = ("`lensrt.trace.stream` `lensrt.trace.no_such_module` `lensrt.paraxial.first_order.no_such_name` "
+            "`trace/api.py` `trace/gone.py` `tests/test_docs_links.py` `docs/conf.py`")
+    assert missing_code_names(text) == ["lensrt.trace.no_such_module", "lensrt.paraxial.first_order.no_such_name",
+                                        "trace/gone.py"]
+
+
+@pytest.mark.parametrize("page", markdown_pages(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_modules_and_files_named_exist(page: Path) -> None:
+    missing = missing_code_names(page.read_text())
+    assert not missing, f"{page.relative_to(ROOT)} names modules or files that do not exist: {missing}"
+
+
+IMPORT_LINE = re.compile(r"^\s*(from lensrt[\w.]* import [\w, ]+\w|import lensrt[\w.]*)\s*(?:#.*)?$", re.M)
+
+
+@pytest.mark.parametrize("page", markdown_pages(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_python_imports_in_examples_work(page: Path) -> None:
+    """Every ``from lensrt... import ...`` line of the page's examples imports."""
+    failed = []
+    for line in dict.fromkeys(IMPORT_LINE.findall(page.read_text())):
+        try:
+            exec(line, {})  # noqa: S102 - the page's own import line
+        except ImportError as err:
+            failed.append(f"{line}: {err}")
+    assert not failed, f"{page.relative_to(ROOT)}:\n" + "\n".join(failed)
 
 
 def test_readme_has_images_and_links() -> None:
