@@ -19,14 +19,13 @@ ROOT = DOCS.parent
 sys.path.insert(0, str(ROOT))          # the lensrt of this tree, not an installed one
 
 project = "lensrt"
-author = "the lensrt authors"
-copyright = "2026, the lensrt authors"  # noqa: A001 - Sphinx's name
+author = "the lensrt developers"
+copyright = "2026, the lensrt developers"  # noqa: A001 - Sphinx's name
 
 extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",
-    "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -40,7 +39,6 @@ napoleon_numpy_docstring = True
 napoleon_use_rtype = False
 autodoc_member_order = "bysource"
 autodoc_typehints = "none"              # the numpy docstrings give types (with units)
-autosummary_generate = False
 
 # napoleon turns every type in a docstring into a cross-reference; a bare class name that two
 # modules define (``Spectrum``, ``Lens`` and its re-export) resolves to one of them with a warning
