@@ -70,7 +70,7 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("method and sampling")
     g.add_argument("--method", choices=["geometric", "diffraction", "auto"], default=method_default,
                    help=f"geometric (ray histogram), diffraction (wavefront -> FFT/MFT/Huygens) or auto "
-                        f"(per field; see the README) (default {method_default})")
+                        f"(per field; see docs/explanation/how-psfs-are-made.md) (default {method_default})")
     g.add_argument("--rays", type=parse_count, default=1 << 20, metavar="N",
                    help="Monte Carlo rays per field point (geometric; 1e6 notation ok; default 1048576)")
     g.add_argument("--sampler", choices=["random", "stratified", "sobol", "r2"], default="sobol",

@@ -253,6 +253,8 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         Distance from the object plane to the first vertex (mm; ``inf``
         allowed); default the lens's own.
 
+    Notes
+    -----
     The entrance-pupil diameter follows the lens's aperture specification at
     this wavelength and object distance; the image is the paraxial image of the
     object plane (the lens's image surface is not moved: ``image_surface_distance_mm``

@@ -1,6 +1,6 @@
 """The camera of a render: lens, aperture, focus, sensor geometry, and the one image <-> sensor map.
 
-Frames (README "Rendering"): the lens frame of the scene (z along the axis, light toward +z,
+Frames (docs/tutorials/render-a-scene.md): the lens frame of the scene (z along the axis, light toward +z,
 first lens vertex at z = 0 in its focused position, +y up, +x to the photographer's right).
 The sensor plane stands at ``sensor_z_mm``; a sensor-plane point is ``(x_mm, y_mm)`` centred
 on the axis, +y up, as in the lens frame.

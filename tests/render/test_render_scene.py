@@ -306,8 +306,8 @@ emission = { spectrum = "D65", luminance_cd_m2 = 100 }
 
 
 def test_readme_scene_example_loads():
-    text = (SCENES.parent / "README.md").read_text()
-    block = text.split("### The format", 1)[1].split("```toml", 1)[1].split("```", 1)[0]
+    text = (SCENES.parent / "docs" / "reference" / "scene-format.md").read_text()
+    block = text.split("## The format", 1)[1].split("```toml", 1)[1].split("```", 1)[0]
     s = loads_scene(block, SCENES / "readme_example.toml")
     assert s.name == "example" and len(s.planes) == 1 and len(s.meshes) == 1
     assert len(s.sphere_lights) == 1 and len(s.point_lights) == 1

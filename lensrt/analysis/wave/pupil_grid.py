@@ -67,7 +67,7 @@ def clear_fraction(fine_mask: np.ndarray, n: int) -> np.ndarray:
 
 
 def aperture_mask(n: int, inside: Callable[[np.ndarray, np.ndarray], np.ndarray], supersample: int = 4) -> np.ndarray:
-    """Fraction of each pupil cell inside a shape (anti-aliased by ``supersample``^2 points per cell).
+    """Fraction of each pupil cell inside a shape (anti-aliased by ``supersample**2`` points per cell).
 
     ``inside(px, py)`` returns a boolean array: True where a normalised pupil
     point is clear.

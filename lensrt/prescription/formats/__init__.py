@@ -103,6 +103,8 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         ``pbrt_field_deg=20``); ``None`` values are ignored. An option for
         another format than the file's is an error.
 
+    Notes
+    -----
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """

@@ -169,7 +169,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
     except tomllib.TOMLDecodeError as err:
         m = re.search(r"line (\d+)", str(err))
         raise PrescriptionError(f"not valid TOML: {err}", path=spath, line=int(m.group(1)) if m else None,
-                                hint="see the native format in the README") from None
+                                hint="see the native format in docs/reference/lens-format.md") from None
     sections, surface_lines = _section_lines(text)
     _check_keys(doc, "", None, spath)
     _check_format(doc, text, spath)

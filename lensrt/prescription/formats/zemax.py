@@ -1,6 +1,6 @@
 """Zemax OpticStudio ``.zmx`` reader: the sequential, rotationally symmetric subset.
 
-Supported (see the README's table): ``UNIT`` (MM, CM, IN, M; lengths are
+Supported (see the table in docs/how-to/import-zemax-codev-pbrt.md): ``UNIT`` (MM, CM, IN, M; lengths are
 converted to mm), ``SURF`` with ``TYPE STANDARD`` or ``EVENASPH``, ``CURV``,
 ``DISZ`` (``INFINITY`` on the object surface), ``GLAS``, ``CONI``, ``PARM``
 (EVENASPH: PARM 1 is the r^2 coefficient, PARM 2 r^4, ...), ``DIAM``

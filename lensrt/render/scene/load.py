@@ -1,6 +1,6 @@
 """Scene files (TOML) -> :class:`~lensrt.render.scene.model.Scene`, every key checked.
 
-The format, frame and units are documented in the README ("Scenes") and in
+The format, frame and units are documented in docs/reference/scene-format.md and in
 :mod:`lensrt.render.scene.model`. In short: positions and sizes in the unit of
 ``[scene] units`` (m, cm, mm), converted to mm here; the scene origin is the
 first lens vertex, light travels toward +z, the scene lies at z < 0, +y is up;

@@ -1,6 +1,6 @@
 """The scene model: immutable records that :func:`lensrt.render.scene.load.load_scene` fills in.
 
-Frame and units (README "Scenes"): lengths in mm (converted from the scene
+Frame and units (docs/reference/scene-format.md): lengths in mm (converted from the scene
 file's unit at load), the lens's optical axis is z, light travels toward +z,
 the scene's origin is the vertex of the lens's first surface (in its focused
 position), the scene lies at z < 0, +y is up and +x is to the right as the

@@ -9,6 +9,7 @@ multiplies the plane's emission spectrum (white = 1).
 Procedural kinds (levels ``low``/``high`` are spectrally flat factors that
 multiply the plane's ``tint`` spectrum):
 
+================  ==============================================================
 ``uniform``        everywhere ``high`` (1 by default; the tint is the reflectance)
 ``slanted_edge``   ISO 12233 e-SFR style: a dark square (``low``) of side
                    ``square`` x the shorter plane side, rotated by ``angle_deg``
@@ -23,6 +24,7 @@ multiply the plane's ``tint`` spectrum):
                    chart's black patch as frame
 ``image``          a PNG/JPEG (PIL), sRGB-decoded to linear RGB and turned into
                    reflectance by the Mallett-Yuksel (2019) basis; bilinear
+================  ==============================================================
 """
 from __future__ import annotations
 
