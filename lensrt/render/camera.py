@@ -257,7 +257,7 @@ def _focus_weights(scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
     lam = line if line is not None else mono
     if lam is not None:
         return (float(lam),), (1.0,)
-    from .spectra import WavelengthGrid, photopic_v
+    from ..colour import WavelengthGrid, photopic_v
     g = WavelengthGrid(380.0, 780.0, 5.0)
     v = np.interp(_FOCUS_WAVELENGTHS_NM, g.nm, photopic_v(g))
     return _FOCUS_WAVELENGTHS_NM, tuple(float(x) for x in v)

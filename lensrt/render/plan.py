@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from .scene_model import Scene
-from .spectra import WavelengthGrid, cie_xyz_cmfs, integrate
+from ..colour import WavelengthGrid, cie_xyz_cmfs, integrate
 
 __all__ = ["KernelVariant", "Plan", "plan_render", "wavelength_weight"]
 

@@ -19,7 +19,7 @@ from ..device import resolve_device, warp
 from ..stats import Estimate
 from ..units import LUMINOUS_EFFICACY_LM_PER_W
 from .scene_model import Scene
-from .spectra import cie_xyz_cmfs
+from ..colour import cie_xyz_cmfs
 
 __all__ = ["preview_pinhole"]
 

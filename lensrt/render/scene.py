@@ -25,7 +25,7 @@ from .scene_model import (CameraSpec, MeshObject, Plane, PointLight, RenderSetti
                           SpectralSettings, SphereLight, Spectrum)
 from .scene_parse import INTENSITY, IRRADIANCE, RADIANCE, Section, parse_emission, parse_reflectance
 from .sensor_formats import parse_sensor_format
-from .spectra import WavelengthGrid
+from ..colour import WavelengthGrid
 from .textures import TEXTURE_KINDS, Texture, load_image_linear
 
 __all__ = ["load_scene", "loads_scene", "resolve_scene_path", "builtin_scenes", "SCENE_UNITS"]
@@ -290,7 +290,7 @@ def _texture(sec: Section, kind: str, w: float, h: float) -> Texture:
         lw = sec.number("line_width", 0.06, lo=0.0, hi=1.0)
         return Texture(kind, (cw, ch, 0.5 * lw * min(cw, ch), 0.0), low, high)
     if kind == "colorchecker":
-        from .spectra import colorchecker_names
+        from ..colour import colorchecker_names
         chart = sec.string("chart", "ColorChecker N Ohta")
         try:
             n_patches = len(colorchecker_names(chart))

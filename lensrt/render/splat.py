@@ -125,7 +125,7 @@ def _shared_boxes(lens, camera, lights: list[dict], wls, device: str) -> list:
 def _channels(plan, grid, band0: float, bw: float, nb: int):
     """Channel table: the output bands (1 / width inside) then K_m x-bar, y-bar, z-bar."""
     from ..trace.stream import Channels
-    from .spectra import cie_xyz_cmfs
+    from ..colour import cie_xyz_cmfs
     if not plan.spectral:
         lam = float(plan.wavelength_nm)
         cm = cie_xyz_cmfs(grid)
