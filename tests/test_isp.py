@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from lensrt.errors import LensrtError
-from lensrt.colour import STANDARD_WAVELENGTHS_NM, srgb_decode, srgb_encode
+from lensrt.colour import STANDARD_WAVELENGTHS_NM, srgb_decode, srgb_encode, srgb_matrix_for_white
 from lensrt.colour import spectrum as illuminant_spd
 from lensrt.isp import (Isp, IspSettings, SCurve, calibrate, demosaic, exposure_gain_for_iso, image_dynamic_range_stops,
                         quantize, sos_iso, tone_curve, white_balance_from_illuminant)
-from lensrt.isp.colour import adapted_white_to_srgb, camera_responses, delta_e2000_srgb, xyz_of_reflectances
+from lensrt.isp.colour import camera_responses, delta_e2000_srgb, xyz_of_reflectances
 from lensrt.isp.metrics import neutral_output
 from lensrt.sensor import Switches, expose, get_preset, parse_cfa, sensor_from_spec
 from lensrt.sensor.exposure import (focal_plane_exposure_lux_s, illuminance_lux, metered_exposure_time_s,
@@ -132,7 +132,7 @@ def _chart_run(sensor, illuminant="D65", iso=None, demosaic_method="bilinear", l
     got = np.array([out.linear[r0:r1, c0:c1].reshape(-1, 3).mean(axis=0) for r0, r1, c0, c1 in sc.boxes])
     X, white = xyz_of_reflectances(sc.reflectance, illuminant, sc.wavelength_nm)
     # the ISP's target: Bradford from the adopted white to the sRGB white, then linear sRGB with white -> (1, 1, 1)
-    return delta_e2000_srgb(got, X @ adapted_white_to_srgb(white).T), out
+    return delta_e2000_srgb(got, X @ srgb_matrix_for_white(white).T), out
 
 
 @pytest.mark.parametrize("method", ["bilinear", "malvar2004"])

@@ -136,7 +136,7 @@ def bokeh_light(spec: str = "D65", lens=None) -> BokehLight:
         line_w = np.asarray(lens.wavelengths.weights, dtype=np.float64)
     else:
         ill = parse_illuminant(text, bare_numbers="nm")   # old bare wavelengths ("550") still read as lines
-        if ill.kind == "lines":
+        if not ill.continuous:
             lines, line_w = np.asarray(ill.lines_nm), np.asarray(ill.line_weights)
     if lines is not None:
         if len(lines) == 0 or np.any(~np.isfinite(lines)):

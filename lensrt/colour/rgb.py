@@ -14,7 +14,7 @@ import numpy as np
 from .cmfs import CIE_1931_2DEG
 
 __all__ = ["srgb_matrices", "xyz_to_linear_srgb", "linear_srgb_to_xyz", "srgb_encode", "srgb_decode",
-           "srgb_white_xy", "linear_srgb_to_lab"]
+           "srgb_white_xy", "srgb_matrix_for_white", "linear_srgb_to_lab"]
 
 
 @lru_cache(maxsize=1)
@@ -61,8 +61,23 @@ def srgb_white_xy() -> np.ndarray:
 def linear_srgb_to_lab(rgb: np.ndarray) -> np.ndarray:
     """CIELAB (L*, a*, b*) of linear sRGB colours (..., 3), relative to the sRGB white with Y = 1.
 
-    A neutral R = G = B has a* = b* = 0 (to the rounding of the IEC matrix, about 1e-4).
+    A neutral R = G = B has a* = b* = 0 to the rounding of the IEC matrix (|a*| about 0.004).
     """
     import colour
     xyz = linear_srgb_to_xyz(rgb)
     return np.asarray(colour.XYZ_to_Lab(xyz, srgb_white_xy()), dtype=np.float64)
+
+
+def srgb_matrix_for_white(white_xyz: np.ndarray) -> np.ndarray:
+    """3x3: XYZ relative to an adopted white ``white_xyz`` -> linear sRGB, taking that white to (1, 1, 1) exactly.
+
+    A Bradford chromatic adaptation to the sRGB white (colour-science), the sRGB matrix, then the
+    diagonal that absorbs the rounding of the IEC matrix (about 1e-4), so that white stays white.
+    What a raw converter aims at for the colours it saw under ``white_xyz``.
+    """
+    import colour
+    white = np.asarray(white_xyz, dtype=np.float64)
+    srgb_white = np.asarray(colour.xy_to_XYZ(srgb_white_xy()), dtype=np.float64)
+    cat = np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(white, srgb_white, "Bradford"))
+    a = srgb_matrices()[0] @ cat
+    return a / (a @ white)[:, None]

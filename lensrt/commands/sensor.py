@@ -308,9 +308,10 @@ def cmd_expose(args: argparse.Namespace) -> int:
               "white_level_dn": raw.white_level_dn, "black_level_dn": raw.black_level_dn,
               "isp_seconds": result.seconds, "seconds": time.perf_counter() - t_start, "files": files}
     if chart is not None:
-        from ..isp.colour import adapted_white_to_srgb, delta_e2000_srgb, xyz_of_reflectances
+        from ..colour import srgb_matrix_for_white
+        from ..isp.colour import delta_e2000_srgb, xyz_of_reflectances
         X, wxyz = xyz_of_reflectances(chart.reflectance, illuminant, wl)
-        ref = X @ adapted_white_to_srgb(wxyz).T   # the colours the ISP aims at (adopted white -> sRGB white)
+        ref = X @ srgb_matrix_for_white(wxyz).T   # the colours the ISP aims at (adopted white -> sRGB white)
         got = np.array([result.linear[r0:r1, c0:c1].reshape(-1, 3).mean(axis=0) for r0, r1, c0, c1 in chart.boxes])
         de = delta_e2000_srgb(got, ref)
         report["delta_e2000"] = {"mean": float(de.mean()), "max": float(de.max()),

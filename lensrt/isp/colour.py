@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..colour import (CHART, STANDARD_WAVELENGTHS_NM, Illuminant, colorchecker_reflectances, linear_srgb_to_lab,
-                      parse_illuminant, reflectance_to_xyz, srgb_matrices, srgb_white_xy)
+                      parse_illuminant, reflectance_to_xyz, srgb_matrix_for_white)
 from ..errors import LensrtError
 from ..sensor.model import Sensor
 
 __all__ = ["ColourCalibration", "calibrate", "camera_responses", "white_balance_from_illuminant",
-           "xyz_of_reflectances", "delta_e2000_srgb", "white_preserving_lstsq", "adapted_white_to_srgb", "CHART"]
+           "xyz_of_reflectances", "delta_e2000_srgb", "white_preserving_lstsq", "CHART"]
 
 
 def xyz_of_reflectances(reflectance: np.ndarray, illuminant: str | Illuminant,
@@ -112,19 +112,6 @@ def white_preserving_lstsq(C: np.ndarray, X: np.ndarray, w: np.ndarray, white: n
     return M
 
 
-def adapted_white_to_srgb(white_xyz: np.ndarray) -> np.ndarray:
-    """3x3 XYZ (relative to ``white_xyz``) -> linear sRGB that takes the adopted white to (1, 1, 1) exactly.
-
-    Bradford chromatic adaptation to the sRGB white (colour-science), the sRGB matrix, then the
-    diagonal that absorbs the rounding of the IEC matrix (about 1e-4), so that white stays white.
-    """
-    import colour
-    srgb_white = np.asarray(colour.xy_to_XYZ(srgb_white_xy()), dtype=np.float64)
-    cat = np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(white_xyz, srgb_white, "Bradford"))
-    a = srgb_matrices()[0] @ cat
-    return a / (a @ white_xyz)[:, None]
-
-
 def calibrate(sensor: Sensor, illuminant: str | Illuminant = "D65", method: str = "lstsq",
               chart: str = CHART) -> ColourCalibration:
     """Fit white balance and colour matrices for ``sensor`` under ``illuminant`` (see module docstring)."""
@@ -139,7 +126,7 @@ def calibrate(sensor: Sensor, illuminant: str | Illuminant = "D65", method: str 
     X, white = xyz_of_reflectances(refl, ill, wl)
     ones = np.ones(3)
     M = white_preserving_lstsq(C, X, ones, white)
-    adapt = adapted_white_to_srgb(white)   # adapt @ white = (1, 1, 1)
+    adapt = srgb_matrix_for_white(white)   # adapt @ white = (1, 1, 1)
     ref_srgb = X @ adapt.T
     if method == "de2000":
         M = _fit_de2000(C, ref_srgb, adapt, M, white)

@@ -9,13 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import LensrtError
+from ..colour import (Illuminant, WavelengthGrid, colorchecker_names, colorchecker_reflectances,
+                      linear_rgb_to_reflectance, lines, parse_illuminant, photopic_v, planck, scale_to_luminous,
+                      srgb_decode, tabulated)
+from ..errors import LensrtDeprecationWarning, LensrtError
 from ..units import LUMINOUS_EFFICACY_LM_PER_W
 from .scene_model import Spectrum
-from ..colour import (Illuminant, WavelengthGrid, colorchecker_names, colorchecker_reflectances,
-                      linear_rgb_to_reflectance, parse_illuminant, photopic_v, planck, scale_to_luminous, srgb_decode,
-                      tabulated)
-from ..errors import LensrtDeprecationWarning
 
 __all__ = ["Section", "parse_emission", "parse_reflectance", "parse_spectrum_shape", "RADIANCE", "INTENSITY",
            "IRRADIANCE"]
@@ -180,7 +179,7 @@ def parse_spectrum_shape(sec: Section, key: str, grid: WavelengthGrid) -> Illumi
             ill = parse_illuminant(v)
         except LensrtError as err:
             raise sec.error(err.message, key, err.hint) from None
-        if ill.kind == "lines" and (len(ill.lines_nm) != 1 or not grid.min_nm <= ill.lines_nm[0] <= grid.max_nm):
+        if not ill.continuous and (len(ill.lines_nm) != 1 or not grid.min_nm <= ill.lines_nm[0] <= grid.max_nm):
             raise sec.error(f"{v!r}: a scene light holds one spectral line, inside the scene's "
                             f"{grid.min_nm:g}-{grid.max_nm:g} nm", key, "give one line, e.g. lines:532")
         return ill
@@ -207,7 +206,7 @@ def parse_spectrum_shape(sec: Section, key: str, grid: WavelengthGrid) -> Illumi
         return tabulated(grid.nm, np.exp(-0.5 * ((grid.nm - mu) / sigma) ** 2), f"gaussian {mu:g} nm, FWHM {fwhm:g} nm")
     if form == "line_nm":
         inner.check_keys({"line_nm"})
-        return parse_illuminant(f"lines:{inner.number('line_nm', lo=grid.min_nm, hi=grid.max_nm):.17g}")
+        return lines([inner.number("line_nm", lo=grid.min_nm, hi=grid.max_nm)])
     inner.check_keys({"nm", "values"} if form == "nm" else {"file"})
     vals, label = _table_spectrum(sec, key, v, grid, hold_edges=False)
     return tabulated(grid.nm, vals, label)
@@ -234,7 +233,7 @@ def parse_emission(sec: Section, kind: tuple[str, dict], grid: WavelengthGrid, *
         raise sec.error(f"give exactly one of {', '.join(keys)}" + (f" (found {', '.join(given)})" if given else ""))
     key = given[0]
     shape = parse_spectrum_shape(sec, spectrum_key, grid)
-    label, line_nm = shape.label, (shape.lines_nm[0] if shape.kind == "lines" else None)
+    label, line_nm = shape.label, (None if shape.continuous else shape.lines_nm[0])
     rel = shape.values(grid) if line_nm is None else np.ones(grid.n)
     amount = sec.number(key, positive=True)
     if key == "flux_lm":
