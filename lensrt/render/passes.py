@@ -103,8 +103,8 @@ def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
     from ..trace.pack import pack_lens
     from ..trace.reverse import reversed_lens
     from .integrator_kernels import get_render_kernels
-    from .scene_pack import pack_scene
     from ..colour import cie_xyz_cmfs
+    from .scene.pack import pack_scene
     wp = warp()
     cam = setup.camera
     rev = reversed_lens(cam.lens, 0.0)
