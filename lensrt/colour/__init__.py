@@ -23,13 +23,15 @@ from .photometry import (illuminance_lux, integrate, luminous_value, reflectance
 from .reflectance import linear_rgb_to_reflectance, mallett2019_basis
 from .rgb import (linear_srgb_to_lab, linear_srgb_to_xyz, srgb_decode, srgb_encode, srgb_matrices,
                   srgb_matrix_for_white, srgb_white_xy, xyz_to_linear_srgb)
-from .wavelengths import DEFAULT_GRID, STANDARD_WAVELENGTHS_NM, WavelengthGrid, as_wavelengths_nm, sd_at, tabulated_at
+from .wavelengths import (DEFAULT_GRID, STANDARD_WAVELENGTHS_NM, WavelengthGrid, as_wavelengths_nm, sd_at,
+                          tabulated_at)
 
 __all__ = ["CHART", "chart_names", "colorchecker_names", "colorchecker_reflectances", "CIE_1931_2DEG",
            "cie_xyz_cmfs", "photopic_v", "ILLUMINANT_SYNTAX", "Illuminant", "cie_illuminant", "daylight",
            "illuminant_names", "lines", "parse_illuminant", "planck", "planck_radiance", "spectrum", "tabulated",
            "illuminance_lux", "integrate", "luminous_value", "reflectance_to_xyz", "scale_to_luminous",
            "spectral_to_xyz", "linear_rgb_to_reflectance", "mallett2019_basis", "linear_srgb_to_lab",
-           "linear_srgb_to_xyz", "srgb_decode", "srgb_encode", "srgb_matrices", "srgb_matrix_for_white", "srgb_white_xy",
+           "linear_srgb_to_xyz", "srgb_decode", "srgb_encode", "srgb_matrices", "srgb_matrix_for_white",
+           "srgb_white_xy",
            "xyz_to_linear_srgb", "DEFAULT_GRID", "STANDARD_WAVELENGTHS_NM", "WavelengthGrid", "as_wavelengths_nm",
            "sd_at", "tabulated_at"]

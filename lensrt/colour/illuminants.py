@@ -154,7 +154,8 @@ def cie_illuminant(name: str) -> Illuminant:
     if not match:
         close = difflib.get_close_matches(key, illuminant_names(), n=3)
         raise LensrtError(f"unknown illuminant {name!r}",
-                          hint=("did you mean " + ", ".join(close) + "? " if close else "") + "use " + ILLUMINANT_SYNTAX)
+                          hint=("did you mean " + ", ".join(close) + "? " if close else "")
+                          + "use " + ILLUMINANT_SYNTAX)
     sd = colour.SDS_ILLUMINANTS[match[0]]
     return Illuminant(match[0], "cie", table_nm=np.asarray(sd.wavelengths, dtype=np.float64),
                       table_values=np.asarray(sd.values, dtype=np.float64))
@@ -163,7 +164,7 @@ def cie_illuminant(name: str) -> Illuminant:
 def planck(kelvin: float) -> Illuminant:
     """A Planck radiator at ``kelvin`` (spectral radiance in W / (m^2 sr nm))."""
     t = _kelvin_in(kelvin, PLANCK_RANGE_K, "Planck radiator")
-    return Illuminant(f"planck:{t:g}K", "planck", kelvin=t)
+    return Illuminant(f"planck:{t:.12g}K", "planck", kelvin=t)
 
 
 def daylight(kelvin: float) -> Illuminant:
@@ -172,7 +173,8 @@ def daylight(kelvin: float) -> Illuminant:
     t = _kelvin_in(kelvin, DAYLIGHT_RANGE_K, "CIE daylight")
     xy = colour.temperature.CCT_to_xy_CIE_D(t * _C2_RATIO)
     sd = colour.sd_CIE_illuminant_D_series(xy)
-    return Illuminant(f"daylight:{t:g}K", "daylight", kelvin=t, table_nm=np.asarray(sd.wavelengths, dtype=np.float64),
+    return Illuminant(f"daylight:{t:.12g}K", "daylight", kelvin=t,
+                      table_nm=np.asarray(sd.wavelengths, dtype=np.float64),
                       table_values=np.asarray(sd.values, dtype=np.float64))
 
 
@@ -185,7 +187,7 @@ def lines(wavelengths_nm, weights=None) -> Illuminant:
                           hint="e.g. lines:486.1,587.6,656.3")
     if any(v < 0 for v in w) or not sum(w) > 0:
         raise LensrtError("line powers must be non-negative with a positive sum")
-    return Illuminant("lines:" + ",".join(f"{v:g}" for v in nm), "lines", lines_nm=nm, line_weights=w)
+    return Illuminant("lines:" + ",".join(f"{v:.12g}" for v in nm), "lines", lines_nm=nm, line_weights=w)
 
 
 def tabulated(wavelength_nm: np.ndarray, values: np.ndarray, label: str = "tabulated") -> Illuminant:

@@ -27,7 +27,8 @@ TABLES = {
     "SDS_COLOURCHECKERS": "charts.py", "MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019": "reflectance.py",
 }
 #: function names that would be a second copy of a colour concept
-COPY_NAMES = re.compile(r"(?i)(srgb_(en|de)code|eotf|cctf|^_?xyz_to_(linear_)?srgb$|srgb_to_xyz|srgb_matri|cmfs|photopic|"
+COPY_NAMES = re.compile(r"(?i)(srgb_(en|de)code|eotf|cctf|^_?xyz_to_(linear_)?srgb$|srgb_to_xyz|srgb_matri|cmfs|"
+                        r"photopic|"
                         r"planck|blackbody|illuminant_spd|spd_values|parse_illuminant|^_?illuminant$|"
                         r"colorchecker_(reflectances|names)|mallett|as_cct)")
 #: numbers of the sRGB standard (IEC 61966-2-1 matrix entries and transfer-curve constants)
