@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .colour import Illuminant, cie_illuminant
+from .colour import Illuminant, cie_illuminant, srgb_encode, xyz_to_linear_srgb
 from .errors import LensrtError
 
 __all__ = ["write_outputs", "preview_rgb", "sensor_stage", "isp_illuminant"]
@@ -29,7 +29,6 @@ __all__ = ["write_outputs", "preview_rgb", "sensor_stage", "isp_illuminant"]
 
 def preview_rgb(result) -> np.ndarray:
     """Display-referred sRGB (rows, cols, 3) in [0, 1] of a render's ideal-sensor image."""
-    from .colour import srgb_encode, xyz_to_linear_srgb
     if not result.plan.spectral:
         e = result.irradiance[..., 0].astype(np.float64)
         hi = float(np.percentile(e, 99)) if e.size else 0.0
@@ -82,7 +81,6 @@ def sensor_stage(result, scene, seed: int = 0) -> tuple[Any, Any, Any]:
 
 def write_outputs(result, scene, prefix: str | Path, *, seed: int = 0, sensor: bool = True) -> dict[str, str]:
     """Write the files of the module docstring for ``result``; returns kind -> path."""
-    from .colour import xyz_to_linear_srgb
     from .io.exr import write_spectral_exr
     from .io.png import write_png
     from .io.table import dumps_json
