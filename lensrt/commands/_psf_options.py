@@ -59,8 +59,8 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("spectrum and focus")
     g.add_argument("--wavelength-nm", metavar="LIST", help="wavelength(s) in nm, equal weights (default: the lens file's)")
     g.add_argument("--spectrum", metavar="NAME",
-                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...) or blackbody:<kelvin>, sampled "
-                        "continuously over --band")
+                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...), planck:<K>K or daylight:<K>K, "
+                        "sampled continuously over --band")
     g.add_argument("--band", metavar="MIN:MAX", help="wavelength band of --spectrum in nm (default 400:700)")
     g.add_argument("--lines", type=int, default=7, metavar="N",
                    help="wavelengths a diffraction PSF sums for --spectrum (midpoints of N equal bins; default 7)")

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
+from ..colour import WavelengthGrid, photopic_v
 
 __all__ = ["SensorGrid", "Camera", "setup_camera", "best_focus_z_mm", "sensor_grid_of"]
 
@@ -225,7 +226,6 @@ def _focus_weights(scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
     lam = line if line is not None else mono
     if lam is not None:
         return (float(lam),), (1.0,)
-    from .spectra import WavelengthGrid, photopic_v
     g = WavelengthGrid(380.0, 780.0, 5.0)
     v = np.interp(_FOCUS_WAVELENGTHS_NM, g.nm, photopic_v(g))
     return _FOCUS_WAVELENGTHS_NM, tuple(float(x) for x in v)

@@ -153,7 +153,7 @@ def test_converge_prints_slopes(capsys, tmp_path):
 
 @pytest.mark.parametrize("args,message", [
     (["--focus", "sideways"], "bad focus"),
-    (["--spectrum", "D66"], "unknown spectrum"),
+    (["--spectrum", "D66"], "unknown illuminant"),
     (["--grid", "3x3", "--field", "0"], "give one way"),
     (["--grid", "3x3", "--sensor", "36x24", "--focus", "paraxial", "--field-deg", "1"], "give one way"),
     (["--image-height-mm", "500"], "beyond the lens's coverage"),
