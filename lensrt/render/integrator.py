@@ -40,7 +40,7 @@ from .camera import Camera, setup_camera
 from .passes import REGIONS, PassSum, RenderSetup, device_pass, prepare_setup
 from .plan import Plan, plan_render
 
-__all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_pixels",
+__all__ = ["RenderOptions", "RenderResult", "render", "prepare_render", "scale_pixels", "output_bands",
            "ProgressFn"]
 
 #: progress callback: (passes done, passes planned, seconds so far, estimated seconds left or None)
@@ -176,7 +176,7 @@ def scale_pixels(scene, width: int):
     return replace(scene, sensor=replace(s, pixels_x=int(width), pixels_y=int(rows)))
 
 
-def _bands(plan: Plan, band_width_nm: float) -> tuple[float, float, int]:
+def output_bands(plan: Plan, band_width_nm: float) -> tuple[float, float, int]:
     """(first band edge, width, count) of the output bands: the asked width rounded to a whole number
     of the scene's wavelength steps; the step itself when that does not split the spectrum evenly
     (:func:`band_note` says so)."""
@@ -190,6 +190,9 @@ def _bands(plan: Plan, band_width_nm: float) -> tuple[float, float, int]:
     if abs(n * bw - span) > 1e-6 * span or n < 1:
         bw, n = g.step_nm, int(round(span / g.step_nm))
     return float(g.min_nm), float(bw), n
+
+
+_bands = output_bands  # the old private name (lensrt.render.splat)
 
 
 def band_note(plan: Plan, band_width_nm: float, used_nm: float) -> str | None:
@@ -243,7 +246,7 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
     t["exit_pupil_table"] = time.perf_counter() - t0
     spp = options.samples_per_pixel or scene.render.samples_per_pixel
     spp_pass = options.spp_per_pass or max(1, spp // 8)
-    band0, bw, nb = _bands(plan, options.band_width_nm)
+    band0, bw, nb = output_bands(plan, options.band_width_nm)
     seed = scene.render.seed if options.seed is None else int(options.seed)
     window = _check_window(options.window, cam.sensor.shape)
     setup = RenderSetup(scene, cam, plan, table.boxes, table.inv_dr, _wavelength_cdf(scene, plan), band0, bw, nb,
