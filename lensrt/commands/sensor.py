@@ -261,8 +261,9 @@ def cmd_expose(args: argparse.Namespace) -> int:
     from ..sensor import average_frames, dark_frame, electrons_to_raw, mean_photoelectrons
     from ..sensor.exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
     t_start = time.perf_counter()
-    sensor, iso = _sensor(args)
     _check_exposure(args.exposure_s)
+    size = _size(args.size, args) if args.flat is not None else None  # before any work
+    sensor, iso = _sensor(args)
     rng = np.random.default_rng(args.seed)
     chart = None
     bin_width = None
@@ -280,7 +281,7 @@ def cmd_expose(args: argparse.Namespace) -> int:
         E, wl, labels, shape = chart.spectra, chart.wavelength_nm, chart.labels, None
     elif args.flat is not None:
         wl = STANDARD_WAVELENGTHS_NM
-        E, labels, shape = spectral_irradiance_from_illuminance(args.flat, illuminant, wl), None, _size(args.size, args)
+        E, labels, shape = spectral_irradiance_from_illuminance(args.flat, illuminant, wl), None, size
     else:
         E, wl, bin_width = _read_irradiance(args.irradiance)
         labels, shape = None, None

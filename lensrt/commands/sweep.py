@@ -72,6 +72,8 @@ def parse_values(text: str, what: str, max_count: int | None = None) -> list[flo
                           hint="e.g. 1000,2000,inf or 500:20000:8") from None
     if not values:
         raise LensrtError(f"{what} is empty")
+    if not all(v > 0 for v in values):  # nan, 0 and negative distances or f-numbers
+        raise LensrtError(f"{what} {text!r}: every value must be positive", hint="e.g. 1000,2000,inf or 500:20000:8")
     return values
 
 
