@@ -135,24 +135,25 @@ def _side_check(rows: int, cols: int, what: str) -> None:
         raise LensrtError(f"{what} of {cols} x {rows} px is outside 1..{MAX_SIDE_PX} px a side")
 
 
-def estimate_render_bytes(rows: int, cols: int, n_bands: int) -> MemoryEstimate:
+def estimate_render_bytes(rows: int, cols: int, n_bands: int, what: str = "a render") -> MemoryEstimate:
     """A camera-path render: per pixel the device pass (float32 bands, XYZ, hits), the host float64 spectral
     sum with a pass's float32 copy and its float64 conversion, XYZ sums and squares, and the output image
     (float32 bands and standard errors)."""
-    _side_check(rows, cols, "a render")
+    _side_check(rows, cols, what)
     n = int(rows) * int(cols)
     # measured on a CPU render of the default scene (40 bands): 730 B per pixel of peak RSS growth
     per_px = n_bands * (4 + 8 + 4 + 4) + 3 * (4 + 4 + 8 + 8 + 8 + 8) + 4 + 64
-    return MemoryEstimate("the render", n * per_px, f"{cols} x {rows} px, {n_bands} spectral bands")
+    return MemoryEstimate(what, n * per_px, f"{cols} x {rows} px, {n_bands} spectral bands")
 
 
-def estimate_bokeh_map_bytes(rows: int, cols: int, n_sources: int, batches: int) -> MemoryEstimate:
+def estimate_bokeh_map_bytes(rows: int, cols: int, n_sources: int, batches: int, what: str = "a bokeh image"
+                             ) -> MemoryEstimate:
     """A bokeh map/spot image: per pixel XYZ sums and squares (float64) per batch group, the sRGB and EXR
     outputs; per source its chief-ray set-up (a few kB)."""
-    _side_check(rows, cols, "a bokeh image")
+    _side_check(rows, cols, what)
     n = int(rows) * int(cols)
     per_px = 3 * 8 * 4 + 3 * 4 * 2 + 3
-    return MemoryEstimate("the bokeh image", n * per_px + int(n_sources) * 4096,
+    return MemoryEstimate(what, n * per_px + int(n_sources) * 4096,
                           f"{cols} x {rows} px, {n_sources} sources, {batches} batches")
 
 
@@ -172,11 +173,11 @@ def estimate_psf_bytes(n_fields: int, pixels: int, batches: int, pupil_samples: 
     return MemoryEstimate("the PSF job", grid + pupil, detail)
 
 
-def estimate_sensor_bytes(rows: int, cols: int, frames: int = 1) -> MemoryEstimate:
+def estimate_sensor_bytes(rows: int, cols: int, frames: int = 1, what: str = "a sensor frame") -> MemoryEstimate:
     """Sensor frames: a dozen float64 frames (electrons, noise draws, raw DN, averages) plus ``frames``."""
-    _side_check(rows, cols, "a sensor frame")
+    _side_check(rows, cols, what)
     n = int(rows) * int(cols)
-    return MemoryEstimate("the sensor frames", n * 8 * (12 + min(int(frames), 1)), f"{rows} x {cols} photosites")
+    return MemoryEstimate(what, n * 8 * (12 + min(int(frames), 1)), f"{rows} x {cols} photosites")
 
 
 def estimate_sweep_bytes(rows: int, columns: int) -> MemoryEstimate:

@@ -136,7 +136,8 @@ def _check_map_budget(args: argparse.Namespace, pixels: tuple[int, int], grid: t
     from ..budget import check_memory, estimate_bokeh_map_bytes
     from ._limits import check_rays, memory_limit
     n_sources = grid[0] * grid[1] * n_depths
-    check_memory(estimate_bokeh_map_bytes(pixels[1], pixels[0], n_sources, args.batches), memory_limit(args))
+    check_memory(estimate_bokeh_map_bytes(pixels[1], pixels[0], n_sources, args.batches, "--pixels: a map"),
+                 memory_limit(args))
     check_rays(args, float(args.rays) * n_sources, f"--map {grid[0]}x{grid[1]} x {n_depths} depth(s) x --rays")
 
 
@@ -148,7 +149,8 @@ def _check_spot_budget(args: argparse.Namespace) -> None:
     if args.window_px is not None:
         if not 1 <= args.window_px <= MAX_SIDE_PX:
             raise LensrtError(f"--window-px {args.window_px} must be 1..{MAX_SIDE_PX} pixels")
-        check_memory(estimate_bokeh_map_bytes(args.window_px, args.window_px, 1, args.batches), memory_limit(args))
+        check_memory(estimate_bokeh_map_bytes(args.window_px, args.window_px, 1, args.batches, "--window-px: a spot"),
+                     memory_limit(args))
     if args.pixel_um is not None and not (math.isfinite(args.pixel_um) and args.pixel_um > 0):
         raise LensrtError(f"--pixel-um {args.pixel_um:g} must be a positive pitch in um")
 

@@ -121,7 +121,7 @@ def _size(text: str, args: argparse.Namespace | None = None) -> tuple[int, int]:
         raise LensrtError(f"--size {text!r} must be ROWSxCOLS, e.g. 256x256") from None
     if r < 4 or c < 4:
         raise LensrtError(f"--size {text}: frames need at least 4x4 photosites")
-    check_memory(estimate_sensor_bytes(r, c), None if args is None else memory_limit(args))
+    check_memory(estimate_sensor_bytes(r, c, what=f"--size {text}: a frame"), None if args is None else memory_limit(args))
     return r, c
 
 
@@ -276,7 +276,8 @@ def cmd_expose(args: argparse.Namespace) -> int:
         from ._limits import memory_limit
         if args.patch_px > 4096:
             raise LensrtError(f"--patch-px {args.patch_px} is more than 4096 photosites a patch")
-        check_memory(estimate_sensor_bytes(5 * args.patch_px, 7 * args.patch_px), memory_limit(args))
+        check_memory(estimate_sensor_bytes(5 * args.patch_px, 7 * args.patch_px, what="--patch-px: a chart"),
+                     memory_limit(args))
         chart = colorchecker_scene(args.patch_px, illuminant)
         E, wl, labels, shape = chart.spectra, chart.wavelength_nm, chart.labels, None
     elif args.flat is not None:

@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..budget import MemoryEstimate, check_memory, estimate_render_bytes
+from ..budget import MAX_SIDE_PX, MemoryEstimate, check_memory, estimate_render_bytes
+from ..errors import LensrtError
 
 __all__ = ["RenderCheck", "check_render"]
 
@@ -53,11 +54,13 @@ def check_render(scene, lens, *, width: int | None = None, band_width_nm: float 
     from .integrator import output_bands, scale_pixels
     from .plan import plan_render
     if width is not None:
+        if not 1 <= width <= MAX_SIDE_PX:
+            raise LensrtError(f"--width {width} must be 1..{MAX_SIDE_PX} pixels")
         scene = scale_pixels(scene, width)
     rows, cols = int(scene.sensor.pixels_y), int(scene.sensor.pixels_x)
     plan = plan_render(scene, lens)
     n_bands = output_bands(plan, band_width_nm)[2]
-    memory = estimate_render_bytes(rows, cols, n_bands)
+    memory = estimate_render_bytes(rows, cols, n_bands, f"a render of {scene.name!r}")
     check_memory(memory, limit_bytes)
     _check_preset(scene)
     camera = setup_camera(scene, lens, focus)
