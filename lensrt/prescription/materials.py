@@ -149,7 +149,7 @@ class ConstantIndex(Material):
         if not (math.isfinite(self.n) and low <= self.n <= 5.0):
             raise PrescriptionError(f"refractive index {self.n!r} is not physical",
                                     hint="give an index between 1 and 5" + (
-                                        "; an index below 1 needs 'exotic = true' in the material table"
+                                        "; an index below 1 needs 'exotic = true' in a TOML material table"
                                         if math.isfinite(self.n) and 0.5 <= self.n < 1.0 else ""))
         if not self.name:
             object.__setattr__(self, "name", f"n={self.n:g}")
