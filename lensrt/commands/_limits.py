@@ -1,7 +1,7 @@
 """Argument ranges checked where they are parsed, and the budget options (``--max-memory``, ``--max-rays``).
 
 Shared by the subcommands: seeds, counts, file stems and the flags that raise the limits of
-:mod:`lensrt.budget`. Each check ends in one :class:`~lensrt.errors.LensrtError` line (or argparse's
+:mod:`lensrt.core.budget`. Each check ends in one :class:`~lensrt.errors.LensrtError` line (or argparse's
 own one-line error for ``type=`` converters) naming the argument.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ import argparse
 import math
 import re
 
-from ..budget import MAX_RAYS_PER_POINT, check_count, parse_memory
+from ..core.budget import MAX_RAYS_PER_POINT, check_count, parse_memory
 from ..errors import LensrtError
 
 __all__ = ["MAX_COUNT", "parse_count", "MAX_SEED", "parse_seed", "add_max_memory_argument", "memory_limit", "add_max_rays_argument",
@@ -60,7 +60,7 @@ def positive_int(text: str) -> int:
 
 
 def add_max_memory_argument(p: argparse.ArgumentParser) -> None:
-    """``--max-memory SIZE``: the memory limit of :func:`lensrt.budget.check_memory`."""
+    """``--max-memory SIZE``: the memory limit of :func:`lensrt.core.budget.check_memory`."""
     p.add_argument("--max-memory", metavar="SIZE", default=None,
                    help="refuse jobs estimated to need more memory than this (e.g. 16G; default: 80%% of the "
                         "memory available)")
@@ -79,7 +79,7 @@ def add_max_rays_argument(p: argparse.ArgumentParser) -> None:
 
 
 def check_rays(args: argparse.Namespace, rays: float, what: str = "--rays") -> None:
-    """Refuse a ray count above ``--max-rays`` (default :data:`lensrt.budget.MAX_RAYS_PER_POINT`)."""
+    """Refuse a ray count above ``--max-rays`` (default :data:`lensrt.core.budget.MAX_RAYS_PER_POINT`)."""
     cap = getattr(args, "max_rays", None) or MAX_RAYS_PER_POINT
     check_count(float(rays), float(cap), f"{what} {rays:.3g} per point", "--max-rays")
 
@@ -102,7 +102,7 @@ def finite_positive(value: float | None, what: str, upper: float = math.inf) -> 
 
 def check_psf_budget(args: argparse.Namespace, n_fields: int = 1) -> None:
     """``psf``/``mtf``: the ray cap per field point and the memory of ``n_fields`` PSF grids (and pupils)."""
-    from ..budget import check_memory, estimate_psf_bytes
+    from ..core.budget import check_memory, estimate_psf_bytes
     check_rays(args, float(args.rays))
     diffraction = getattr(args, "method", "geometric") != "geometric"
     lines = getattr(args, "lines", 1) if getattr(args, "spectrum", None) else 7

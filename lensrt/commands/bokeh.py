@@ -14,7 +14,7 @@ __all__ = ["register", "parse_pair", "parse_list"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ..analysis.bokeh_spectrum import SPECTRUM_HELP
+    from ..analysis.bokeh.light import SPECTRUM_HELP
     p = sub.add_parser("bokeh", help="bokeh of point sources out of focus: one spot, or a map across the frame",
                        description="Traces Monte Carlo rays from point sources over the real (vignetted) entrance "
                                    "pupil and a spectrum onto the sensor of a lens focused by unit focusing, and "
@@ -133,7 +133,7 @@ def _checked_name(args: argparse.Namespace) -> str | None:
 
 def _check_map_budget(args: argparse.Namespace, pixels: tuple[int, int], grid: tuple[int, int], n_depths: int) -> None:
     """Memory of the map image and the total ray count, before anything is traced."""
-    from ..budget import check_memory, estimate_bokeh_map_bytes
+    from ..core.budget import check_memory, estimate_bokeh_map_bytes
     from ._limits import check_rays, memory_limit
     n_sources = grid[0] * grid[1] * n_depths
     check_memory(estimate_bokeh_map_bytes(pixels[1], pixels[0], n_sources, args.batches, "--pixels: a map"),
@@ -142,7 +142,7 @@ def _check_map_budget(args: argparse.Namespace, pixels: tuple[int, int], grid: t
 
 
 def _check_spot_budget(args: argparse.Namespace) -> None:
-    from ..budget import MAX_SIDE_PX, check_memory, estimate_bokeh_map_bytes
+    from ..core.budget import MAX_SIDE_PX, check_memory, estimate_bokeh_map_bytes
     from ..errors import LensrtError
     from ._limits import check_rays, memory_limit
     check_rays(args, float(args.rays))
@@ -156,7 +156,7 @@ def _check_spot_budget(args: argparse.Namespace) -> None:
 
 
 def _focus(args: argparse.Namespace, lens: Any):
-    from ..analysis.bokeh import focus_lens
+    from ..analysis.bokeh.entry import focus_lens
     from ..errors import LensrtError
     from ..units import MM_PER_M
     given = [k for k in ("focus_m", "focus_mm", "extension_mm", "sensor_z_mm") if getattr(args, k) is not None]
@@ -187,7 +187,7 @@ def _iris(args: argparse.Namespace, lens: Any):
 
 
 def cmd_bokeh(args: argparse.Namespace) -> int:
-    from ..analysis.bokeh import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
+    from ..analysis.bokeh.entry import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
     from ..errors import LensrtError
     from ..loading import load_lens
     from ..paraxial.photographic import sensor_format
@@ -251,7 +251,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     summary = img.to_dict()
     summary.update(extra)
     if not args.no_files:
-        from ..io.bokeh_files import write_bokeh_files
+        from ..views.bokeh_files import write_bokeh_files
         try:
             paths = write_bokeh_files(img, args.out, name, args.exposure)
         except OSError as err:

@@ -57,7 +57,7 @@ def _load_lens_or_note(scene, override: str | None):
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from ..render.scene import builtin_scenes, load_scene
+    from ..render.scene.load import builtin_scenes, load_scene
     if args.list:
         rows = []
         for path in builtin_scenes():
@@ -89,7 +89,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def _plan(args: argparse.Namespace, checked, lens) -> int:
     """``--plan``: the plan of the checked scene, the camera and the memory estimate; renders nothing."""
-    from ..budget import format_bytes
+    from ..core.budget import format_bytes
     from ..render.plan import plan_render
     scene, cam = checked.scene, checked.camera
     plan = plan_render(scene, lens)

@@ -112,7 +112,7 @@ def _sensor(args: argparse.Namespace):
 
 def _size(text: str, args: argparse.Namespace | None = None) -> tuple[int, int]:
     """``--size ROWSxCOLS``, checked against the memory budget (``--max-memory``)."""
-    from ..budget import check_memory, estimate_sensor_bytes
+    from ..core.budget import check_memory, estimate_sensor_bytes
     from ..errors import LensrtError
     from ._limits import memory_limit
     try:
@@ -133,6 +133,17 @@ def _check_exposure(value: float | None) -> None:
     from ..errors import LensrtError
     if value is not None and not (math.isfinite(value) and 0 < value <= MAX_EXPOSURE_S):
         raise LensrtError(f"--exposure-s: exposure time {value:g} s is outside (0, {MAX_EXPOSURE_S:g}] s")
+
+
+def _check_chart(args: argparse.Namespace) -> None:
+    """``--colorchecker --patch-px``: a patch size the memory budget allows."""
+    from ..core.budget import check_memory, estimate_sensor_bytes
+    from ..errors import LensrtError
+    from ._limits import memory_limit
+    if args.patch_px > 4096:
+        raise LensrtError(f"--patch-px {args.patch_px} is more than 4096 photosites a patch")
+    check_memory(estimate_sensor_bytes(5 * args.patch_px, 7 * args.patch_px, what="--patch-px: a chart"),
+                 memory_limit(args))
 
 
 def _check_characterize(args: argparse.Namespace) -> None:
@@ -205,7 +216,7 @@ def cmd_characterize(args: argparse.Namespace) -> int:
                                     shape=shape, channel="RGB".index(args.channel), n_stack=args.stack)
     files = []
     if args.plot:
-        from ..io.sensor_plots import plot_emva
+        from ..views.plots.sensor import plot_emva
         files = [str(f) for f in plot_emva(result, args.plot)]
     if args.json:
         out = result.to_dict()
@@ -272,12 +283,7 @@ def cmd_expose(args: argparse.Namespace) -> int:
         illuminant = float(illuminant)
     if args.colorchecker:
         from ..sensor.targets import colorchecker_scene
-        from ..budget import check_memory, estimate_sensor_bytes
-        from ._limits import memory_limit
-        if args.patch_px > 4096:
-            raise LensrtError(f"--patch-px {args.patch_px} is more than 4096 photosites a patch")
-        check_memory(estimate_sensor_bytes(5 * args.patch_px, 7 * args.patch_px, what="--patch-px: a chart"),
-                     memory_limit(args))
+        _check_chart(args)
         chart = colorchecker_scene(args.patch_px, illuminant)
         E, wl, labels, shape = chart.spectra, chart.wavelength_nm, chart.labels, None
     elif args.flat is not None:
@@ -446,7 +452,7 @@ def _write_outputs(args, sensor, raw, result) -> list[str]:
         from ..io.exr import write_image_exr
         files.append(str(write_image_exr(args.linear, result.linear, metadata={**meta, "lensrt:colourspace": "linear sRGB (D65)"})))
     if args.hist:
-        from ..io.sensor_plots import plot_histograms
+        from ..views.plots.sensor import plot_histograms
         from ..isp import output_histograms, raw_histograms
         files.append(str(plot_histograms(raw_histograms(raw), output_histograms(result.to_uint8()), args.hist)))
     return files

@@ -8,7 +8,7 @@ import io
 import math
 from typing import Any
 
-from ..budget import MAX_SWEEP_ROWS
+from ..core.budget import MAX_SWEEP_ROWS
 from ._limits import parse_seed, positive_int
 from ._common import add_lens_argument, emit
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer, run_summary_line
@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def parse_values(text: str, what: str, max_count: int | None = None) -> list[float]:
     """A comma list of numbers ('inf' allowed) or ``A:B:N`` (N values from A to B in equal ratios);
-    N at most ``max_count`` (default :data:`lensrt.budget.MAX_SWEEP_ROWS`, ``--max-rows``)."""
+    N at most ``max_count`` (default :data:`lensrt.core.budget.MAX_SWEEP_ROWS`, ``--max-rows``)."""
     import numpy as np
 
     from ..errors import LensrtError
@@ -78,7 +78,7 @@ def parse_values(text: str, what: str, max_count: int | None = None) -> list[flo
 
 
 def _check_rows(count: int, what: str, max_count: int | None) -> None:
-    from ..budget import check_count
+    from ..core.budget import check_count
     check_count(count, max_count or MAX_SWEEP_ROWS, f"{what}: {count} variants", "--max-rows")
 
 
@@ -91,7 +91,7 @@ def _default_f_numbers(lens: Any, wavelength_nm: float | None) -> list[float]:
 
 def _columns(spec: str | None) -> list[str]:
     from ..errors import LensrtError
-    from ..sweep import DEFAULT_QUANTITIES, QUANTITIES
+    from ..studies.sweep import DEFAULT_QUANTITIES, QUANTITIES
     if spec is None:
         names = list(DEFAULT_QUANTITIES)
     elif spec.strip() == "all":
@@ -127,7 +127,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from ..io.table import dumps_json, format_table
     from ..loading import load_lens
     from ..paraxial import photographic as ph
-    from ..sweep import QUANTITIES, SweepSetup, sweep_job
+    from ..studies.sweep import QUANTITIES, SweepSetup, sweep_job
 
     if args.list_quantities:
         emit(format_table([(k, u or "-", d) for k, (u, d) in QUANTITIES.items()], ["quantity", "unit", "meaning"]))

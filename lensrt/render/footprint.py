@@ -2,7 +2,7 @@
 
 :func:`check_render` loads nothing itself: it takes the loaded scene and lens, applies ``--width``,
 sets the camera up as the render would (f-number, focus distance, sensor preset) and estimates the
-memory (:func:`lensrt.budget.estimate_render_bytes`), refusing above the limit. ``render --plan``
+memory (:func:`lensrt.core.budget.estimate_render_bytes`), refusing above the limit. ``render --plan``
 calls it too, so the plan says no to exactly what the render refuses.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..budget import MAX_SIDE_PX, MemoryEstimate, check_memory, estimate_render_bytes
+from ..core.budget import MAX_SIDE_PX, MemoryEstimate, check_memory, estimate_render_bytes
 from ..errors import LensrtError
 
 __all__ = ["RenderCheck", "check_render"]
@@ -48,10 +48,10 @@ def check_render(scene, lens, *, width: int | None = None, band_width_nm: float 
     focus : str
         ``best`` or ``paraxial``.
     limit_bytes : int, optional
-        ``--max-memory`` in bytes (default: :func:`lensrt.budget.default_limit_bytes`).
+        ``--max-memory`` in bytes (default: :func:`lensrt.core.budget.default_limit_bytes`).
     """
     from .camera import setup_camera
-    from .integrator import output_bands, scale_pixels
+    from .setup import bands as output_bands, scale_pixels
     from .plan import plan_render
     if width is not None:
         if not 1 <= width <= MAX_SIDE_PX:
