@@ -13,8 +13,8 @@ import re
 from ..core.budget import MAX_RAYS_PER_POINT, check_count, parse_memory
 from ..errors import LensrtError
 
-__all__ = ["MAX_COUNT", "parse_count", "MAX_SEED", "parse_seed", "add_max_memory_argument", "memory_limit", "add_max_rays_argument",
-           "check_rays", "safe_stem", "positive_int", "finite_positive", "check_psf_budget"]
+__all__ = ["MAX_COUNT", "parse_count", "MAX_SEED", "parse_seed", "add_max_memory_argument", "memory_limit",
+           "add_max_rays_argument", "check_rays", "safe_stem", "positive_int", "check_psf_budget"]
 
 #: seeds are unsigned 63-bit integers (Warp's rand_init and numpy's SeedSequence both take them)
 MAX_SEED = (1 << 63) - 1
@@ -92,12 +92,6 @@ def safe_stem(name: str, what: str = "--name") -> str:
         raise LensrtError(f"{what} {name!r} is not a plain file name",
                           hint="use letters, digits and . _ - + without folders (the folder is --out)")
     return text
-
-
-def finite_positive(value: float | None, what: str, upper: float = math.inf) -> None:
-    """Refuse ``value`` unless it is finite, positive and at most ``upper``."""
-    if value is not None and not (math.isfinite(value) and 0 < value <= upper):
-        raise LensrtError(f"{what} {value:g} must be positive" + (f" and at most {upper:g}" if upper < math.inf else ""))
 
 
 def check_psf_budget(args: argparse.Namespace, n_fields: int = 1) -> None:

@@ -6,9 +6,9 @@ import math
 from typing import Any
 
 from ..errors import LensrtError
-from ._limits import MAX_COUNT, parse_count, parse_seed
+from ._limits import MAX_COUNT, parse_count, parse_seed  # MAX_COUNT, parse_count: re-exported
 
-__all__ = ["add_psf_options", "parse_list", "parse_count", "setup_from_args", "fields_from_args", "host_device",
+__all__ = ["MAX_COUNT", "add_psf_options", "parse_list", "parse_count", "setup_from_args", "fields_from_args", "host_device",
            "print_psf_table"]
 
 

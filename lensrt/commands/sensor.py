@@ -385,7 +385,6 @@ def cmd_expose(args: argparse.Namespace) -> int:
 
 
 def _read_irradiance(path_text: str):
-    import numpy as np
     from ..errors import LensrtError
     path = Path(path_text)
     if path.suffix.lower() == ".exr":

@@ -159,7 +159,6 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
     (Field Guide p. 12), the extension e(D) - e(file) from first-order data at the primary
     wavelength -- the whole lens moved out, in the lens frame of the first vertex.
     """
-    from ..paraxial import first_order
     from ..prescription.model import Aperture
     notes = []
     if options.f_number is not None:

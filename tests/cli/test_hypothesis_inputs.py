@@ -128,7 +128,7 @@ def native_lenses(draw) -> str:
     epd = draw(st.one_of(st.just(10.0), POSITIVE))
     weights = draw(st.one_of(st.just([1.0]), st.lists(st.sampled_from([0.0, -1.0, 1.0, 2.0, math.nan]),
                                                        min_size=1, max_size=3)))
-    text = [f'format = "lensrt-lens"\nversion = 1\n[lens]\nname = "generated"\n[system]\nobject_distance_mm = inf']
+    text = ['format = "lensrt-lens"\nversion = 1\n[lens]\nname = "generated"\n[system]\nobject_distance_mm = inf']
     cats = draw(st.none() | CATALOG_NAMES)
     if cats is not None:
         text.append("catalogs = [" + ", ".join('"' + c.replace('"', "") + '"' for c in cats) + "]")
