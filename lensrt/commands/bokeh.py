@@ -200,7 +200,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         check_f_number(lens, args.f_number)  # as render and sweep refuse it: never wider than the lens opens
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
     rays = args.rays
-    name = _checked_name(args)
+    stem = _checked_name(args)
     if not rays >= args.batches >= 2:
         raise LensrtError(f"--rays {rays:g} must be at least --batches ({args.batches}) and --batches >= 2")
     if not (math.isfinite(args.source_m) and args.source_m > 0):
@@ -229,7 +229,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
                             sensor_mm=(fmt.width_mm, fmt.height_mm), pixels=pixels,
                             intensity_scaling=args.intensity_scaling, executor=ex,
                             progress=progress_printer(args, "source batches"), **common)
-        name = name or "bokeh_map"
+        name = stem or "bokeh_map"
         extra = {"sensor": fmt.name, "depths_m": depths}
     else:
         from ..parallel.local import resolve_devices
@@ -242,7 +242,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
                           device=device)
         img = bokeh_spot(lens, focus, src, pixel_um=args.pixel_um, window_px=args.window_px, device=device,
                          time_budget_s=args.time_budget, **common)
-        name = name or "bokeh"
+        name = stem or "bokeh"
         extra = {}
         if field is None and obj is None and im is None:
             g = gaussian_blur(lens, focus, args.source_m * MM_PER_M, stop_radius_mm=stop_r)

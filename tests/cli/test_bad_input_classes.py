@@ -258,6 +258,10 @@ def test_output_name_cannot_escape_out(tmp_path: Path, capsys) -> None:
     for name in ("../../x", "/etc/x", "..", "a/b"):
         one_line(["bokeh", "--rays", "1e4", "--batches", "8", "--out", out, "--name", name], capsys, "--name")
     assert not any(tmp_path.rglob("x.*"))
+    # a plain stem is written inside --out
+    assert main(["bokeh", "--rays", "1e4", "--batches", "8", "--out", str(out), "--name", "ok", "--device", "cpu"]) == 0
+    capsys.readouterr()
+    assert (out / "ok.png").is_file() and not any(p.parent != out for p in tmp_path.rglob("ok.*"))
 
 
 def test_afocal_message_does_not_contradict_itself(tmp_path: Path) -> None:
