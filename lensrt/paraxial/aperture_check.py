@@ -1,4 +1,4 @@
-"""An aperture the lens cannot pass: an image-space f-number below 0.5.
+"""An aperture the lens cannot pass (an image-space f-number below 0.5), or no first-order image at all.
 
 In air the image-space numerical aperture is below 1, so the f-number N = 1/(2 NA') of an aplanatic
 lens is at least 0.5 (Field Guide p. 30). An entrance pupil given as a diameter (``epd = 1e9``) can
@@ -21,11 +21,12 @@ SLACK = 1e-3
 
 
 def check_aperture(lens: Lens) -> None:
-    """Raise :class:`PrescriptionError` when the aperture specification is beyond what the lens passes."""
+    """Raise :class:`PrescriptionError` when the aperture specification is beyond what the lens passes, or the
+    lens has no first-order image (afocal, the object at the front focal point)."""
     try:
         fo = first_order(lens)
-    except LensrtError:
-        return  # afocal or otherwise without first-order data: reported where it is used
+    except LensrtError as err:  # afocal, or an image at infinity: no lens to image with; the loader names the file
+        raise PrescriptionError(err.message, hint=err.hint) from None
     line = getattr(lens, "aperture_line", None)
     n = fo.f_number
     if n == n and 0 < abs(n) < MIN_F_NUMBER * (1.0 - SLACK):
