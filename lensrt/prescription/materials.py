@@ -134,15 +134,23 @@ AIR = Air()
 
 @dataclass(frozen=True)
 class ConstantIndex(Material):
-    """A non-dispersive medium of index ``n`` (pbrt tables, immersion media)."""
+    """A non-dispersive medium of index ``n`` (pbrt tables, immersion media).
+
+    ``n`` is 1..5; an index in 0.5..1 (an exotic medium, relative to air) needs ``exotic=True``
+    (TOML ``material = { index = 0.7, exotic = true }``).
+    """
 
     n: float
     name: str = ""
+    exotic: bool = False
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.n) and 0.5 <= self.n <= 5.0):
+        low = 0.5 if self.exotic else 1.0
+        if not (math.isfinite(self.n) and low <= self.n <= 5.0):
             raise PrescriptionError(f"refractive index {self.n!r} is not physical",
-                                    hint="give an index between 1 and 5")
+                                    hint="give an index between 1 and 5" + (
+                                        "; an index below 1 needs 'exotic = true' in a TOML material table"
+                                        if math.isfinite(self.n) and 0.5 <= self.n < 1.0 else ""))
         if not self.name:
             object.__setattr__(self, "name", f"n={self.n:g}")
 
@@ -369,7 +377,10 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
             return ModelGlass(float(spec["nd"]), float(spec["vd"]), name=str(spec.get("name", "")))
         if "index" in keys:
             n = float(spec["index"])
-            return AIR if n == 1.0 else ConstantIndex(n, name=str(spec.get("name", "")))
+            exotic = spec.get("exotic", False)
+            if not isinstance(exotic, bool):
+                raise PrescriptionError(f"exotic must be true or false, not {exotic!r}")
+            return AIR if n == 1.0 else ConstantIndex(n, name=str(spec.get("name", "")), exotic=exotic)
         raise PrescriptionError(f"material table {spec!r} needs 'glass', 'nd'+'vd' or 'index'")
     raise PrescriptionError(f"material {spec!r} is not a glass name, a number or a table")
 

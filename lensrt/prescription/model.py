@@ -156,6 +156,8 @@ class Wavelengths:
         w = tuple(_finite(v, "wavelength weight") for v in self.weights) if self.weights else (1.0,) * len(nm)
         if len(w) != len(nm) or any(v < 0 for v in w):
             raise PrescriptionError("wavelength weights must be one non-negative number per wavelength")
+        if not any(v > 0 for v in w):
+            raise PrescriptionError("wavelength weights are all zero", hint="give at least one positive weight")
         if not 0 <= int(self.primary) < len(nm):
             raise PrescriptionError(f"primary wavelength index {self.primary} is not one of the {len(nm)} wavelengths")
         object.__setattr__(self, "nm", nm)

@@ -189,14 +189,11 @@ class Camera:
 
 def _stop_radius(lens: Lens, f_number: float | None) -> tuple[float | None, float]:
     """(iris radius override or None, paraxial f-number at infinity) for the asked f-number."""
-    from ..paraxial.first_order import first_order
+    from ..paraxial.fnumber import check_f_number, full_aperture_f_number
     from ..trace.aiming import pupil_geometry
-    n_full = first_order(lens, None, math.inf).f_number
     if f_number is None:
-        return None, n_full
-    if f_number < n_full * (1.0 - 1e-3):
-        raise LensrtError(f"f/{f_number:g} is wider than the lens opens (f/{n_full:.3g})",
-                          hint=f"use f_number >= {n_full:.3g}, or leave it out for full aperture")
+        return None, full_aperture_f_number(lens)
+    n_full = check_f_number(lens, f_number, "[camera] f_number")
     r_full = pupil_geometry(lens).stop_radius_mm
     return r_full * n_full / float(f_number), float(f_number)
 

@@ -47,7 +47,8 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import PrescriptionError, located
-from ..materials import AIR, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
+from ..limits import check_asphere_power, check_catalog_names
+from ..materials import AIR, CATALOGS, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 
 __all__ = ["read_native", "loads_native", "write_native", "dumps_native"]
@@ -126,6 +127,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
         m = _ASPH_KEY.match(key)
         if not m or int(m.group(1)) < 2 or int(m.group(1)) % 2:
             raise PrescriptionError(f"aspheric coefficient key {key!r} is not A2, A4, A6, ...")
+        check_asphere_power(int(m.group(1)), f"asphere key {key}")
         coeffs[int(m.group(1))] = _number(val, key)
     asphere = tuple(coeffs.get(p, 0.0) for p in range(2, 2 + 2 * (max(coeffs) // 2), 2)) if coeffs else ()
     stop = row.get("stop", False)
@@ -185,6 +187,9 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
     catalogs = sys_t.get("catalogs")
     if catalogs is not None and (not isinstance(catalogs, list) or not all(isinstance(c, str) for c in catalogs)):
         raise PrescriptionError("catalogs must be a list of catalog names", path=spath, line=sections.get("system"))
+    if catalogs is not None:
+        with located(spath, sections.get("system")):
+            check_catalog_names(catalogs, CATALOGS)
 
     rows = doc["surface"]
     if not isinstance(rows, list) or not rows:
@@ -290,8 +295,8 @@ def _material(m: Material) -> str:
         name = "" if m.name == ModelGlass(m.nd, m.vd).name else f", name = {_s(m.name)}"
         return f"{{ nd = {_f(m.nd)}, vd = {_f(m.vd)}{name} }}"
     if isinstance(m, ConstantIndex):
-        name = "" if m.name == ConstantIndex(m.n).name else f", name = {_s(m.name)}"
-        return f"{{ index = {_f(m.n)}{name} }}"
+        name = "" if m.name == ConstantIndex(m.n, exotic=m.exotic).name else f", name = {_s(m.name)}"
+        return f"{{ index = {_f(m.n)}{name}{', exotic = true' if m.exotic else ''} }}"
     raise PrescriptionError(f"cannot write material {m!r} in the native format")
 
 

@@ -34,6 +34,7 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, UnknownGlassError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
+from ..limits import MAX_ZEMAX_PARM
 from ..materials import AIR, CATALOGS, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ._common import fmt_list, lookup_glass, make_lens, parse_number, reject_other_format, substitution_note
@@ -167,7 +168,10 @@ class _Reader:
             return
         handler = getattr(self, "kw_" + kw, None)
         if handler is not None:
-            handler(args, no, raw)
+            try:
+                handler(args, no, raw)
+            except IndexError:  # a keyword without its values ("CURV" alone)
+                raise self.err(f"{kw} without a value", no, f"give {kw} its value(s), or delete the line") from None
             return
         if kw in UNSUPPORTED:
             raise self.err(f"{kw}: {UNSUPPORTED[kw]} is not supported", no,
@@ -316,10 +320,17 @@ class _Reader:
         v = self.num(args[1], f"PARM {i}", no) if len(args) > 1 else 0.0
         if i < 1:
             raise self.err(f"PARM {i}: parameter numbers start at 1", no)
+        if i > MAX_ZEMAX_PARM:
+            raise self.err(f"PARM {i}: parameter numbers of an even asphere stop at {MAX_ZEMAX_PARM}", no,
+                           "PARM n is the r^(2n) coefficient; check the number")
         s.parm[i] = (v, no)
 
     def kw_DIAM(self, args, no, raw):
-        self.cur("DIAM", no).diam = self.num(args[0], "semi-diameter", no)
+        d = self.num(args[0], "semi-diameter", no)
+        if d < 0.0:
+            raise self.err(f"DIAM {args[0]}: a negative semi-diameter", no,
+                           "give the clear semi-diameter as a positive number (0: computed on load)")
+        self.cur("DIAM", no).diam = d
 
     def kw_CLAP(self, args, no, raw):
         s = self.cur("CLAP", no)

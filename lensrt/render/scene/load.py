@@ -83,7 +83,7 @@ def load_scene(source: str | Path | None = None) -> Scene:
     """Load a scene file (or a built-in scene by name; ``None`` = the default scene)."""
     path = resolve_scene_path(source)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a UTF-8 BOM is accepted, as in lens files
     except OSError as err:
         raise LensrtError(f"cannot read scene file: {err.strerror}", path=path) from None
     except UnicodeDecodeError as err:
