@@ -36,14 +36,14 @@ import numpy as np
 
 from ..errors import PrescriptionError, UnknownGlassError
 from ..units import FRAUNHOFER_NM, NM_PER_UM
+from .dispersion import DISPERSION_WIDTH
 
 __all__ = [
     "DISPERSION_WIDTH", "Material", "Air", "ConstantIndex", "ModelGlass", "CatalogGlass",
     "AIR", "CATALOGS", "find_glass", "parse_material", "index_from_packed",
-    "glass_names", "ExtrapolationWarning", "check_wavelength_range",
+    "glass_names", "ExtrapolationWarning", "check_wavelength_range", "find_exact_vendor_glass",
 ]
 
-DISPERSION_WIDTH = 15
 #: catalog names in the default search order
 CATALOGS: tuple[str, ...] = ("Schott", "Ohara", "Hoya", "CDGM", "Hikari", "Sumita")
 
@@ -183,12 +183,23 @@ class ModelGlass(Material):
 
 @dataclass(frozen=True)
 class CatalogGlass(Material):
-    """A vendor catalog glass; its coefficients are copied from ``opticalglass`` at load."""
+    """A catalog material: its packed coefficients are copied from the catalog's own formula at load.
+
+    ``source`` says where the data come from (``opticalglass``'s vendor
+    spreadsheet, a refractiveindex.info page, a user ``.agf`` file, a CODE V
+    private catalog), ``formula`` which formula it was. Outside ``range_nm``
+    the formula is extrapolated: a warning for glasses, an error where
+    ``range_is_limit`` (crystals and semiconductors whose formulas fail
+    outside their data, e.g. germanium in the visible).
+    """
 
     name: str
     catalog: str
     coefficients: tuple[float, ...] = field(repr=False, default=())
     range_nm: tuple[float, float] | None = field(repr=False, default=None)
+    source: str = field(default="", compare=False)
+    formula: str = field(default="", compare=False)
+    range_is_limit: bool = field(default=False, compare=False)
 
     def packed(self) -> tuple[float, ...]:
         return self.coefficients
@@ -283,8 +294,24 @@ def _make_catalog_glass(cat: str, name: str) -> CatalogGlass:
     coefs = _catalog(cat).glass_coefs(name)
     if not np.all(np.isfinite(coefs)):
         raise PrescriptionError(f"catalog {cat} has no dispersion coefficients for {name}")
+    formula = "Sellmeier (3 terms)" if cat in ("Schott", "Ohara") else \
+        "extended power series" if cat == "Hikari" else "Schott power series"
     return CatalogGlass(name=name, catalog=cat, coefficients=_pack_catalog(cat, coefs),
-                        range_nm=_measured_range_nm(cat, name))
+                        range_nm=_measured_range_nm(cat, name), source=f"opticalglass ({cat} catalog)",
+                        formula=formula)
+
+
+def find_exact_vendor_glass(name: str, catalog: str) -> CatalogGlass | None:
+    """The glass of vendor ``catalog`` whose name equals ``name`` ignoring case, spaces, hyphens, dots
+    and underscores (``NSK16`` = ``N-SK16``), else ``None``. No successor or prefix matching."""
+    cat = _canonical_catalog(catalog)
+    if cat is None:
+        return None
+    key = _normalise(name)
+    for gname in glass_names(cat):
+        if _normalise(gname) == key:
+            return _make_catalog_glass(cat, gname)
+    return None
 
 
 def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass:
@@ -375,14 +402,26 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
 
 
 def check_wavelength_range(materials: Iterable[Material], wavelength_nm: Iterable[float]) -> list[str]:
-    """Messages (and :class:`ExtrapolationWarning` s) for wavelengths outside a glass's data range."""
+    """Messages (and :class:`ExtrapolationWarning` s) for wavelengths outside a glass's data range.
+
+    Raises
+    ------
+    PrescriptionError
+        For a material whose range is a limit (``CatalogGlass.range_is_limit``:
+        crystals and semiconductors, e.g. germanium at 550 nm).
+    """
     msgs = []
     waves = [float(w) for w in wavelength_nm]
-    for mat in set(materials):
+    for mat in sorted(set(materials), key=lambda m: m.describe()):
         rng = mat.valid_range_nm
         if rng is None:
             continue
         bad = [w for w in waves if w < rng[0] - 1e-9 or w > rng[1] + 1e-9]
+        if bad and getattr(mat, "range_is_limit", False):
+            raise PrescriptionError(
+                f"{mat.describe()} has no index data at {', '.join(f'{w:g}' for w in bad)} nm "
+                f"(its formula covers {rng[0]:g}-{rng[1]:g} nm)",
+                hint="use wavelengths inside that range (see 'lensrt glass NAME') or another material")
         if bad:
             msg = (f"{mat.describe()}: dispersion formula extrapolated at {', '.join(f'{w:g}' for w in bad)} nm "
                    f"(catalog data cover {rng[0]:g}-{rng[1]:g} nm)")

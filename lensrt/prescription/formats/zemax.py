@@ -34,15 +34,18 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, UnknownGlassError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
-from ..materials import AIR, CATALOGS, Material, ModelGlass
-from ..model import Aperture, Fields, Lens, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
-from ._common import fmt_list, lookup_glass, make_lens, parse_number, reject_other_format, substitution_note
+from ..glass_lookup import GlassRequest, resolve_glass
+from ..materials import AIR, Material, ModelGlass
+from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
+from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format,
+                      substitution_note)
+from .keywords import ZemaxKeywordPolicy
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
 
-class GlassFallbackWarning(UserWarning):
-    """A glass name found in no catalog: the n_d/V_d of the file are used instead."""
+class GlassFallbackWarning(LensFileWarning):
+    """A model glass: the n_d/V_d of the file are used (``GLAS ___BLANK`` or ``--glass-model-fallback``)."""
 
 
 #: keywords that never change the optics of a sequential lens, ignored on purpose
@@ -84,7 +87,6 @@ _TYPE_NAMES = {
     "BINARY_2": "a binary optic", "GRID_SAG": "a grid sag surface", "TILTSURF": "a tilted surface",
     "NONSEQCO": "a non-sequential component", "USERSURF": "a user-defined surface", "QED_TYPE": "a Q-type asphere",
 }
-_CATALOG_NAMES = {c.upper(): c for c in CATALOGS}
 _UNITS = {"MM": "mm", "CM": "cm", "IN": "in", "INCH": "in", "INCHES": "in", "M": "m", "METER": "m",
           "METERS": "m", "METR": "m"}
 _FIELD_TYPES = {0: "angle", 1: "object_height", 2: "paraxial_image_height", 3: "real_image_height"}
@@ -131,6 +133,8 @@ class _Reader:
         self.notes: list[tuple[str, str]] = []
         self.note_text: list[str] = []
         self.subs: dict[str, str] = {}
+        self.warnings: list[LoadWarning] = []
+        self.keywords = ZemaxKeywordPolicy()
 
     # -- helpers -------------------------------------------------------------
     def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
@@ -176,8 +180,7 @@ class _Reader:
             return
         if after_last_surf and not raw[:1].isspace() and len(kw) == 4 and kw.isalnum():
             return  # a merit-function or tolerance operand: optimisation data, not optics
-        raise self.err(f"unknown keyword {toks[0]!r}", no,
-                       "lensrt cannot tell whether it changes the optics; remove it or report it")
+        self.keywords.unread(toks[0], no, len(self.surfs) - 2 if raw[:1].isspace() and self.surfs else None)
 
     # -- system data ---------------------------------------------------------
     def kw_UNIT(self, args, no, raw):
@@ -349,43 +352,40 @@ class _Reader:
             raise self.err("XDAT: extra surface data is not supported for STANDARD/EVENASPH surfaces", no)
 
     # -- glass -----------------------------------------------------------------
-    def material(self, s: _Surf) -> Material:
+    def primary_nm(self) -> float:
+        """The primary wavelength (nm) as far as the file has given it (for substitution messages)."""
+        um = [self.waves[i][0] for i in sorted(self.waves)] if self.waves else \
+            (self.wavl[0] if self.wavl is not None else [0.5875618])
+        k = self.pwav[0] - 1 if self.pwav is not None else 0
+        return (um[k] if 0 <= k < len(um) else um[0]) * NM_PER_UM
+
+    def material(self, s: _Surf, surface: int | None = None) -> Material:
+        """The medium after ``s`` (the GLAS line), found as :mod:`~lensrt.prescription.glass_lookup` says."""
         if s.glass is None:
             return AIR
         toks, no = s.glass, s.glass_line
         name = toks[0]
-
-        def model(reason: str) -> ModelGlass:
-            if len(toks) < 5:
-                raise self.err(f"glass {name!r}: {reason}, and the GLAS line gives no n_d/V_d", no,
-                               "name a catalog glass or give 'GLAS ___BLANK 1 0 nd vd'")
-            nd = self.num(toks[3], "n_d", no)
-            vd = self.num(toks[4], "V_d", no)
+        nd = self.num(toks[3], "n_d", no) if len(toks) > 4 else 0.0
+        vd = self.num(toks[4], "V_d", no) if len(toks) > 4 else 0.0
+        real = nd >= 1.0 and vd > 0.0
+        if name.upper() in ("___BLANK", "MODEL"):
+            if not real:
+                raise self.err(f"GLAS {name}: a model glass needs n_d >= 1 and V_d > 0 on the line "
+                               f"(found {nd:g}, {vd:g})", no, "give 'GLAS ___BLANK 1 0 nd vd'")
             with located(self.path, no):
-                return ModelGlass(nd, vd, name="" if name.upper() == "___BLANK" else name)
-
-        if name.upper() == "___BLANK":
-            return model("a model glass")
-        ours = [_CATALOG_NAMES[c] for c in (self.gcat or []) if c in _CATALOG_NAMES]
-        if self.gcat is None:
-            ours = list(CATALOGS)
-        others = [c for c in (self.gcat or []) if c not in _CATALOG_NAMES]
-        if ours:
-            try:
-                glass = lookup_glass(name, ours)
-            except UnknownGlassError:
-                pass
-            else:
-                if glass.name.replace("-", "").upper() != name.replace("-", "").upper():
-                    self.subs[name] = glass.describe()
-                return glass
-        glass = model("not in the GCAT catalogs")
-        where = ", ".join(ours) if ours else "none"
-        extra = f"; lensrt does not ship {', '.join(others)}" if others else ""
-        warnings.warn(f"{self.path}:{no}: glass {name!r} is in no GCAT catalog lensrt has (searched: {where}"
-                      f"{extra}): using the GLAS line's n_d = {glass.nd:g}, V_d = {glass.vd:g} as a model glass",
-                      GlassFallbackWarning, stacklevel=3)
-        self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); not in GCAT catalogs"))
+                glass = ModelGlass(nd, vd)
+            self.warnings.append(LoadWarning("glass_model", f"model glass n_d = {nd:g}, V_d = {vd:g} (GLAS {name}): "
+                                             "a two-term Cauchy law through n_d and V_d", surface, no))
+            return glass
+        req = GlassRequest(name, self.gcat, nd if real else None, vd if real else None, surface, no,
+                           self.primary_nm())
+        with located(self.path, no):
+            glass, warns = resolve_glass(req)
+        self.warnings += warns
+        if isinstance(glass, ModelGlass):
+            self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); in no catalog"))
+        elif _norm_name(glass.name) != _norm_name(name):
+            self.subs[name] = glass.describe()
         return glass
 
     # -- assemble --------------------------------------------------------------
@@ -402,7 +402,7 @@ class _Reader:
             if s.stop:
                 raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
         surfaces = []
-        for s in body:
+        for k, s in enumerate(body):
             with located(self.path, s.line):
                 asph: tuple[float, ...] = ()
                 if s.type == "EVENASPH":
@@ -416,7 +416,7 @@ class _Reader:
                     sd = None  # DIAM 0: no semi-diameter given (computed on load)
                 surfaces.append(Surface(
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
-                    material=self.material(s), semi_diameter_mm=None if sd is None else sd * f,
+                    material=self.material(s, k), semi_diameter_mm=None if sd is None else sd * f,
                     conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line))
         return self._system(surfaces, obj, f)
 
@@ -490,9 +490,16 @@ class _Reader:
         if obj.disz <= 0.0:
             raise self.err(f"object distance DISZ {obj.disz:g} must be positive", obj.line,
                            "SURF 0's DISZ is the distance from the object to surface 1 (or INFINITY)")
+        found = tuple(self.warnings + self.keywords.warnings)
+        emit_load_warnings(path, found, GlassFallbackWarning)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
-                         source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes))
+                         source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes),
+                         warnings=found)
+
+
+def _norm_name(name: str) -> str:
+    return "".join(ch for ch in name.upper() if ch not in " -_.")
 
 
 def _vignetting_notes(fields: dict[str, tuple[list[float], int | None]], n: int) -> list[tuple[str, str]]:
