@@ -74,10 +74,10 @@ def test_tokenizer() -> None:
 
 
 def test_lowercase_semicolons_comments_and_long_names() -> None:
-    text = ("tit 'x'; dim m\nepd 10 ! the pupil\nwl 587.6\nyan 0 5\nso 0 1e10\ns 50 5 nbk7_schott; stop\n"
+    text = ("rdm; tit 'x'; dim m\nepd 10 ! the pupil\nwl 587.6\nyan 0 5\nso 0 1e10\ns 50 5 nbk7_schott; stop\n"
             "s -50 45\nsi 0 0\ngo\n")
     lens = loads_seq(text)
-    assert lens.surfaces[0].radius_mm == 50.0  # radius mode by default
+    assert lens.surfaces[0].radius_mm == 50.0  # RDM: radius mode
     assert lens.surfaces[0].is_stop and lens.name == "x"
     assert lens == loads_seq(BASE.replace("'test lens'", "'x'"))
 
@@ -131,12 +131,12 @@ def test_solves_and_variable_codes_are_kept_values() -> None:
     (("  STO", "  STO\n  REX 3"), "rectangular aperture"),
     (("  STO", "  STO\n  CIR HOL 3"), "holes"),
     (("EPD 10", "EPD 10\nZOO 3"), "zoom"),
-    (("EPD 10", "EPD 10\nPRV"), "private glass catalog"),
+    (("EPD 10", "EPD 10\nPRV"), "close the private catalog with END"),
     (("EPD 10", "EPD 10\nNA 0.1"), "image-space NA"),
     (("EPD 10", "EPD 10\nFNO 2"), "two system apertures"),
     (("EPD 10\n", ""), "no system aperture"),
     (("WL 587.6\n", ""), "no wavelengths"),
-    (("  STO", "  STO\n  FROB 1"), "unknown command 'FROB'"),
+    (("  STO", "  STO\n  2.5377"), "not a command"),
     (("SO 0 1e10", "SO 0.01 1e10"), "curved object"),
     (("SI 0 0", "SI -0.01 0"), "curved image"),
     (("S 0.02 5 NBK7_SCHOTT", "S 0.02 5 NBK7_SCHOTT EXTRA"), "unexpected"),

@@ -6,7 +6,7 @@ import argparse
 import math
 from typing import Any
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
 
 __all__ = ["register", "info_data", "first_order_rows", "seidel_rows"]
 
@@ -17,6 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "(z positions from the first vertex, +z toward the image), its Seidel "
                                    "sums, and with --sensor the angle of view and depth of field.")
     add_lens_argument(p)
+    add_reader_options(p)
     p.add_argument("--wavelength-nm", type=float, metavar="W", help="wavelength in nm (default: the lens's primary)")
     p.add_argument("--object-distance-mm", type=float, metavar="D",
                    help="object plane to first vertex in mm, 'inf' for infinity (default: the lens's own)")
@@ -47,6 +48,8 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
     data.update(fo.to_dict())
+    # every approximation the reader made (glass substitutions, model glasses, ignored keywords, defaults)
+    data["warnings"] = [w.to_dict() for w in lens.warnings]
     data["field_image_heights_mm"] = list(fo.field_image_heights_mm)
     data["seidel"] = sums.to_dict()
     data["third_order_transverse"] = {(f"{k}_per_mm" if k == "PTZ" else f"{k}_mm"): v
@@ -135,7 +138,7 @@ def seidel_rows(lens, d: dict[str, Any]) -> list[list]:
 def cmd_info(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, **reader_options(args))
     d = info_data(lens, args.wavelength_nm, args.object_distance_mm, args.sensor, args.coc_mm)
     if args.json:
         print_json(d)
@@ -148,6 +151,8 @@ def cmd_info(args: argparse.Namespace) -> int:
              f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
              f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
     emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
+    for w in d["warnings"]:
+        emit(f"warning [{w['code']}]: {w['text']}")
     seidel = d["seidel"]
     srows = seidel_rows(lens, d)
     emit("")
