@@ -23,11 +23,26 @@ def rayoptics_files() -> list[Path]:
                   if p.suffix.lower() in (".zmx", ".seq"))
 
 
-def optiland_files(out: Path) -> list[Path]:
+def optiland_samples() -> list[tuple[str, type]]:
+    """Every Optic subclass defined in optiland.samples' modules (29 in optiland 0.5.x)."""
+    import importlib
+    import pkgutil
+
     import optiland.samples as samples
+    from optiland.optic import Optic
+    found = {}
+    for info in pkgutil.iter_modules(samples.__path__):
+        mod = importlib.import_module(f"optiland.samples.{info.name}")
+        for name, cls in inspect.getmembers(mod, inspect.isclass):
+            if issubclass(cls, Optic) and cls is not Optic and cls.__module__ == mod.__name__:
+                found[name] = cls
+    return sorted(found.items())
+
+
+def optiland_files(out: Path) -> list[Path]:
     from optiland.fileio import save_zemax_file
     files = []
-    for name, cls in sorted(inspect.getmembers(samples, inspect.isclass)):
+    for name, cls in optiland_samples():
         path = out / f"{name}.zmx"
         try:
             with warnings.catch_warnings():
@@ -81,3 +96,36 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def first_order_vs_optiland() -> list[dict]:
+    """EFL of each optiland sample that lensrt loads, lensrt vs optiland, with the largest index difference
+    between the two tools' glass data at the primary wavelength (so disagreements can be told apart)."""
+    import numpy as np
+    import optiland.backend as be
+    from optiland.fileio import save_zemax_file
+    from lensrt.loading import load_lens
+    from lensrt.paraxial import first_order
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, cls in optiland_samples():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                op = cls()
+                path = Path(tmp) / f"{name}.zmx"
+                try:
+                    save_zemax_file(op, str(path))
+                    lens = load_lens(path)
+                except Exception:  # noqa: BLE001 - the load counts report these
+                    continue
+                wl_um = float(op.primary_wavelength)
+                theirs = float(be.to_numpy(op.paraxial.f2()))
+                mine = first_order(lens, wl_um * 1000.0).efl_mm
+                n_op = [float(np.ravel(be.to_numpy(s.material_post.n(wl_um)))[0])
+                        for s in op.surface_group.surfaces[1:-1]]
+                n_me = list(lens.indices(wl_um * 1000.0))[1:]
+                dn = max(abs(a - b) for a, b in zip(n_op, n_me)) if len(n_op) == len(n_me) else float("nan")
+            rows.append(dict(name=name, efl_lensrt=mine, efl_optiland=theirs, rel=(mine - theirs) / theirs,
+                             max_dn=dn, glasses=sorted({s.material.describe() for s in lens.surfaces
+                                                        if not s.material.is_air})))
+    return rows

@@ -36,7 +36,8 @@ from typing import Iterator, Mapping, Sequence
 from ..errors import UnknownGlassError
 from ..units import FRAUNHOFER_NM
 from .agf import AgfCatalog, read_agf
-from .materials import CATALOGS, CatalogGlass, Material, ModelGlass, find_exact_vendor_glass, find_glass
+from .materials import (CATALOGS, CatalogGlass, Material, ModelGlass, find_exact_vendor_glass, find_glass,
+                        make_vendor_glass, vendor_nd_vd_table)
 from .model import LoadWarning
 from .rii import find_rii_glass, find_rii_material
 
@@ -45,6 +46,8 @@ __all__ = ["GlassPolicy", "glass_policy", "current_policy", "user_catalogs", "re
 
 #: largest |n_d(line) - n_d(catalog)| taken without a word
 LINE_TOLERANCE = 1e-3
+#: how close (n_d, V_d) a glass must be to the line's to substitute for a name without a successor
+NEAREST_TOLERANCE = (5e-3, 1.5)
 
 
 @dataclass(frozen=True)
@@ -147,7 +150,20 @@ def lookup_any(name: str, agfs: Sequence[AgfCatalog] = ()) -> CatalogGlass | Non
         g = find_exact_vendor_glass(name, cat)
         if g is not None:
             return g
-    return find_rii_glass(name) or find_rii_material(name)
+    return find_rii_material(name) or find_rii_glass(name)
+
+
+def nearest_glass(nd: float, vd: float, prefer: Sequence[str] = ()) -> CatalogGlass | None:
+    """The vendor glass nearest to (n_d, V_d) within :data:`NEAREST_TOLERANCE`, preferring ``prefer``'s catalogs."""
+    dn_max, dv_max = NEAREST_TOLERANCE
+    best = None
+    pref = [p.upper() for p in prefer]
+    for cat, name, n, v in vendor_nd_vd_table():
+        if abs(n - nd) <= dn_max and abs(v - vd) <= dv_max:
+            score = (0 if cat.upper() in pref else 1, abs(n - nd) / dn_max + abs(v - vd) / dv_max)
+            if best is None or score < best[0]:
+                best = (score, cat, name)
+    return None if best is None else make_vendor_glass(best[1], best[2])
 
 
 def _dn(glass: Material, req: GlassRequest) -> float | None:
@@ -206,7 +222,7 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
     try:
         succ = find_glass(base, list(CATALOGS))
     except UnknownGlassError:
-        succ = None
+        succ = nearest_glass(req.nd, req.vd, own) if req.nd is not None and req.vd is not None else None
     if succ is not None and pol.substitute:
         n_line = f"{req.nd:.6f} (the line)" if req.nd is not None else "unknown (no catalog data)"
         out.append(LoadWarning("glass_substituted",

@@ -42,6 +42,7 @@ __all__ = [
     "DISPERSION_WIDTH", "Material", "Air", "ConstantIndex", "ModelGlass", "CatalogGlass",
     "AIR", "CATALOGS", "find_glass", "parse_material", "index_from_packed",
     "glass_names", "ExtrapolationWarning", "check_wavelength_range", "find_exact_vendor_glass",
+    "vendor_nd_vd_table", "make_vendor_glass",
 ]
 
 #: catalog names in the default search order
@@ -301,6 +302,27 @@ def _make_catalog_glass(cat: str, name: str) -> CatalogGlass:
                         formula=formula)
 
 
+@lru_cache(maxsize=1)
+def vendor_nd_vd_table() -> tuple[tuple[str, str, float, float], ...]:
+    """(catalog, glass, n_d, V_d) of every glass of :data:`CATALOGS`, as the vendors' sheets list them."""
+    rows = []
+    for cat in CATALOGS:
+        df = _catalog(cat).df
+        try:
+            nd = df["refractive indices"]["d"]
+            vd = df["abbe number"]["vd"]
+        except KeyError:  # pragma: no cover - every opticalglass sheet has both columns
+            continue
+        for name, n, v in zip(df.index, nd, vd):
+            try:
+                n, v = float(n), float(v)
+            except (TypeError, ValueError):
+                continue
+            if math.isfinite(n) and math.isfinite(v):
+                rows.append((cat, str(name), n, v))
+    return tuple(rows)
+
+
 def find_exact_vendor_glass(name: str, catalog: str) -> CatalogGlass | None:
     """The glass of vendor ``catalog`` whose name equals ``name`` ignoring case, spaces, hyphens, dots
     and underscores (``NSK16`` = ``N-SK16``), else ``None``. No successor or prefix matching."""
@@ -312,6 +334,11 @@ def find_exact_vendor_glass(name: str, catalog: str) -> CatalogGlass | None:
         if _normalise(gname) == key:
             return _make_catalog_glass(cat, gname)
     return None
+
+
+def make_vendor_glass(catalog: str, name: str) -> CatalogGlass:
+    """The glass ``name`` (exact catalog spelling) of vendor ``catalog``."""
+    return _make_catalog_glass(catalog, name)
 
 
 def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass:

@@ -194,6 +194,8 @@ def find_rii_glass(name: str, catalogs: tuple[str, ...] | None = None) -> Catalo
     for cat in order:
         for vendor, page in hits:
             if vendor.upper() == cat.upper():
-                glass_name = Path(page).stem
-                return load_page(page, glass_name, vendor, False)
+                try:
+                    return load_page(page, Path(page).stem, vendor, False)
+                except PrescriptionError:
+                    continue  # a tabulated-only page: try the next
     return None
