@@ -15,7 +15,7 @@ from lensrt.prescription.agf import pack_agf_formula, read_agf
 from lensrt.prescription.dispersion import NotRepresentable, PackBuilder
 from lensrt.prescription.glass_lookup import GlassRequest, glass_policy, resolve_glass
 from lensrt.prescription.materials import find_glass, index_from_packed
-from lensrt.prescription.rii import MATERIALS, _specs_index, find_rii_glass, find_rii_material, load_page
+from lensrt.prescription.rii import MATERIALS, specs_index, find_rii_glass, find_rii_material, load_page
 
 
 _IDS: dict[str, tuple[str, str, str]] = {}
@@ -56,10 +56,10 @@ def test_materials_packed_exactly(name: str) -> None:
 def test_vendor_shelves_packed_exactly() -> None:
     """A spread of the database's glass pages (every formula type it uses) against the package's evaluation."""
     rng = np.random.default_rng(7)
-    keys = sorted(_specs_index())
+    keys = sorted(specs_index())
     checked = 0
     for key in rng.choice(keys, 40, replace=False):
-        vendor, page = _specs_index()[key][0]
+        vendor, page = specs_index()[key][0]
         try:
             mat = load_page(page, key, vendor, False)
         except PrescriptionError:

@@ -279,3 +279,27 @@ def test_real_opticstudio_files_load_or_fail_cleanly() -> None:
     assert "GLAS MIRROR" in outcome["HoO-V2C18Ex27.zmx"][1]
     assert "COORDBRK" in outcome["zmax_37992.zmx"][1]
     assert "OBSC" in outcome["US05331467-1.zmx"][1]
+
+
+def test_floating_aperture_without_stop_size() -> None:
+    """FLOA floats on the stop's DIAM; a stop without one takes the file's other aperture (warned), else an error."""
+    with_diam = zmx().replace("ENPD 10", "FLOA").replace("DISZ 45", "DISZ 45\n  DIAM 4")
+    assert loads_zmx(with_diam).aperture.kind == "float_by_stop"
+    both = zmx().replace("ENPD 10", "ENPD 10\nFLOA")
+    with pytest.warns(UserWarning, match="FLOA without a stop semi-diameter"):
+        lens = loads_zmx(both)
+    assert (lens.aperture.kind, lens.aperture.value) == ("epd", 10.0)
+    assert [w.code for w in lens.warnings] == ["assumed_default"]
+    with pytest.raises(PrescriptionError, match="FLOA: .* no DIAM/CLAP"):
+        loads_zmx(zmx().replace("ENPD 10", "FLOA"), "f.zmx")
+
+
+def test_unknown_keywords_warn_and_are_listed() -> None:
+    text = zmx(head_extra="IWDP 1 0\nZVCY 0 0\n", extra1="FOOB 1")
+    with pytest.warns(UserWarning, match="'IWDP' on line"):
+        lens = loads_zmx(text, "k.zmx")
+    got = {(w.text.split("'")[1], w.line) for w in lens.warnings if w.code == "keyword_unknown"}
+    lines = text.splitlines()
+    assert got == {(k, next(i + 1 for i, ln in enumerate(lines) if ln.strip().startswith(k)))
+                   for k in ("IWDP", "ZVCY", "FOOB")}
+    assert lens.surfaces == loads_zmx(zmx()).surfaces

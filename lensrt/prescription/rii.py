@@ -26,7 +26,7 @@ from ..errors import PrescriptionError
 from .dispersion import NotRepresentable, PackBuilder
 from .materials import CatalogGlass
 
-__all__ = ["MATERIALS", "ALIASES", "database_root", "database_version", "find_rii_glass", "find_rii_material",
+__all__ = ["MATERIALS", "ALIASES", "specs_index", "database_root", "database_version", "find_rii_glass", "find_rii_material",
            "load_page", "rii_vendor_catalogs", "pack_rii_formula"]
 
 #: crystals, semiconductors and silica: lensrt's name -> the database page it uses (chosen: room temperature,
@@ -89,7 +89,7 @@ def database_version() -> str:
 
 
 @lru_cache(maxsize=1)
-def _specs_index() -> dict[str, list[tuple[str, str]]]:
+def specs_index() -> dict[str, list[tuple[str, str]]]:
     """Normalised glass name -> [(vendor catalog, page path relative to data/)] over ``specs``."""
     root = database_root() / "data" / "specs"
     out: dict[str, list[tuple[str, str]]] = {}
@@ -107,7 +107,7 @@ def _specs_index() -> dict[str, list[tuple[str, str]]]:
 
 def rii_vendor_catalogs() -> tuple[str, ...]:
     """Vendor catalog names the database's ``specs`` shelf holds."""
-    return tuple(sorted({v for hits in _specs_index().values() for v, _ in hits}))
+    return tuple(sorted({v for hits in specs_index().values() for v, _ in hits}))
 
 
 def pack_rii_formula(kind: str, coefficients: list[float]) -> tuple[float, ...]:
@@ -188,7 +188,7 @@ def find_rii_glass(name: str, catalogs: tuple[str, ...] | None = None) -> Catalo
     ``catalogs`` limits the vendors (e.g. ``("Hikari", "Schott")``, in that order of preference);
     ``None`` searches all of them (Schott, Ohara, Hoya, CDGM, Hikari, Sumita first).
     """
-    hits = _specs_index().get(_key(name), [])
+    hits = specs_index().get(_key(name), [])
     order = list(catalogs) if catalogs is not None else \
         ["Schott", "Ohara", "Hoya", "CDGM", "Hikari", "Sumita"] + sorted({v for v, _ in hits})
     for cat in order:

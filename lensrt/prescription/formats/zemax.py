@@ -135,6 +135,7 @@ class _Reader:
         self.subs: dict[str, str] = {}
         self.warnings: list[LoadWarning] = []
         self.keywords = ZemaxKeywordPolicy()
+        self.floa_line: int | None = None
 
     # -- helpers -------------------------------------------------------------
     def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
@@ -212,7 +213,7 @@ class _Reader:
         self._set_aperture("object_na", self.num(args[0], "object-space NA", no), no)
 
     def kw_FLOA(self, args, no, raw):
-        self._set_aperture("float_by_stop", 0.0, no)
+        self.floa_line = no  # resolved in _aperture: the stop's semi-diameter, else the other aperture given
 
     def kw_FTYP(self, args, no, raw):
         self.ftyp, self.ftyp_line = args, no
@@ -420,14 +421,35 @@ class _Reader:
                     conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line))
         return self._system(surfaces, obj, f)
 
-    def _system(self, surfaces: list[Surface], obj: _Surf, f: float) -> Lens:
-        path, notes = self.path, list(self.notes)
+    def _aperture(self, surfaces: list[Surface], f: float) -> Aperture:
+        """The system aperture; FLOA floats on the stop's semi-diameter, or, where the stop has none, on the
+        other aperture the file gives (ENPD, FNUM, OBNA), with a warning."""
+        stop_sd = next((s.semi_diameter_mm for s in surfaces if s.is_stop), None)
+        if self.floa_line is not None:
+            if stop_sd is not None:
+                if self.aperture is not None:
+                    self.warnings.append(LoadWarning(
+                        "keyword_ignored", f"FLOA: the aperture floats on the stop's semi-diameter "
+                        f"({stop_sd:g} mm); the {self.aperture[0]} on line {self.aperture[2]} is not used", None,
+                        self.aperture[2]))
+                return Aperture("float_by_stop", 0.0)
+            if self.aperture is None:
+                raise self.err("FLOA: the aperture floats on the stop's semi-diameter, but the stop surface has "
+                               "no DIAM/CLAP and the file gives no other aperture", self.floa_line,
+                               "give the stop a 'DIAM <semi-diameter>' or the system an 'ENPD <diameter>'")
+            self.warnings.append(LoadWarning(
+                "assumed_default", f"FLOA without a stop semi-diameter: the stop is sized by the "
+                f"{self.aperture[0]} on line {self.aperture[2]}", None, self.floa_line))
         if self.aperture is None:
             raise self.err("no system aperture (ENPD, FNUM, OBNA or FLOA)", None,
                            "add e.g. 'ENPD 10' (entrance pupil diameter in lens units)")
         kind, value, ap_line = self.aperture
-        with located(path, ap_line):
-            aperture = Aperture(kind, value * f if kind == "epd" else value)
+        with located(self.path, ap_line):
+            return Aperture(kind, value * f if kind == "epd" else value)
+
+    def _system(self, surfaces: list[Surface], obj: _Surf, f: float) -> Lens:
+        path, notes = self.path, list(self.notes)
+        aperture = self._aperture(surfaces, f)
         # fields
         ftyp = self.ftyp or []
         ftype_code = int(self.num(ftyp[0], "field type", self.ftyp_line)) if ftyp else 0
