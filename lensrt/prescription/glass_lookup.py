@@ -195,7 +195,8 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
     # 1. private glasses, then the file's own catalogs
     for key, mat in req.private.items():
         if key.upper() == name.upper():
-            out.append(LoadWarning("glass_private", f"glass {name}: the file's private catalog ({mat.describe()})",
+            out.append(LoadWarning("glass_private", f"glass {name}: the file's private catalog ({mat.describe()}; "
+                                   f"{getattr(mat, 'formula', '')})",
                                    req.surface, req.line))
             return mat, out
     own = [suffix] if suffix else list(req.file_catalogs or ())
