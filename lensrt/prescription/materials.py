@@ -413,6 +413,8 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
         return find_glass(text, catalogs)
     if isinstance(spec, dict):
         keys = set(spec)
+        if {"glass", "coefficients"} <= keys:
+            return _packed_glass(spec)
         if "glass" in keys:
             cats = [spec["catalog"]] if "catalog" in spec else catalogs
             if "catalog" in spec and _canonical_catalog(str(spec["catalog"])) is None:
@@ -426,6 +428,28 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
             return AIR if n == 1.0 else ConstantIndex(n, name=str(spec.get("name", "")))
         raise PrescriptionError(f"material table {spec!r} needs 'glass', 'nd'+'vd' or 'index'")
     raise PrescriptionError(f"material {spec!r} is not a glass name, a number or a table")
+
+
+def _packed_glass(spec: dict) -> CatalogGlass:
+    """A glass given by its packed coefficients (how the native format stores non-vendor glasses)."""
+    coefs = spec["coefficients"]
+    if not isinstance(coefs, list) or len(coefs) != DISPERSION_WIDTH or \
+            not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in coefs):
+        raise PrescriptionError(f"glass {spec['glass']!r}: coefficients must be {DISPERSION_WIDTH} finite numbers")
+    rng = spec.get("range_nm")
+    if rng is not None and (not isinstance(rng, list) or len(rng) != 2 or
+                            not all(isinstance(v, (int, float)) and math.isfinite(v) for v in rng)):
+        raise PrescriptionError(f"glass {spec['glass']!r}: range_nm must be two numbers (nm)")
+    glass = CatalogGlass(name=str(spec["glass"]), catalog=str(spec.get("catalog", "")),
+                         coefficients=tuple(float(c) for c in coefs),
+                         range_nm=None if rng is None else (float(rng[0]), float(rng[1])),
+                         source=str(spec.get("source", "native file")), formula=str(spec.get("formula", "")),
+                         range_is_limit=bool(spec.get("range_is_limit", False)))
+    n = glass.index(FRAUNHOFER_NM["d"]) if rng is None or rng[0] <= FRAUNHOFER_NM["d"] <= rng[1] else \
+        glass.index(0.5 * (float(rng[0]) + float(rng[1])))
+    if not (math.isfinite(n) and 1.0 <= n <= 5.0):
+        raise PrescriptionError(f"glass {spec['glass']!r}: its coefficients give n = {n!r}, not a physical index")
+    return glass
 
 
 def check_wavelength_range(materials: Iterable[Material], wavelength_nm: Iterable[float]) -> list[str]:

@@ -284,6 +284,12 @@ def _s(text: str) -> str:
 def _material(m: Material) -> str:
     if m.is_air and not isinstance(m, ConstantIndex):
         return '"air"'
+    if isinstance(m, CatalogGlass) and not m.source.startswith("opticalglass") and m.source:
+        # a glass of the database, a user .agf or a CODE V PRV block: its packed formula travels with the lens
+        rng = "" if m.range_nm is None else f", range_nm = [{_f(m.range_nm[0])}, {_f(m.range_nm[1])}]"
+        return (f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)}, source = {_s(m.source)}, "
+                f"formula = {_s(m.formula)}, coefficients = [{', '.join(repr(float(c)) for c in m.coefficients)}]"
+                f"{rng}, range_is_limit = {'true' if m.range_is_limit else 'false'} }}")
     if isinstance(m, CatalogGlass):
         return f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)} }}"
     if isinstance(m, ModelGlass):
