@@ -14,17 +14,25 @@ starts a comment, ``&`` continues a line):
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
   codes), ``PIM`` and other solves/pickups (the value on the S line is the
-  solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end).
+  solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
+  non-optical commands of :data:`~lensrt.prescription.formats.keywords.CODEV_NON_OPTICAL`
+  (``DOR``, ``UID``, ...).
 
 A thickness on ``SI`` is a defocus of the image surface from where the last
 thickness puts it; it is added to the last surface's thickness. An object
 thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
-a catalog suffix (``NSK16_SCHOTT``); a number ``nnn.vvv`` is CODE V's
-fictitious glass code (n_d = 1.nnn, V_d = vv.v; ``517.642`` is 1.517/64.2).
+a catalog suffix (``NSK16_SCHOTT``) and are looked up as
+:mod:`lensrt.prescription.glass_lookup` says; fictitious glasses (``1.55:55.8``,
+``517642``, ``517.642``) and ``PRV`` private catalogs are read
+(:mod:`~lensrt.prescription.formats.codev_glass`). Without ``RDM`` the S lines
+hold curvatures, without ``STO`` the stop is surface 1, a vignetting list
+shorter than the fields is padded with 0 -- each an ``assumed_default``
+warning. Commands lensrt does not know are ignored with a ``keyword_unknown``
+warning.
 
 Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
-decentred apertures, special surface types, zooms and private catalogs are
-errors naming the file, the line and the command.
+decentred apertures, special surface types and zooms are errors naming the
+file, the line and the command.
 """
 from __future__ import annotations
 

@@ -10,12 +10,14 @@ system data ``ENPD``/``FNUM``/``OBNA``/``FLOA``, ``FTYP``, ``XFLN``/``YFLN``/
 (micrometres), ``PWAV``, ``GCAT``, ``NAME``, ``NOTE``, vignetting factors
 ``VDXN``/``VDYN``/``VCXN``/``VCYN`` (kept in ``lens.notes``).
 
-Glass: the name is looked up in the catalogs ``GCAT`` names, in that order
-(those lensrt ships: Schott, Ohara, Hoya, CDGM, Hikari, Sumita). Only when the
-name is in none of them are the n_d/V_d written on the ``GLAS`` line used, as a
-:class:`~lensrt.prescription.materials.ModelGlass`, with a
-:class:`GlassFallbackWarning`. ``GLAS ___BLANK`` (OpticStudio's model glass) is
-a model glass by definition.
+Glass: looked up as :mod:`lensrt.prescription.glass_lookup` says -- the
+catalogs ``GCAT`` names first, then every catalog lensrt has (vendor sheets,
+the refractiveindex.info database, user ``.agf`` catalogs, aliases such as
+``F_SILICA``); a successor only with ``--glass-substitute``, the line's n_d/V_d
+only with ``--glass-model-fallback``; else one error. ``GLAS ___BLANK``
+(OpticStudio's model glass) is a model glass by definition. Every
+approximation is a :class:`~lensrt.prescription.model.LoadWarning` in
+``lens.warnings`` (and a Python warning).
 
 Display, optimisation and tolerancing data are ignored explicitly
 (:data:`IGNORED`); merit-function operands after the last surface are
@@ -23,7 +25,10 @@ ignored. Everything that changes the optics but lies outside lensrt's model
 (mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
 other surface types, multi-configuration, non-circular or decentred apertures,
 curved object/image surfaces, ...) is an error naming the file, the line and
-the construct. Nothing is dropped silently.
+the construct. A keyword lensrt does not know is ignored with a
+``keyword_unknown`` warning naming it and its line
+(:mod:`~lensrt.prescription.formats.keywords`). ``FLOA`` floats on the stop's
+semi-diameter, or where the stop has none on the file's other aperture.
 """
 from __future__ import annotations
 
