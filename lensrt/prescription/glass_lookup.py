@@ -146,11 +146,14 @@ def lookup_any(name: str, agfs: Sequence[AgfCatalog] = ()) -> CatalogGlass | Non
         g = a.find(name)
         if g is not None:
             return g
+    g = find_rii_material(name)  # the aliases first: cheap, and no vendor sheet names a glass F_SILICA or CAF2
+    if g is not None:
+        return g
     for cat in CATALOGS:
         g = find_exact_vendor_glass(name, cat)
         if g is not None:
             return g
-    return find_rii_material(name) or find_rii_glass(name)
+    return find_rii_glass(name)
 
 
 def nearest_glass(nd: float, vd: float, prefer: Sequence[str] = ()) -> CatalogGlass | None:

@@ -270,3 +270,13 @@ def test_info_json_lists_warnings(tmp_path: Path, data_dir: Path, capsys) -> Non
     assert {w["text"].split("'")[1] for w in unknown} == {"IWDP", "ZVCY"} and all(w["line"] for w in unknown)
     assert main(["lens", "show", str(path), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["warnings"] == d["warnings"]
+
+
+def test_config_dir_catalogs(tmp_path: Path, monkeypatch) -> None:
+    """.agf files in $LENSRT_GLASS_DIR are searched without any option."""
+    _write_agf(tmp_path / "SHOP.agf")
+    with pytest.raises(UnknownGlassError):
+        resolve_glass(GlassRequest("MYBK7", ["SHOP"]))
+    monkeypatch.setenv("LENSRT_GLASS_DIR", str(tmp_path))
+    mat, warns = resolve_glass(GlassRequest("MYBK7", ["SHOP"]))
+    assert (mat.name, mat.catalog) == ("MYBK7", "SHOP") and warns == []

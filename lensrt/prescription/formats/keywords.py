@@ -20,27 +20,18 @@ from ..model import LoadWarning
 
 __all__ = ["ZEMAX_SETTINGS", "CODEV_NON_OPTICAL", "KeywordPolicy", "ZemaxKeywordPolicy"]
 
-#: .zmx keywords of newer OpticStudio versions (and older ones the reader's IGNORED table lacks) that hold
-#: display, file, optimisation or analysis settings -- never surface or system optics
+#: .zmx keywords of newer OpticStudio versions confirmed to hold display, file or optimisation settings only
+#: (the reader's own ``IGNORED`` table holds the long-known ones). None of the newer keywords seen in public
+#: files (``IWDP``, ``ZVCY``, ...) could be confirmed from a public description, so they are warned about.
 ZEMAX_SETTINGS: dict[str, str] = {
-    "FLAP": "floating-aperture display setting", "TOLE": "tolerance data", "MNCA": "merit operand",
-    "BLNK": "merit function comment", "SCOL": "surface colour (display)", "SVIG": "set-vignetting flag (analysis)",
-    "CLCT": "display colour", "CLLT": "display colour", "LLCT": "display colour", "DNTS": "display setting",
-    "SFNO": "merit operand", "ISNA": "merit operand", "TCMM": "comment", "TOLC": "tolerance data",
-    "MCOM": "merit comment", "AFOC": "afocal-image-space analysis flag", "TELE": "telecentric object-space flag "
-    "(lensrt aims rays at the paraxial pupil)", "JUMP": "merit operand",
-    "STAT": "file status", "USER": "user data", "DATE": "file date", "UVMS": "user variable settings",
+    "TOLE": "tolerance data", "MNCA": "merit operand", "BLNK": "merit function comment",
 }
 
-#: CODE V commands that do not change the optics (CODE V Reference Manual: lens-identification and
-#: database commands), ignored with a note
+#: CODE V commands that do not change the optics, ignored on purpose (``DOR`` and ``UID`` as issue 25 lists;
+#: ``VIE``/``PLO`` draw the lens, ``OUT`` sets output)
 CODEV_NON_OPTICAL: dict[str, str] = {
-    "DOR": "default-output-resolution setting", "UID": "user identification", "TEM": "temperature (checked)",
-    "PRE": "pressure (checked)", "RAN": "random-number seed", "LIC": "licence note", "NOT": "note",
-    "DES": "designer", "LEN": "lens start", "INI": "designer initials", "OUT": "output control",
-    "DIS": "display setting", "VIE": "plot command", "PLO": "plot command", "SAV": "save command",
-    "WRI": "write command", "EAS": "easy-input mode", "ERR": "error-handling setting", "BUF": "buffer command",
-    "RUN": "macro command", "DRA": "drawing setting",
+    "DOR": "non-optical setting", "UID": "user identification", "VIE": "lens drawing", "PLO": "plot command",
+    "OUT": "output control",
 }
 
 
