@@ -42,7 +42,7 @@ from .model import LoadWarning
 from .rii import find_rii_glass, find_rii_material
 
 __all__ = ["GlassPolicy", "glass_policy", "current_policy", "user_catalogs", "resolve_glass", "GlassRequest",
-           "LINE_TOLERANCE", "split_catalog_suffix", "lookup_any"]
+           "LINE_TOLERANCE", "NEAREST_TOLERANCE", "split_catalog_suffix", "lookup_any", "vendor_of", "nearest_glass"]
 
 #: largest |n_d(line) - n_d(catalog)| taken without a word
 LINE_TOLERANCE = 1e-3
@@ -137,6 +137,20 @@ def _in_catalogs(name: str, cats: Sequence[str], agfs: Sequence[AgfCatalog]) -> 
     return find_rii_glass(name, tuple(cats)) if cats else None
 
 
+def vendor_of(catalog: str, agfs: Sequence[AgfCatalog] = ()) -> str | None:
+    """The vendor a renamed catalog belongs to (``OHARA-CALDWELL2`` -> ``Ohara``), else ``None``.
+
+    A catalog lensrt has under that exact name (a vendor or a user .agf) is not renamed.
+    """
+    key = catalog.upper()
+    if any(a.name == key for a in agfs) or any(c.upper() == key for c in CATALOGS):
+        return None
+    for cat in CATALOGS:
+        if key.startswith(cat.upper()) and not key[len(cat):len(cat) + 1].isalpha():
+            return cat
+    return None
+
+
 def lookup_any(name: str, agfs: Sequence[AgfCatalog] = ()) -> CatalogGlass | None:
     """The glass ``name`` in any catalog lensrt has (user .agf, vendors, database shelves, aliases)."""
     base, suffix = split_catalog_suffix(name)
@@ -204,6 +218,14 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
             return mat, out
     own = [suffix] if suffix else list(req.file_catalogs or ())
     g = _in_catalogs(base, own, agfs)
+    if g is None:  # a renamed vendor catalog (OHARA-CALDWELL2, SCHOTT_2000): that vendor's current catalog
+        renamed = {c: vendor_of(c, agfs) for c in own}
+        g = _in_catalogs(base, [v for v in renamed.values() if v], agfs)
+        if g is not None:
+            orig = next(c for c, v in renamed.items() if v and v.upper() == g.catalog.upper())
+            out.append(LoadWarning("glass_other_catalog", f"glass {name}: the file's catalog {orig} read as "
+                                   f"lensrt's {g.catalog} catalog ({g.describe()}, {g.source})", req.surface,
+                                   req.line))
     if g is not None:
         _line_check(g, req, out)
         return g, out

@@ -280,3 +280,13 @@ def test_config_dir_catalogs(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.setenv("LENSRT_GLASS_DIR", str(tmp_path))
     mat, warns = resolve_glass(GlassRequest("MYBK7", ["SHOP"]))
     assert (mat.name, mat.catalog) == ("MYBK7", "SHOP") and warns == []
+
+
+def test_renamed_vendor_catalog() -> None:
+    """GCAT OHARA-CALDWELL2 (a renamed Ohara catalog): the glass is taken from lensrt's Ohara catalog, and said."""
+    from lensrt.prescription.glass_lookup import vendor_of
+    assert vendor_of("OHARA-CALDWELL2") == "Ohara" and vendor_of("SCHOTT_2000") == "Schott"
+    assert vendor_of("SCHOTT") is None and vendor_of("MISC") is None and vendor_of("HOYAX") is None
+    mat, warns = resolve_glass(GlassRequest("S-LAH64", ["OHARA-CALDWELL2"], surface=2, line=9))
+    assert (mat.name, mat.catalog) == ("S-LAH64", "Ohara")
+    assert [(w.code, w.surface) for w in warns] == [("glass_other_catalog", 2)] and "OHARA-CALDWELL2" in warns[0].text
