@@ -245,14 +245,19 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
             _line_check(g, req, out)
         return g, out
     # 3. a successor or another vendor's equivalent, on request
+    how = "its successor or another vendor's equivalent"
     try:
         succ = find_glass(base, list(CATALOGS))
     except UnknownGlassError:
-        succ = nearest_glass(req.nd, req.vd, own) if req.nd is not None and req.vd is not None else None
+        succ = None
+        if req.nd is not None and req.vd is not None:
+            succ = nearest_glass(req.nd, req.vd, own)
+            how = f"the vendor glass nearest the line's n_d = {req.nd:g}, V_d = {req.vd:g} (if those are " \
+                  "placeholders, so is this choice)"
     if succ is not None and pol.substitute:
         n_line = f"{req.nd:.6f} (the line)" if req.nd is not None else "unknown (no catalog data)"
         out.append(LoadWarning("glass_substituted",
-                               f"glass {name} substituted by {succ.describe()} (--glass-substitute): n = "
+                               f"glass {name} substituted by {succ.describe()}, {how} (--glass-substitute): n = "
                                f"{float(succ.index(req.primary_nm)):.6f} at {req.primary_nm:g} nm; {name}'s n_d "
                                f"{n_line}" + (f", difference {float(succ.index(FRAUNHOFER_NM['d'])) - req.nd:+.2e}"
                                               if req.nd is not None else ""), req.surface, req.line))
