@@ -290,3 +290,15 @@ def test_renamed_vendor_catalog() -> None:
     mat, warns = resolve_glass(GlassRequest("S-LAH64", ["OHARA-CALDWELL2"], surface=2, line=9))
     assert (mat.name, mat.catalog) == ("S-LAH64", "Ohara")
     assert [(w.code, w.surface) for w in warns] == [("glass_other_catalog", 2)] and "OHARA-CALDWELL2" in warns[0].text
+
+
+def test_native_file_names_database_materials(data_dir: Path, capsys) -> None:
+    """A TOML lens naming GERMANIUM and ZnSe loads (the database's pages), is the lens the optiland test
+    traces, and is one clear error at 550 nm from the CLI."""
+    from lensrt.cli import main
+    from lensrt.loading import load_lens
+    lens = load_lens(data_dir / "ge_znse_doublet_10um.toml")
+    assert [s.material for s in lens.surfaces] == [s.material for s in _ir_lens().surfaces]
+    assert main(["info", str(data_dir / "ge_znse_doublet_10um.toml"), "--wavelength-nm", "550"]) == 2
+    err = capsys.readouterr().err
+    assert "GERMANIUM" in err and "no index data at 550 nm" in err and err.count("\n") == 1

@@ -46,7 +46,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from ...errors import PrescriptionError, located
+from ...errors import PrescriptionError, UnknownGlassError, located
+from ..glass_lookup import lookup_any, user_catalogs
 from ..materials import AIR, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 
@@ -106,6 +107,19 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
+def _material_spec(spec: object, catalogs: list[str] | None) -> Material:
+    """:func:`parse_material`, and for a glass name no vendor catalog holds: the same name (exactly, or an
+    alias such as ``CAF2``, ``F_SILICA``, ``GERMANIUM``) in the refractiveindex.info database or a user .agf."""
+    try:
+        return parse_material(spec, catalogs)
+    except UnknownGlassError:
+        name = spec if isinstance(spec, str) else spec.get("glass") if isinstance(spec, dict) else None
+        found = lookup_any(str(name), user_catalogs()) if name else None
+        if found is None:
+            raise
+        return found
+
+
 def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface:
     if "radius_mm" in row and "curvature_per_mm" in row:
         raise PrescriptionError("give radius_mm or curvature_per_mm, not both")
@@ -135,7 +149,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
     return Surface(
         curvature_per_mm=c,
         thickness_mm=_number(row["thickness_mm"], "thickness_mm"),
-        material=parse_material(row.get("material", "air"), catalogs),
+        material=_material_spec(row.get("material", "air"), catalogs),
         semi_diameter_mm=None if sd is None else _number(sd, "semi_diameter_mm"),
         conic=_number(row.get("conic", 0.0), "conic"),
         asphere=asphere,
@@ -232,7 +246,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
                                   primary)
     with located(spath, sections.get("system")):
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
-        obj_mat = parse_material(sys_t.get("object_material", "air"), catalogs)
+        obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
