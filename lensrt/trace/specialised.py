@@ -41,12 +41,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from types import SimpleNamespace
 
-from .kernels import N_COUNTS, N_STATS, RAY_OUT_COLS, SRC, FIXED_POINT_BITS
+from .kernels import FIXED_POINT_BITS, N_COUNTS, N_STATS, NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS, SRC
 from .pack import real_dtype
-from .sampling import sampling_funcs
 from .shape import ASPHERE, CONIC, IRIS_CIRCLE, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
 from .status import GRAZING_COS, INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
-from .surfaces import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 from .reference import NEWTON_MAX_ITER
 
 __all__ = ["StreamOptions", "Tuning", "DEFAULT_TUNING", "GPU_TUNING", "stream_kernel", "store_kernel", "module_tag"]
@@ -514,7 +512,7 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
     Consts = _consts_type(wp, real, lay.size, tuning.consts)
     tf = _build_trace(wp, real, mod, shape, opts.table, Consts)
     trace_fast = tf.trace_fast
-    sm = sampling_funcs(wp, real, mod)
+    from .kernels import sampling as sm
     u32 = wp.uint32
     fixed_one = float(2**FIXED_POINT_BITS)
     sampler = int(opts.sampler)
@@ -608,11 +606,11 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
             u1 = real(0.0)
             uw = real(0.0)
             if wp.static(sampler == 2):
-                u0, u1 = sm.sobol_2d(u32(i), bseed)
-                uw = sm.sobol_1d(u32(i), wseed)
+                u0, u1 = sm.sobol_2d(u32(i), bseed, real(0.0))
+                uw = sm.sobol_1d(u32(i), wseed, real(0.0))
             elif wp.static(sampler == 3):
                 state = wp.rand_init(rseed, i)
-                u0, u1 = sm.r2_2d(u32(i), bseed)
+                u0, u1 = sm.r2_2d(u32(i), bseed, real(0.0))
                 uw = real(wp.randf(state))
             else:
                 state = wp.rand_init(rseed, i)

@@ -52,7 +52,7 @@ from .kernels import (COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC
 from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
-from .surfaces import N_RECORD
+from .kernels import N_RECORD
 from .shape import describe
 from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
 from .variants import choose_kernel, params, shape_and_constants
