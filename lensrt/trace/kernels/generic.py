@@ -16,7 +16,7 @@ from . import N_COUNTS, N_STATS, SRC
 from .sampling import hash_u32, sobol_1d, unit_square
 from .stream_body import (Histogram, Slots, SlotSums, accumulate, batch_seeds, bin_ray, hist_base, pick_wavelength,
                           ray_from_source, slot_of, store_slot)
-from .surfaces import trace_ray
+from .surfaces import trace_ray, write_ray
 
 __all__ = ["trace_store", "trace_stream", "generic_samples", "fold_slots", "sum_replicas", "sample_square", "overloads",
            "sample_unit_square"]
@@ -37,16 +37,7 @@ def trace_store(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris:
     st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
         surf, media, iris, n_surfaces, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4],
         rays[r, 5], w_um * w_um, index_table, -1, end, clip, plane_dz, record, rec, r)
-    out[r, 0] = x
-    out[r, 1] = y
-    out[r, 2] = z
-    out[r, 3] = L
-    out[r, 4] = M
-    out[r, 5] = N
-    out[r, 6] = opl
-    out[r, 7] = min_cos
-    status[r] = st
-    surface[r] = where
+    write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
 
 @wp.func
