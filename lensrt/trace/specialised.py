@@ -113,83 +113,6 @@ def _consts_type(wp, real, size: int, mode: str):
     return wp.array(dtype=real)
 
 
-_LAZY_DIV = """
-    if (c) return a / b;
-    return a - a;
-"""
-
-_NATIVE: dict = {}
-
-
-def _lazy_div(wp, real):
-    """``lazy_div(c, a, b)``: a / b where c, else 0 -- a division that a warp skips when no
-    thread needs it, without a Warp variable that only one branch defines (native snippet)."""
-    key = "f64" if real is wp.float64 else "f32"
-    if key not in _NATIVE:
-        if key == "f64":
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f64(c: bool, a: wp.float64, b: wp.float64) -> wp.float64:
-                ...
-
-            _NATIVE[key] = lazy_div_f64
-        else:
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f32(c: bool, a: wp.float32, b: wp.float32) -> wp.float32:
-                ...
-
-            _NATIVE[key] = lazy_div_f32
-    return _NATIVE[key]
-
-
-def _pieces(wp, real, module):
-    """The shape-independent pieces of ``trace_fast``: quadric_t, unit_near_one, refract_unit."""
-    func = wp.func(module=module)
-    lazy_div = _lazy_div(wp, real)
-
-    @func
-    def quadric_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one; when both
-        # are, the one where the ray crosses toward the surface's +z side: t1 when B >= 0);
-        # q / A is divided out only where it is on the vertex branch
-        F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
-        B = N - c * (x * L + y * M + kp1 * z * N)
-        A = c * (L * L + M * M + kp1 * N * N)
-        disc = B * B - A * F
-        real_roots = disc >= real(0.0)
-        root = wp.sqrt(wp.max(disc, real(0.0)))
-        q = wp.where(B < real(0.0), B - root, B + root)
-        u = c * kp1
-        t1 = F / wp.where(q != real(0.0), q, real(1.0))
-        v1 = real_roots and q != real(0.0) and u * (z + t1 * N) < real(1.0)
-        lhs = u * (z * A + q * N)  # u (z + (q / A) N) < 1, multiplied by A
-        v2 = real_roots and A != real(0.0) and wp.where(A > real(0.0), lhs < A, lhs > A)
-        t2 = lazy_div(v2, q, A)
-        use2 = v2 and ((not v1) or B < real(0.0))
-        t = wp.where(use2, t2, wp.where(v1, t1, real(0.0)))
-        return v1 or v2, t
-
-    @func
-    def unit_near_one(x: real, y: real, z: real):
-        # (x, y, z) / |(x, y, z)| for |(x, y, z)| = 1 up to rounding: one Newton step from 1
-        f = real(1.5) - real(0.5) * (x * x + y * y + z * z)
-        return x * f, y * f, z * f
-
-    @func
-    def refract_unit(L: real, M: real, N: real, nx: real, ny: real, nz: real, mu: real):
-        # surfaces.refract with the ratio mu = n1 / n2 given, no angles, the result renormalised
-        # by unit_near_one; returns total internal reflection, L', M', N', min(cos I, cos I')
-        ci = L * nx + M * ny + N * nz
-        sg = wp.where(ci < real(0.0), real(-1.0), real(1.0))
-        cos_i = ci * sg
-        k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        cos_r = wp.sqrt(wp.max(k, real(0.0)))
-        g = cos_r - mu * cos_i
-        L2, M2, N2 = unit_near_one(mu * L + g * sg * nx, mu * M + g * sg * ny, mu * N + g * sg * nz)
-        return k < real(0.0), L2, M2, N2, wp.where(k < real(0.0), cos_i, wp.min(cos_i, cos_r))
-
-    return quadric_t, unit_near_one, refract_unit
-
-
 def _make_sag(wp, real, module, shape, lay, Consts, i: int):
     """``sag_slope`` of asphere ``i`` (its coefficients at fixed offsets of the constants)."""
     na = shape.n_asphere[i]
@@ -471,7 +394,7 @@ def _build_trace(wp, real, module, shape, table, Consts):
     lay = Layout(shape)
     n = shape.n_surfaces
     kinds = tuple(shape.kinds) + (PLANE,)
-    quadric_t, unit_near_one, refract_unit = _pieces(wp, real, module)
+    from .kernels.fast import quadric_t, refract_unit, unit_near_one
     medium_fns = [_make_medium(wp, real, module, shape, lay, Consts, m) for m in range(n + 1)]
     asphere_fns = [_make_asphere(wp, real, module, shape, lay, Consts, i, quadric_t) if kinds[i] == ASPHERE else None
                    for i in range(n)] + [None]
