@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from types import SimpleNamespace
 
-from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS, SRC
+from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS
 from .pack import real_dtype
 from .shape import ASPHERE, CONIC, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
 from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
@@ -491,8 +491,10 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
     samples = _fast_samples(wp, real, mod, int(opts.sampler))
     table, channels, histogram = int(opts.table), int(opts.channels), bool(opts.histogram)
 
+    Source = sb.SOURCE[precision]
+
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
-    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
+    def trace_stream_fast(P: Consts, sources: wp.array(dtype=Source), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
                           index_table: wp.array2d(dtype=real), chan: wp.array2d(dtype=real), chan_nm0: real,
                           chan_dnm: real, h: sb.Histogram, sl: sb.Slots, stats: wp.array2d(dtype=wp.float64),
@@ -501,9 +503,10 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         tid = wp.tid() + sl.tid_base
         q, src, batch, rep = sb.slot_of(tid, sl, h)
         bseed, wseed, rseed = sb.batch_seeds(src_int, src, sl, batch)
-        base = sb.hist_base(h, sources, src, rep, batch)
-        plane_dz = sources[src, wp.static(SRC["plane_dz"])]
-        s = sb.SlotSums()
+        s = sources[src]
+        base = sb.hist_base(h, s, rep, batch)
+        plane_dz = s.plane_dz_mm
+        sums = sb.SlotSums()
         k = q * sl.slot_rays
         k_end = wp.min(k + sl.slot_rays, sl.count)
         while k < k_end:
@@ -511,16 +514,16 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
             i = sl.start + k
             u0, u1, uw = samples(i, sl, bseed, wseed, rseed)
             wl, row = sb.pick_wavelength(uw, wp.static(table), spec_nm, spec_cdf, src_int[src, 2], src_int[src, 3])
-            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(sources, src, u0, u1)
+            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(s, u0, u1)
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
-            s, on_grid, fx, fy = sb.accumulate(s, st, min_cos, x, y, weight, sources, src, h)
+            sums, on_grid, fx, fy = sb.accumulate(sums, st, min_cos, x, y, weight, s, h)
             if wp.static(histogram):
                 if on_grid:
                     sb.bin_ray(h, base, fx, fy, weight, wl, wp.static(channels), chan, chan_nm0, chan_dnm)
             k = k + 1
-        sb.store_slot(stats, counts, tid, s)
+        sb.store_slot(stats, counts, tid, sums)
 
     return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
                            layout=lay, trace_fast=trace_fast)
