@@ -435,7 +435,8 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
         write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
     assert RAY_OUT_COLS == 8
-    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real, layout=lay,
+    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
+                           layout=lay,
                            trace_fast=trace_fast)
 
 

@@ -56,8 +56,8 @@ from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables
 from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "pupil_boxes",
-           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS", "SLOTS_MAX", "SLOT_MIN_RAYS",
-           "LAUNCH_SLOTS"]
+           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS", "SLOTS_MAX",
+           "SLOT_MIN_RAYS", "LAUNCH_SLOTS"]
 
 EMITTERS = ("lambertian", "isotropic")
 

@@ -1,4 +1,4 @@
-"""The generic trace kernels (module :mod:`lensrt.trace.kernels`): one source, one ``wp.overload`` per precision.
+"""The generic trace kernels (package :mod:`lensrt.trace.kernels`): one source, a ``wp.overload`` per precision.
 
 Kernels take ``typing.Any`` arrays and scalars (Warp generics); :func:`overloads` gives the
 float32 or float64 instances, registered at import. The contracts (slots, determinism) are in
@@ -22,7 +22,6 @@ __all__ = ["trace_store", "trace_stream", "generic_samples", "fold_slots", "sum_
            "sample_unit_square"]
 
 wp.set_module_options({"enable_backward": False})
-
 
 
 @wp.kernel
@@ -142,8 +141,9 @@ def _register(precision: str) -> SimpleNamespace:
     a1, a2, a3 = wp.array(dtype=real), wp.array2d(dtype=real), wp.array3d(dtype=real)
     store = wp.overload(trace_store, {"surf": a2, "media": a2, "iris": a1, "rays": a2, "plane_dz": real,
                                       "index_table": a2, "out": a2, "rec": a3})
-    stream = wp.overload(trace_stream, {"surf": a2, "media": a2, "iris": a1, "sources": wp.array(dtype=SOURCE[precision]),
-                                        "spec_nm": a1, "spec_cdf": a1, "index_table": a2, "chan": a2, "chan_nm0": real,
+    sources = wp.array(dtype=SOURCE[precision])
+    stream = wp.overload(trace_stream, {"surf": a2, "media": a2, "iris": a1, "sources": sources, "spec_nm": a1,
+                                        "spec_cdf": a1, "index_table": a2, "chan": a2, "chan_nm0": real,
                                         "chan_dnm": real, "rec": a3})
     square = wp.overload(sample_square, {"out": a2})
     return SimpleNamespace(trace_store=store, trace_stream=stream, fold_slots=fold_slots, sum_replicas=sum_replicas,

@@ -22,8 +22,8 @@ from ..status import GRAZING_COS, INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETT
 from . import FIXED_POINT_BITS, SRC
 from .sampling import hash_u32
 
-__all__ = ["SOURCE", "source_array", "Histogram", "Slots", "SlotSums", "slot_of", "batch_seeds", "hist_base", "ray_from_source",
-           "pick_wavelength", "accumulate", "bin_ray", "store_slot"]
+__all__ = ["SOURCE", "source_array", "Histogram", "Slots", "SlotSums", "slot_of", "batch_seeds", "hist_base",
+           "ray_from_source", "pick_wavelength", "accumulate", "bin_ray", "store_slot"]
 
 wp.set_module_options({"enable_backward": False})
 
