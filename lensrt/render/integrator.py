@@ -39,6 +39,7 @@ from .passes import PassSum, RenderSetup, device_pass, prepare_setup
 from .plan import plan_render
 from .progressive import history_row, regions, relative_error, stop_rule
 from .setup import RenderOptions, RenderResult, band_note, prepare_render, scale_pixels
+from ..core.telemetry import launch
 
 __all__ = ["render", "ProgressFn"]
 
@@ -166,7 +167,7 @@ def _render_in_process(prep, acc: PassSum, rule: StopRule, t_loop: float, n_px: 
         t0 = time.perf_counter()
         buf = device_pass(prep, acc.passes, buf)
         launch_sliced(k.accumulate, n_spec, lambda base: [buf.spec[base:], spec_sum[base:]], dev)
-        wp.launch(k.accumulate_moments, dim=setup.n_pixels, inputs=[buf.xyz, s1, s2], device=dev)
+        launch(k.accumulate_moments, dim=setup.n_pixels, inputs=[buf.xyz, s1, s2], device=dev)
         acc.add_counts(buf.xyz.numpy()[:, 1], int(buf.hits.numpy().astype(np.int64).sum()))
         if need_err:
             acc.xyz1, acc.xyz2 = s1.numpy(), s2.numpy()
@@ -175,7 +176,7 @@ def _render_in_process(prep, acc: PassSum, rule: StopRule, t_loop: float, n_px: 
     acc.xyz1, acc.xyz2 = s1.numpy(), s2.numpy()
     # the image as float32 on the device, then one copy (the same bits as float64 sums / n on the host)
     out = wp.empty(n_spec, dtype=float, device=dev)
-    wp.launch(k.finalize, dim=n_spec, inputs=[spec_sum, wp.float64(1.0 / acc.samples_per_pixel), out], device=dev)
+    launch(k.finalize, dim=n_spec, inputs=[spec_sum, wp.float64(1.0 / acc.samples_per_pixel), out], device=dev)
     return out.numpy(), stop
 
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .passes import REGIONS, PassSum, RenderSetup, prepare_setup, region_slices, run_pass_item
+from ..core.telemetry import launch
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
            "run_tile_item", "tile_region_span", "tile_region_sums", "render_workload", "WORKLOAD_SIZES"]
@@ -149,7 +150,7 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     for index in range(passes):
         buf = device_pass(prep, index, buf, (p0, p1))
         launch_sliced(k.accumulate, n * s.n_bands, lambda base: [buf.spec[base:], spec_sum[base:]], device)
-        wp.launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
+        launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
         pass_hits[index] = int(buf.hits.numpy().astype(np.int64).sum())
         if span is not None:
             y = buf.xyz[span[0] - p0:span[1] - p0].numpy()[:, 1].astype(np.float64)

@@ -20,6 +20,7 @@ from ..stats import Estimate
 from ..units import LUMINOUS_EFFICACY_LM_PER_W
 from ..colour import cie_xyz_cmfs
 from .scene.model import Scene
+from ..core.telemetry import launch
 
 __all__ = ["preview_pinhole"]
 
@@ -88,9 +89,9 @@ def preview_pinhole(scene: Scene, width_px: int = 360, focal_length_mm: float = 
     halves = []
     for k in range(2):
         out = wp.zeros((h, width_px, 3), dtype=float, device=dev)
-        wp.launch(_kernel(), dim=(h, width_px), device=dev,
-                  inputs=[packed.data, cm, width_px, h, sen.width_mm, sen.height_mm, float(focal_length_mm),
-                          samples_per_pixel // 2, 2 * seed + k, LUMINOUS_EFFICACY_LM_PER_W, N_WL, out])
+        launch(_kernel(), dim=(h, width_px), device=dev,
+               inputs=[packed.data, cm, width_px, h, sen.width_mm, sen.height_mm, float(focal_length_mm),
+                       samples_per_pixel // 2, 2 * seed + k, LUMINOUS_EFFICACY_LM_PER_W, N_WL, out])
         halves.append(out.numpy().astype(np.float64))
     value = 0.5 * (halves[0] + halves[1])
     stderr = 0.5 * np.abs(halves[0] - halves[1])

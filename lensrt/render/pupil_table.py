@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LensrtError
+from ..core.telemetry import launch
 
 __all__ = ["ExitPupilTable", "exit_pupil_table", "launch_sliced", "circular_iris", "table_wavelengths"]
 
@@ -85,7 +86,7 @@ def launch_sliced(kernel, n: int, inputs_of, device: str, workers: int | None = 
 
     def run(k: int) -> None:
         if bounds[k + 1] > bounds[k]:
-            wp.launch(kernel, dim=bounds[k + 1] - bounds[k], inputs=inputs_of(bounds[k]), device=device)
+            launch(kernel, dim=bounds[k + 1] - bounds[k], inputs=inputs_of(bounds[k]), device=device)
 
     if w == 1:
         run(0)

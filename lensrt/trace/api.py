@@ -31,6 +31,7 @@ from .status import GRAZING_COS, OK, count_statuses
 from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
 from .kernels import N_RECORD
 from .variants import choose_kernel, params, shape_and_constants
+from ..core.telemetry import download, launch, upload
 
 __all__ = ["RayBatch", "RayResult", "trace", "rays_from_pupil", "make_rays", "kernel_to_stop", "chief_ray"]
 
@@ -165,7 +166,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     host[:, 6] = rays.wavelength_nm
     real = k.real
     t0 = time.perf_counter()
-    arr = wp.array(host, dtype=real, device=dev)
+    arr = upload(host, real, dev)
     out = wp.empty((n, RAY_OUT_COLS), dtype=real, device=dev)
     status = wp.empty(n, dtype=wp.int32, device=dev)
     surface = wp.empty(n, dtype=wp.int32, device=dev)
@@ -187,26 +188,26 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
         if bounds[w + 1] <= bounds[w]:
             return
         if variant == "specialised":
-            wp.launch(sk.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
-                      inputs=common + [bounds[w], out, status, surface])
+            launch(sk.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
+                   inputs=common + [bounds[w], out, status, surface])
         else:
-            wp.launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
-                      inputs=common + [bounds[w], out, status, surface, rec])
+            launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
+                   inputs=common + [bounds[w], out, status, surface, rec])
 
     if workers == 1:
         run(0)
     else:
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(run, range(workers)))
-    o = out.numpy().astype(np.float64, copy=False)
-    st = status.numpy().astype(np.int32, copy=False)
-    sf = surface.numpy().astype(np.int32, copy=False)
+    o = download(out).astype(np.float64, copy=False)
+    st = download(status).astype(np.int32, copy=False)
+    sf = download(surface).astype(np.int32, copy=False)
     seconds = time.perf_counter() - t0
     vz = lens.vertex_z_mm()
     frame = np.where(st == OK, end, np.clip(sf, 0, n_surf))
     z = o[:, 2] + vz[frame] + np.where(frame == n_surf, plane_dz, 0.0)
     pos = np.stack([o[:, 0], o[:, 1], z], axis=1)
-    records = rec.numpy().astype(np.float64) if record else None
+    records = download(rec).astype(np.float64) if record else None
     return RayResult(pos, o[:, 3:6], o[:, 6], st, sf, rays.wavelength_nm.copy(), precision, dev, seconds,
                      records, rays.aimed.copy() if rays.aimed is not None else None, o[:, 7], variant)
 

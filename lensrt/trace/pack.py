@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.telemetry import upload
 from ..errors import LensrtError
 from ..prescription.materials import DISPERSION_WIDTH
 from ..prescription.model import Iris, Lens
@@ -137,8 +138,8 @@ def pack_lens(lens: Lens, precision: str = "float64", device: str | None = None,
     surf, media, iris_row = pack_arrays(lens, iris, stop_radius_mm)
     real = real_dtype(wp, precision)
     packed = PackedLens(lens, precision, dev,
-                        wp.array(surf, dtype=real, device=dev), wp.array(media, dtype=real, device=dev),
-                        wp.array(iris_row, dtype=real, device=dev), surf, media, iris_row)
+                        upload(surf, real, dev), upload(media, real, dev),
+                        upload(iris_row, real, dev), surf, media, iris_row)
     _CACHE[key] = packed
     if len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)

@@ -52,6 +52,7 @@ from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
 from .shape import describe
 from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
+from ..core.telemetry import download
 from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables, launch_all, plan_slots, slot_layout
 from .variants import choose_kernel, params, shape_and_constants
 
@@ -461,7 +462,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                 t.spec_cdf, use_table, t.table, chan_mode] + chan_args + [code]
     out, launches, kernel_seconds = launch_all(wp, dev, plan, t, grid.nx, grid.ny, strata(n_b, spectra), kern,
                                                head, after, k.fold_slots, k.sum_replicas)
-    h = out.numpy().reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
+    h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
     if not histogram:
         h[...] = 0
     unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
@@ -473,7 +474,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if any(s.pixel_mm is not None for s in sources):
         extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
     return StreamResult((h.sum(axis=1) if plan.hb > 1 else h[:, 0]) * unit, n_b * B, B,
-                        t.tot_stats.numpy().reshape(S, B, N_STATS), t.tot_counts.numpy().reshape(S, B, N_COUNTS),
+                        download(t.tot_stats).reshape(S, B, N_STATS), download(t.tot_counts).reshape(S, B, N_COUNTS),
                         np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid,
                         time.perf_counter() - t_call, precision, dev, sampler, int(seed), launches,

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from .kernels import N_COUNTS, N_RECORD, N_STATS
+from ..core.telemetry import launch, upload
 
 __all__ = ["EPOCH_RAYS", "SLOTS_MAX", "SLOT_MIN_RAYS", "LAUNCH_SLOTS", "StreamPlan", "slot_layout", "plan_slots",
            "device_tables", "launch_all", "cpu_count"]
@@ -112,9 +113,9 @@ def device_tables(wp: Any, dev: str, precision: str, plan: StreamPlan, rows: np.
     real = wp.float64 if precision == "float64" else wp.float32
     max_threads = plan.S * plan.B * plan.per_launch
     return SimpleNamespace(
-        src=source_array(rows, precision, dev), src_int=wp.array(src_int, dtype=wp.int32, device=dev),
-        spec_nm=wp.array(nm, dtype=real, device=dev), spec_cdf=wp.array(cdf, dtype=real, device=dev),
-        table=wp.array(table, dtype=real, device=dev), chan=wp.array(chan, dtype=real, device=dev),
+        src=source_array(rows, precision, dev), src_int=upload(src_int, wp.int32, dev),
+        spec_nm=upload(nm, real, dev), spec_cdf=upload(cdf, real, dev),
+        table=upload(table, real, dev), chan=upload(chan, real, dev),
         hist=wp.zeros(plan.hist_len, dtype=wp.int64, device=dev),
         stats=wp.zeros((max_threads, N_STATS), dtype=wp.float64, device=dev),
         counts=wp.zeros((max_threads, N_COUNTS), dtype=wp.int64, device=dev),
@@ -163,8 +164,8 @@ def launch_all(wp: Any, dev: str, plan: StreamPlan, t: SimpleNamespace, nx: int,
 
             def run(w: int) -> None:
                 sl = _slots(sb, plan, epoch, ns, local, count, strata, bounds[w], 0 if plan.is_gpu else w)
-                wp.launch(kernel, dim=bounds[w + 1] - bounds[w], device=dev,
-                          inputs=head + [h, sl, t.stats, t.counts] + after)
+                launch(kernel, dim=bounds[w + 1] - bounds[w], device=dev,
+                       inputs=head + [h, sl, t.stats, t.counts] + after)
 
             if pool is None or workers == 1:
                 run(0)
@@ -172,13 +173,13 @@ def launch_all(wp: Any, dev: str, plan: StreamPlan, t: SimpleNamespace, nx: int,
                 list(pool.map(run, range(workers)))
             launches += 1
             # the launch's slots added to the totals, in slot order (kernels.fold_slots)
-            wp.launch(fold, dim=plan.S * plan.B * (N_STATS + N_COUNTS), device=dev,
-                      inputs=[t.stats, t.counts, ns, t.tot_stats, t.tot_counts])
+            launch(fold, dim=plan.S * plan.B * (N_STATS + N_COUNTS), device=dev,
+                   inputs=[t.stats, t.counts, ns, t.tot_stats, t.tot_counts])
             start += count
         out = t.hist
         if plan.replicas > 1:
             out = wp.empty(plan.bins, dtype=wp.int64, device=dev)
-            wp.launch(sum_replicas, dim=plan.bins, device=dev, inputs=[t.hist, plan.replicas, plan.bins, out])
+            launch(sum_replicas, dim=plan.bins, device=dev, inputs=[t.hist, plan.replicas, plan.bins, out])
         if plan.is_gpu:
             wp.get_stream(dev).record_event(ev1)
     finally:

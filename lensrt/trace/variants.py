@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.telemetry import upload
 from ..errors import LensrtError
 from .shape import LensShape, constants, lens_shape, specialisable
 
@@ -82,4 +83,4 @@ def params(kernels: Any, values: np.ndarray, device: str) -> Any:
     wp = warp()
     if kernels.consts_mode == "param":
         return kernels.Consts(*(float(v) for v in values))
-    return wp.array(np.asarray(values, dtype=np.float64), dtype=kernels.real, device=device)
+    return upload(np.asarray(values, dtype=np.float64), kernels.real, device)

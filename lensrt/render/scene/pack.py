@@ -19,6 +19,7 @@ from ...device import resolve_device, warp
 from ...units import MM_PER_M
 from .model import Scene, Spectrum
 from .textures import TEXTURE_KINDS
+from ...core.telemetry import launch
 
 __all__ = ["PackedScene", "pack_scene", "light_powers_w", "evaluate_radiance", "evaluate_irradiance"]
 
@@ -182,7 +183,7 @@ def _launch(packed: PackedScene, kernel_name: str, a: np.ndarray, b: np.ndarray,
               wp.array(np.asarray(b, dtype=np.float32).reshape(n, 3), dtype=wp.vec3, device=dev),
               wp.array(np.asarray(lams, dtype=np.float32), dtype=float, device=dev),
               wp.array(np.asarray(us, dtype=np.float32).reshape(n, 3), dtype=wp.vec3, device=dev), out]
-    wp.launch(getattr(sk, kernel_name), dim=n, inputs=inputs, device=dev)
+    launch(getattr(sk, kernel_name), dim=n, inputs=inputs, device=dev)
     return out.numpy().astype(np.float64)
 
 
