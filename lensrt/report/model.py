@@ -60,6 +60,8 @@ class Section:
     data: dict[str, Any] = field(default_factory=dict)
     seconds: float = 0.0
     traceback: str = ""
+    #: kernel launches, host<->device copies, wall and kernel seconds (lensrt.core.telemetry)
+    telemetry: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -100,7 +102,7 @@ class Section:
 
     def to_dict(self) -> dict[str, Any]:
         return {"key": self.key, "title": self.title, "ok": self.ok, "errors": self.errors, "warnings": self.warnings,
-                "seconds": self.seconds, "files": self.referenced_files(),
+                "seconds": self.seconds, **self.telemetry, "files": self.referenced_files(),
                 "monte_carlo": [m.to_dict() for m in self.monte_carlo], "data": self.data,
                 **({"traceback": self.traceback} if self.traceback else {})}
 
@@ -159,6 +161,8 @@ class Report:
     lens_notes: list[str] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
     key_numbers: list[dict[str, Any]] = field(default_factory=list)
+    #: the whole report's {wall_s, kernel_s, launches, copies} (lensrt.core.telemetry)
+    telemetry: dict[str, Any] = field(default_factory=dict)
     html_path: Path | None = None
     json_path: Path | None = None
 
@@ -178,7 +182,7 @@ class Report:
         return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers,
                 "options": self.options.to_dict(),
                 "lens_changes": self.lens_notes, "device": self.device, "device_name": self.device_name,
-                "seconds": self.seconds, "environment": self.environment,
+                "seconds": self.seconds, "telemetry": self.telemetry, "environment": self.environment,
                 "ok": not self.failed, "failed_sections": [s.key for s in self.failed],
                 "monte_carlo": self.monte_carlo, "files": self.referenced_files() + ["index.html"],
                 "sections": [s.to_dict() for s in self.sections]}

@@ -11,6 +11,7 @@ import warnings
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from ..core.telemetry import measure
 from ..errors import LensrtError
 from ..io.paths import output_dir
 from .model import Report, ReportContext, Section
@@ -96,14 +97,24 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     the others run on. Bad options or a lens that cannot be prepared raise :class:`LensrtError`
     before anything is written. Progress goes to ``stream`` (stderr) unless ``quiet``.
     """
-    from ..views.progress import StepProgress
-    from ..device import describe_device, resolve_device
     from .html import write_html
     from ..io.table import dumps_json
     options = options or ReportOptions()
     unknown = [k for k in skip if k not in section_keys()]
     if unknown:
         raise LensrtError(f"unknown section(s) {', '.join(unknown)} to skip", hint=f"use {', '.join(section_keys())}")
+    with measure() as total:
+        report = _run(lens, out_dir, options, skip, stream, quiet)
+    report.telemetry = total.to_dict()
+    report.json_path.write_text(dumps_json(report.to_dict()) + "\n")
+    write_html(report, report.html_path)
+    return report
+
+
+def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str], stream, quiet: bool) -> Report:
+    """Run the sections (each one measured) and gather the report; :func:`build_report` writes it."""
+    from ..views.progress import StepProgress
+    from ..device import describe_device, resolve_device
     t0 = time.perf_counter()
     analysed, notes = prepare_lens(lens, options)
     device = resolve_device(options.device)
@@ -119,7 +130,7 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
             continue
         ctx.progress = steps.start(label)
         t_sec = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught:
+        with warnings.catch_warnings(record=True) as caught, measure() as rec:
             warnings.simplefilter("always")
             try:
                 _function(spec)(ctx, sec)
@@ -132,6 +143,7 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
         sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
                                           if not issubclass(w.category, DeprecationWarning)))
         sec.seconds = time.perf_counter() - t_sec
+        sec.telemetry = rec.to_dict()
         note = sec.errors[0][:100] if not sec.ok else \
             (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
         steps.finish(sec.ok, note)
@@ -149,6 +161,4 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     report.seconds = time.perf_counter() - t0
     report.json_path = out / "report.json"
     report.html_path = out / "index.html"
-    report.json_path.write_text(dumps_json(report.to_dict()) + "\n")
-    write_html(report, report.html_path)
     return report
