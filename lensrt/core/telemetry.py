@@ -28,7 +28,7 @@ _LOCK = threading.Lock()
 _OPEN: list["Telemetry"] = []
 
 
-@dataclass
+@dataclass(eq=False)
 class Telemetry:
     """What a :func:`measure` block did: wall seconds, kernel seconds, kernel launches, host<->device copies."""
 
@@ -62,7 +62,7 @@ def measure() -> Iterator[Telemetry]:
         yield rec
     finally:
         with _LOCK:
-            _OPEN.remove(rec)
+            _OPEN[:] = [r for r in _OPEN if r is not rec]
         rec.kernel_s += _event_seconds(rec._events)
         rec._events = []
         rec.wall_s = time.perf_counter() - t0
