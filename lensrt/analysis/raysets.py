@@ -25,7 +25,7 @@ from ..errors import LensrtError
 from ..paraxial import FirstOrder, first_order, paraxial_system, trace_ynu
 from ..prescription.model import Lens
 from ..trace import RayBatch, RayResult, kernel_to_stop, trace
-from ..trace.aiming import FieldPoint, aim_rays, beam_basis, field_point, pupil_geometry
+from ..trace.aiming import FieldPoint, aim_many, aim_rays, beam_basis, field_point, pupil_geometry
 
 __all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "chief_batch",
            "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
@@ -134,9 +134,10 @@ def aim_batch(lens: Lens, fp: FieldPoint, px, py, wavelength_nm: float, aim: str
 def chief_batch(lens: Lens, fps: Sequence[FieldPoint], wavelength_nm: float,
                 device: str | None = None) -> RayBatch:
     """Real chief rays (through the centre of the real stop) of several field points."""
-    parts = [aim_batch(lens, fp, 0.0, 0.0, wavelength_nm, "real", device) for fp in fps]
-    return RayBatch(np.concatenate([p.origin_mm for p in parts]), np.concatenate([p.direction for p in parts]),
-                    float(wavelength_nm), np.concatenate([p.aimed for p in parts]))
+    fps = list(fps)
+    o, d, ok = aim_many(lens, fps, np.arange(len(fps)), 0.0, 0.0, float(wavelength_nm), "real",
+                        kernel_to_stop(lens, device))
+    return RayBatch(o, d, float(wavelength_nm), ok)
 
 
 def trace64(lens: Lens, rays: RayBatch, device: str | None = None, *, clip: bool = False,

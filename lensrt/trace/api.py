@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
-from .aiming import AIM_MODES, aim_rays, field_point, pupil_geometry
+from .aiming import AIM_MODES, aim_many, field_point, pupil_geometry
 from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
@@ -238,20 +238,14 @@ def make_rays(lens: Lens, hx, hy, px, py, wavelength_nm=None, aim: str = "paraxi
                                               for v in (hx, hy, px, py, wl0)))
     hx, hy, px, py, wl = (a.ravel() for a in (hx, hy, px, py, wl))
     _check_wavelengths(wl)
-    n = len(hx)
-    origin, direction, aimed = np.empty((n, 3)), np.empty((n, 3)), np.ones(n, dtype=bool)
     to_stop = None
     if aim != "paraxial":
         to_stop = kernel_to_stop(lens, device) if aim_tracer == "kernel" else None
     geom = pupil_geometry(lens)
     keys = np.stack([hx, hy], axis=1)
     uniq, inv = np.unique(keys, axis=0, return_inverse=True)
-    inv = np.asarray(inv).ravel()
-    for g, (fx, fy) in enumerate(uniq):
-        sel = np.nonzero(inv == g)[0]
-        fp = field_point(lens, float(fx), float(fy))
-        o, d, ok = aim_rays(lens, fp, px[sel], py[sel], wl[sel], aim, to_stop, geom)
-        origin[sel], direction[sel], aimed[sel] = o, d, ok
+    fps = [field_point(lens, float(fx), float(fy)) for fx, fy in uniq]
+    origin, direction, aimed = aim_many(lens, fps, np.asarray(inv).ravel(), px, py, wl, aim, to_stop, geom)
     return RayBatch(origin, direction, wl, aimed)
 
 

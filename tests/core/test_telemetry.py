@@ -1,0 +1,41 @@
+"""Telemetry counts lensrt's kernel launches and host<->device copies (no timing asserts)."""
+from __future__ import annotations
+
+import numpy as np
+
+from lensrt import load_lens
+from lensrt.core.telemetry import measure
+from lensrt.trace import RayBatch, trace
+
+
+def _rays(n: int) -> RayBatch:
+    o = np.zeros((n, 3))
+    o[:, 1] = np.linspace(-1.0, 1.0, n)
+    d = np.zeros((n, 3))
+    d[:, 2] = 1.0
+    return RayBatch(o, d, 587.56)
+
+
+def test_a_small_trace_is_one_launch_one_upload_three_downloads():
+    lens = load_lens("cooke_triplet_50mm_f5")
+    trace(lens, _rays(5), "float64", "cpu")  # packs the lens (cached per lens, precision, device)
+    with measure() as rec:
+        trace(lens, _rays(5), "float64", "cpu")
+    assert (rec.launches, rec.copies) == (1, 4)  # one store launch; rays up; out, status, surface down
+    assert rec.wall_s >= rec.kernel_s >= 0.0
+    assert set(rec.to_dict()) == {"wall_s", "kernel_s", "launches", "copies"}
+
+
+def test_records_nest_and_count_only_inside():
+    lens = load_lens("cooke_triplet_50mm_f5")
+    trace(lens, _rays(3), "float64", "cpu")
+    with measure() as outer:
+        trace(lens, _rays(3), "float64", "cpu")
+        with measure() as inner:
+            trace(lens, _rays(3), "float64", "cpu")
+            trace(lens, _rays(3), "float64", "cpu", record=True)
+        trace(lens, _rays(3), "float64", "cpu")
+    trace(lens, _rays(3), "float64", "cpu")
+    assert (inner.launches, inner.copies) == (2, 9)  # the recorded trace downloads its records too
+    assert (outer.launches, outer.copies) == (4, 17)
+    assert outer.wall_s >= inner.wall_s
