@@ -27,7 +27,7 @@ from ..prescription.model import Lens
 from ..trace import RayBatch, RayResult, kernel_to_stop, trace
 from ..trace.aiming import FieldPoint, aim_many, aim_rays, beam_basis, field_point, pupil_geometry
 
-__all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "chief_batch",
+__all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "aim_batches", "chief_batch",
            "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
            "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
            "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
@@ -129,6 +129,28 @@ def aim_batch(lens: Lens, fp: FieldPoint, px, py, wavelength_nm: float, aim: str
     to_stop = None if aim == "paraxial" else kernel_to_stop(lens, device)
     o, d, ok = aim_rays(lens, fp, np.atleast_1d(px), np.atleast_1d(py), float(wavelength_nm), aim, to_stop)
     return RayBatch(o, d, float(wavelength_nm), ok)
+
+
+def aim_batches(lens: Lens, jobs: Sequence[tuple[FieldPoint, object, object, float]], aim: str = "real",
+                device: str | None = None) -> list[RayBatch]:
+    """Several :func:`aim_batch` calls in one: ``jobs`` holds (field point, px, py, wavelength_nm) each, and
+    every job's rays are aimed together (one trace per Newton step for all of them), the same rays as
+    :func:`aim_batch` job by job."""
+    fps, index, parts = [], {}, []
+    for fp, px, py, w in jobs:
+        px, py = np.broadcast_arrays(np.atleast_1d(np.asarray(px, dtype=np.float64)),
+                                     np.atleast_1d(np.asarray(py, dtype=np.float64)))
+        f = index.setdefault(fp, len(fps))
+        if f == len(fps):
+            fps.append(fp)
+        parts.append((f, px.ravel(), py.ravel(), float(w)))
+    rows = np.concatenate([np.full(len(px), f, dtype=np.intp) for f, px, _, _ in parts])
+    wl = np.concatenate([np.full(len(px), w) for _, px, _, w in parts])
+    to_stop = None if aim == "paraxial" else kernel_to_stop(lens, device)
+    o, d, ok = aim_many(lens, fps, rows, np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]),
+                        wl, aim, to_stop)
+    ends = np.cumsum([0] + [len(p[1]) for p in parts])
+    return [RayBatch(o[a:b], d[a:b], w, ok[a:b]) for (_, _, _, w), a, b in zip(parts, ends[:-1], ends[1:])]
 
 
 def chief_batch(lens: Lens, fps: Sequence[FieldPoint], wavelength_nm: float,

@@ -37,7 +37,7 @@ from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...stats import Estimate, jackknife
 from ...units import NM_PER_MM
-from ..raysets import (aim_batch, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
+from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
                    trace64)
 
 __all__ = ["RayFan", "ray_fan", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
@@ -114,7 +114,11 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     px, py = np.concatenate([[0.0], px]), np.concatenate([[0.0], py])
     z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
     primary = lens.wavelengths.primary_nm
-    ref = trace64(lens, aim_batch(lens, fp, 0.0, 0.0, primary, aim, device), device, plane_z_mm=z)
+    # every ray of the fan aimed at once: the reference chief ray, then per wavelength the fan and its chief ray
+    aimed = aim_batches(lens, [(fp, 0.0, 0.0, primary)] + [job for w in wls for job in
+                                                          ((fp, px, py, float(w)), (fp, 0.0, 0.0, float(w)))],
+                        aim, device)
+    ref = trace64(lens, aimed[0], device, plane_z_mm=z)
     if not ref.ok[0]:
         raise LensrtError(f"the chief ray of field {label} does not reach the image")
     ref_xy = (float(ref.position_mm[0, 0]), float(ref.position_mm[0, 1]))
@@ -123,10 +127,10 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     passed = np.zeros((k, m), dtype=bool)
     xps = np.full(k, np.nan)
     for i, w in enumerate(wls):
-        rays = aim_batch(lens, fp, px, py, float(w), aim, device)
+        rays = aimed[1 + 2 * i]
         r = trace64(lens, rays, device, clip=clip, plane_z_mm=z)
         # the chief ray itself is traced without apertures: it is the reference even when vignetted
-        c = trace64(lens, aim_batch(lens, fp, 0.0, 0.0, float(w), aim, device), device, plane_z_mm=z)
+        c = trace64(lens, aimed[2 + 2 * i], device, plane_z_mm=z)
         p, v, opl = r.position_mm.copy(), r.direction.copy(), r.opl_mm.copy()
         p[0], v[0], opl[0] = c.position_mm[0], c.direction[0], c.opl_mm[0]
         ok = r.ok & rays.aimed
