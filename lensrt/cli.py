@@ -52,8 +52,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for reports that record it
     shown = warnings.showwarning
     warnings.showwarning = _show_warning
+    from .core.telemetry import measure
     try:
-        return int(args.func(args) or 0)
+        with measure():  # what the command costs: --json results carry it (commands._common.print_json)
+            return int(args.func(args) or 0)
     except LensrtError as err:
         print(f"lensrt: error: {err}", file=sys.stderr)
         return 2

@@ -48,7 +48,12 @@ def reader_options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def print_json(value: Any) -> None:
+    """Write ``value`` as JSON; a dict gets the command's ``telemetry`` so far (:mod:`lensrt.core.telemetry`)."""
+    from ..core.telemetry import snapshot
     from ..io.table import dumps_json
+    rec = snapshot()
+    if isinstance(value, dict) and rec is not None and "telemetry" not in value:
+        value = {**value, "telemetry": rec}
     sys.stdout.write(dumps_json(value) + "\n")
 
 

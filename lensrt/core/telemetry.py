@@ -22,7 +22,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from typing import Any, Iterator
 
-__all__ = ["Telemetry", "measure", "launch", "upload", "download", "count_copy"]
+__all__ = ["Telemetry", "measure", "snapshot", "launch", "upload", "download", "count_copy"]
 
 _LOCK = threading.Lock()
 _OPEN: list["Telemetry"] = []
@@ -36,6 +36,8 @@ class Telemetry:
     kernel_s: float = 0.0
     launches: int = 0
     copies: int = 0
+    #: perf_counter() when the block opened
+    _t0: float = field(default=0.0, repr=False)
     #: (start, end) CUDA events of the launches, turned into kernel_s when the block closes
     _events: list = field(default_factory=list, repr=False, compare=False)
 
@@ -43,6 +45,7 @@ class Telemetry:
         """``{wall_s, kernel_s, launches, copies}`` (JSON-ready)."""
         d = asdict(self)
         d.pop("_events")
+        d.pop("_t0")
         return d
 
     @property
@@ -54,10 +57,9 @@ class Telemetry:
 @contextmanager
 def measure() -> Iterator[Telemetry]:
     """Count launches and copies and time the block; yields the :class:`Telemetry` it fills in."""
-    rec = Telemetry()
+    rec = Telemetry(_t0=time.perf_counter())
     with _LOCK:
         _OPEN.append(rec)
-    t0 = time.perf_counter()
     try:
         yield rec
     finally:
@@ -65,7 +67,23 @@ def measure() -> Iterator[Telemetry]:
             _OPEN[:] = [r for r in _OPEN if r is not rec]
         rec.kernel_s += _event_seconds(rec._events)
         rec._events = []
-        rec.wall_s = time.perf_counter() - t0
+        rec.wall_s = time.perf_counter() - rec._t0
+
+
+def snapshot() -> dict[str, Any] | None:
+    """The outermost open record so far (``{wall_s, kernel_s, launches, copies}``), or None when none is open.
+
+    The CLI opens one around each command, so that a ``--json`` result can say what its command cost.
+    """
+    with _LOCK:
+        if not _OPEN:
+            return None
+        rec = _OPEN[0]
+        events = list(rec._events)
+        out = {"wall_s": 0.0, "kernel_s": rec.kernel_s, "launches": rec.launches, "copies": rec.copies}
+    out["kernel_s"] += _event_seconds(events)
+    out["wall_s"] = time.perf_counter() - rec._t0
+    return out
 
 
 def _event_seconds(events: list) -> float:

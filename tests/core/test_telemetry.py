@@ -39,3 +39,13 @@ def test_records_nest_and_count_only_inside():
     assert (inner.launches, inner.copies) == (2, 9)  # the recorded trace downloads its records too
     assert (outer.launches, outer.copies) == (4, 17)
     assert outer.wall_s >= inner.wall_s
+
+
+def test_a_json_result_carries_its_commands_telemetry(capsys):
+    import json
+
+    from lensrt.cli import main
+    assert main(["ray", "cooke_triplet_50mm_f5", "--hy", "1", "--py", "1", "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)["telemetry"]
+    assert set(rec) == {"wall_s", "kernel_s", "launches", "copies"}
+    assert rec["launches"] >= 1 and rec["copies"] >= 2 * rec["launches"]
