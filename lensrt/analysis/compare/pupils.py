@@ -39,9 +39,9 @@ from ...errors import LensrtError
 from ...prescription.model import Iris, Lens
 from ...trace import RayBatch, trace
 from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
-from ..raysets import aim_batch, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
+from ..raysets import aim_batch, aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
 
-__all__ = ["PupilOutline", "pupil_outline", "RealPupils", "real_pupils", "stop_only_lens", "physical_rim_mm",
+__all__ = ["PupilOutline", "pupil_outline", "pupil_outlines", "RealPupils", "real_pupils", "stop_only_lens", "physical_rim_mm",
            "pupil_frame"]
 
 
@@ -235,27 +235,106 @@ def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None =
     ``tracer`` "kernel" (float64 store kernel) or "reference" (the float64 NumPy
     reference tracer, one ray at a time: the independent check).
     """
+    out = pupil_outlines(lens, [object_value], wavelength_nm, n_azimuth=n_azimuth, iterations=iterations, clip=clip,
+                         tracer=tracer, iris=iris, device=device, radial_nodes=radial_nodes)[0]
+    if isinstance(out, LensrtError):
+        raise out
+    return out
+
+
+def pupil_outlines(lens: Lens, object_values: Sequence[float], wavelength_nm: float | None = None, *,
+                   n_azimuth: int = 360, iterations: int = 40, clip: bool = True, tracer: str = "kernel",
+                   iris: Iris | None = None, device: str | None = None,
+                   radial_nodes: int = 16) -> list[PupilOutline | LensrtError]:
+    """:func:`pupil_outline` of several field points at once, the same outlines: each bisection step traces
+    the rays of every field point in one call. A field point without an outline gets, in its place, the
+    :class:`LensrtError` that :func:`pupil_outline` raises for it."""
     if tracer not in ("kernel", "reference"):
         raise LensrtError(f"unknown tracer {tracer!r}", hint="use 'kernel' or 'reference'")
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    fp = object_field_point(lens, object_value)
-    c, w, e1, e2 = pupil_frame(lens, fp)
+    values = [float(v) for v in object_values]
+    fps = [object_field_point(lens, v) for v in values]
+    frames = [pupil_frame(lens, fp) for fp in fps]
     passes = _passes_kernel(lens, clip, iris, device) if tracer == "kernel" else _passes_reference(lens, clip, iris)
-    rays = 0
+    rays = np.zeros(len(fps), dtype=np.int64)
 
-    def shoot(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        nonlocal rays
-        o, d = ray_through_point(fp, c + a[:, None] * e1 + b[:, None] * e2)
-        rays += len(a)
-        return passes(o, d, wl)
+    def shoot(ks: list[int], a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rays of field points ``ks`` through (a[j], b[j]) (rows of (len(ks), m)): ok, directions, positions."""
+        o, d = [], []
+        for j, k in enumerate(ks):
+            c, _, e1, e2 = frames[k]
+            oj, dj = ray_through_point(fps[k], c + a[j][:, None] * e1 + b[j][:, None] * e2)
+            o.append(oj)
+            d.append(dj)
+            rays[k] += a.shape[1]
+        ok, dirs, pos = passes(np.concatenate(o), np.concatenate(d), wl)
+        m = a.shape[1]
+        return ok.reshape(len(ks), m), dirs.reshape(len(ks), m, 3), pos.reshape(len(ks), m, 3)
 
-    # the interior point: the real chief ray's crossing of the plane
-    ch = aim_batch(lens, fp, 0.0, 0.0, wl, "real", device)
-    t = float((c - ch.origin_mm[0]) @ w / (ch.direction[0] @ w))
-    q = ch.origin_mm[0] + t * ch.direction[0] - c
-    a0, b0 = float(q @ e1), float(q @ e2)
-    if not shoot(np.array([a0]), np.array([b0]))[0][0]:
-        a0, b0 = _interior_point(lens, fp, wl, c, e1, e2, shoot, device)
+    results: list = [None] * len(fps)
+    chs = aim_batches(lens, [(fp, 0.0, 0.0, wl) for fp in fps], "real", device)
+    a0, b0 = _outline_centres(lens, fps, frames, chs, wl, shoot, results, device)
+    hi = np.array([[_outline_reach(lens, fp, frames[k][0], frames[k][1], a0[k], b0[k])] * n_azimuth
+                   for k, fp in enumerate(fps)]).reshape(len(fps), n_azimuth)
+    phi = np.linspace(0.0, 2.0 * np.pi, n_azimuth, endpoint=False)
+    cos, sin = np.cos(phi), np.sin(phi)
+    act = [k for k in range(len(fps)) if results[k] is None]
+    for _ in range(6):  # make sure every azimuth starts outside the pupil
+        if not act:
+            break
+        ok = shoot(act, a0[act, None] + hi[act] * cos, b0[act, None] + hi[act] * sin)[0]
+        hi[act] = np.where(ok, 4.0 * hi[act], hi[act])
+        act = [k for k, some in zip(act, ok.any(axis=1)) if some]
+    for k in act:
+        results[k] = LensrtError("rays pass the lens far outside its entrance pupil: no pupil outline",
+                                 hint="give the lens clear apertures")
+    live = [k for k in range(len(fps)) if results[k] is None]
+    if not live:
+        return results
+    lo = np.zeros((len(fps), n_azimuth))
+    for _ in range(iterations):
+        mid = 0.5 * (lo[live] + hi[live])
+        ok = shoot(live, a0[live, None] + mid * cos, b0[live, None] + mid * sin)[0]
+        lo[live], hi[live] = np.where(ok, mid, lo[live]), np.where(ok, hi[live], mid)
+    ok, dirs, pos = shoot(live, a0[live, None] + lo[live] * cos, b0[live, None] + lo[live] * sin)
+    ch_img = trace64(lens, RayBatch(np.concatenate([chs[k].origin_mm for k in live]),
+                                    np.concatenate([chs[k].direction for k in live]), wl), device)
+    for j, k in enumerate(live):
+        try:
+            results[k] = _finish_outline(lens, values[k], fps[k], frames[k], wl, clip, tracer, phi, lo[k],
+                                         (float(a0[k]), float(b0[k])), ok[j], dirs[j], pos[j], int(rays[k]),
+                                         ch_img, j, radial_nodes)
+        except LensrtError as err:
+            results[k] = err
+    return results
+
+
+def _outline_centres(lens: Lens, fps: list, frames: list, chs: list, wl: float, shoot, results: list,
+                     device: str | None) -> tuple[np.ndarray, np.ndarray]:
+    """Interior points (a0, b0) of every field point: the real chief ray's crossing of the plane, or, where
+    that ray is vignetted, :func:`_interior_point` (a field point without one gets its error in ``results``)."""
+    a0, b0 = np.zeros(len(fps)), np.zeros(len(fps))
+    for k, (c, w, e1, e2) in enumerate(frames):
+        ch = chs[k]
+        t = float((c - ch.origin_mm[0]) @ w / (ch.direction[0] @ w))
+        q = ch.origin_mm[0] + t * ch.direction[0] - c
+        a0[k], b0[k] = float(q @ e1), float(q @ e2)
+    every = list(range(len(fps)))
+    passed = shoot(every, a0[:, None], b0[:, None])[0][:, 0] if every else np.zeros(0, dtype=bool)
+    for k in np.nonzero(~passed)[0]:
+        c, _, e1, e2 = frames[k]
+
+        def one(a: np.ndarray, b: np.ndarray, k=int(k)):
+            return tuple(x[0] for x in shoot([k], a[None, :], b[None, :]))
+        try:
+            a0[k], b0[k] = _interior_point(lens, fps[k], wl, c, e1, e2, one, device)
+        except LensrtError as err:
+            results[k] = err
+    return a0, b0
+
+
+def _outline_reach(lens: Lens, fp: FieldPoint, c: np.ndarray, w: np.ndarray, a0: float, b0: float) -> float:
+    """A first radius about (a0, b0) that should lie outside the pupil (grown later where it does not)."""
     geom = pupil_geometry(lens)
     s1 = lens.surfaces[0]
     sd1 = s1.semi_diameter_mm if s1.semi_diameter_mm is not None else 10.0 * geom.ep_radius_mm
@@ -263,24 +342,18 @@ def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None =
     if not fp.infinite:
         dist = float((c - np.asarray(fp.point_mm)) @ w)
         hi0 *= max(1.0, dist / max(dist - abs(geom.ep_z_mm), 1e-9))
-    phi = np.linspace(0.0, 2.0 * np.pi, n_azimuth, endpoint=False)
+    return hi0
+
+
+def _finish_outline(lens: Lens, object_value: float, fp: FieldPoint, frame: tuple, wl: float, clip: bool,
+                    tracer: str, phi: np.ndarray, rho: np.ndarray, centre: tuple[float, float], ok: np.ndarray,
+                    dirs: np.ndarray, pos: np.ndarray, rays: int, ch_img, row: int,
+                    radial_nodes: int) -> PupilOutline:
+    """The outline of one field point from its boundary radii ``rho``: area, solid angles, exit pupil."""
+    c, w, e1, e2 = frame
+    a0, b0 = centre
     cos, sin = np.cos(phi), np.sin(phi)
-    hi = np.full(n_azimuth, hi0)
-    for _ in range(6):  # make sure every azimuth starts outside the pupil
-        ok = shoot(a0 + hi * cos, b0 + hi * sin)[0]
-        if not ok.any():
-            break
-        hi = np.where(ok, 4.0 * hi, hi)
-    else:
-        raise LensrtError("rays pass the lens far outside its entrance pupil: no pupil outline",
-                          hint="give the lens clear apertures")
-    lo = np.zeros(n_azimuth)
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        ok = shoot(a0 + mid * cos, b0 + mid * sin)[0]
-        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
-    ok, dirs, pos = shoot(a0 + lo * cos, b0 + lo * sin)
-    rho = lo
+    n_azimuth = len(phi)
     area = _azimuth_integral(0.5 * rho * rho)
     solid = None
     if not fp.infinite:
@@ -300,10 +373,9 @@ def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None =
         solid = _azimuth_integral(per)
     # the real exit pupil seen from the chief ray's image point C: the boundary rays meet the plane of the
     # real exit pupil (where the chief ray crosses the axis) at X; directions C -> X span the pupil
-    ch_img = trace64(lens, ch, device)
     ex_solid = math.nan
-    if ok.all() and ch_img.ok[0]:
-        cpt, cdir = ch_img.position_mm[0], ch_img.direction[0]
+    if ok.all() and ch_img.ok[row]:
+        cpt, cdir = ch_img.position_mm[row], ch_img.direction[row]
         z_xp = exit_pupil_point_z_mm(lens, cpt, cdir, wl)
         if math.isfinite(z_xp):
             x = pos + ((z_xp - pos[:, 2]) / dirs[:, 2])[:, None] * dirs
@@ -359,9 +431,10 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
     ent_t, ent_s, ex_t, ex_s = (np.full(n, np.nan) for _ in range(4))
     pup = np.array([[0.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
     outs = []
+    fps = [object_field_point(lens, spec.object_value) for spec in specs]
+    aimed = aim_batches(lens, [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps], "real", device)
     for k, spec in enumerate(specs):
-        fp = object_field_point(lens, spec.object_value)
-        rays = aim_batch(lens, fp, pup[:, 0], pup[:, 1], wl, "real", device)
+        fp, rays = fps[k], aimed[k]
         r = trace64(lens, rays, device)
         good = r.ok & rays.aimed
         o, d = rays.origin_mm, rays.direction
@@ -389,11 +462,9 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
                 ex_t[k] = abs(float(x[1, 1] - x[2, 1]))
             if sag_ok:
                 ex_s[k] = abs(float(x[3, 0] - x[4, 0]))
-        if outlines:
-            try:
-                outs.append(pupil_outline(lens, spec.object_value, wl, n_azimuth=n_azimuth, device=device))
-            except LensrtError:
-                pass
+    if outlines:
+        outs = [o for o in pupil_outlines(lens, [spec.object_value for spec in specs], wl, n_azimuth=n_azimuth,
+                                          device=device) if not isinstance(o, LensrtError)]
     # the real working f-number from the real axial marginal ray
     fp0 = object_field_point(lens, 0.0)
     m = trace64(lens, aim_batch(lens, fp0, 0.0, 1.0, wl, "real", device), device)

@@ -42,7 +42,7 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...stats import Estimate, batch_means, jackknife
-from .pupils import pupil_frame, pupil_outline, stop_only_lens
+from .pupils import pupil_frame, pupil_outlines, stop_only_lens
 from ..raysets import chief_batch, field_spec, object_field_point, trace64
 
 __all__ = ["Vignetting", "vignetting", "mapping_factor", "relative_illumination_at", "RI_DEFINITION",
@@ -238,13 +238,8 @@ def vignetting(lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: flo
         ri.append(_ri_estimate(s_all, f_all, i, float(m[k]), 2 * n, 2 * per, batches))
     ri_xp = np.full(len(obj), np.nan)
     if exit_pupil:
-        sol = []
-        for v in pts:
-            try:
-                sol.append(pupil_outline(lens, float(v), wl, n_azimuth=n_azimuth,
-                                         device=device).exit_projected_solid_angle_sr)
-            except LensrtError:
-                sol.append(math.nan)
+        sol = [math.nan if isinstance(o, LensrtError) else o.exit_projected_solid_angle_sr
+               for o in pupil_outlines(lens, [float(v) for v in pts], wl, n_azimuth=n_azimuth, device=device)]
         ri_xp = np.array(sol[1:]) / sol[0]
     if math.isinf(lens.object_distance_mm):
         cos4 = np.cos(obj) ** 4
