@@ -9,8 +9,9 @@ and downloads through :func:`download`; :func:`measure` counts them while it is 
     rec.launches, rec.copies, rec.kernel_s, rec.wall_s
 
 ``kernel_s`` is the time the kernels ran: on CUDA the sum of the CUDA-event intervals around each
-launch (read back when :func:`measure` closes); on the CPU the wall time each launch call took
-(launches that run side by side on several cores are summed, so ``kernel_s`` may pass ``wall_s``).
+launch (read back when :func:`measure` closes); on the CPU the wall time each launch call took. A launch
+that lensrt splits into slices on several CPU cores counts once, timed by its first slice (the slices
+run side by side), so ``launches`` is the same on every machine for the same work.
 Records nest: every open record counts what happens inside it. Counting is thread-safe.
 Only lensrt's own launches and copies are counted (those of Warp itself or of a user's code are not).
 """
@@ -111,10 +112,14 @@ def count_copy(n: int = 1) -> None:
         _add(copies=n)
 
 
-def launch(kernel, dim, inputs=(), *, device=None, **kwargs) -> None:
-    """``wp.launch`` with counting (same arguments; ``device`` as Warp takes it)."""
+def launch(kernel, dim, inputs=(), *, device=None, slice_of: int = 0, **kwargs) -> None:
+    """``wp.launch`` with counting (same arguments; ``device`` as Warp takes it).
+
+    ``slice_of``: where this slice starts (first thread id) when one logical launch runs as slices on several
+    CPU cores; only the slice that starts at 0 counts (a launch and its wall time), so that launch counts do not depend on the core count.
+    """
     import warp as wp
-    if not _OPEN:
+    if not _OPEN or slice_of:
         wp.launch(kernel, dim=dim, inputs=list(inputs), device=device, **kwargs)
         return
     dev = wp.get_device(device)

@@ -86,7 +86,8 @@ def launch_sliced(kernel, n: int, inputs_of, device: str, workers: int | None = 
 
     def run(k: int) -> None:
         if bounds[k + 1] > bounds[k]:
-            launch(kernel, dim=bounds[k + 1] - bounds[k], inputs=inputs_of(bounds[k]), device=device)
+            launch(kernel, dim=bounds[k + 1] - bounds[k], inputs=inputs_of(bounds[k]), device=device,
+                   slice_of=bounds[k])
 
     if w == 1:
         run(0)

@@ -189,10 +189,10 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
             return
         if variant == "specialised":
             launch(sk.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
-                   inputs=common + [bounds[w], out, status, surface])
+                   inputs=common + [bounds[w], out, status, surface], slice_of=bounds[w])
         else:
             launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
-                   inputs=common + [bounds[w], out, status, surface, rec])
+                   inputs=common + [bounds[w], out, status, surface, rec], slice_of=bounds[w])
 
     if workers == 1:
         run(0)

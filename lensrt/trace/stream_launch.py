@@ -165,7 +165,7 @@ def launch_all(wp: Any, dev: str, plan: StreamPlan, t: SimpleNamespace, nx: int,
             def run(w: int) -> None:
                 sl = _slots(sb, plan, epoch, ns, local, count, strata, bounds[w], 0 if plan.is_gpu else w)
                 launch(kernel, dim=bounds[w + 1] - bounds[w], device=dev,
-                       inputs=head + [h, sl, t.stats, t.counts] + after)
+                       inputs=head + [h, sl, t.stats, t.counts] + after, slice_of=bounds[w])
 
             if pool is None or workers == 1:
                 run(0)

@@ -49,3 +49,11 @@ def test_a_json_result_carries_its_commands_telemetry(capsys):
     rec = json.loads(capsys.readouterr().out)["telemetry"]
     assert set(rec) == {"wall_s", "kernel_s", "launches", "copies"}
     assert rec["launches"] >= 1 and rec["copies"] >= 2 * rec["launches"]
+
+
+def test_a_launch_sliced_over_cpu_cores_counts_once():
+    lens = load_lens("cooke_triplet_50mm_f5")
+    trace(lens, _rays(5000), "float64", "cpu")  # >= 4096 rays: one slice per core this process may use
+    with measure() as rec:
+        trace(lens, _rays(5000), "float64", "cpu")
+    assert (rec.launches, rec.copies) == (1, 4)
