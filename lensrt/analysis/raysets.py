@@ -137,6 +137,8 @@ def aim_batches(lens: Lens, jobs: Sequence[tuple[FieldPoint, object, object, flo
     every job's rays are aimed together (one trace per Newton step for all of them), the same rays as
     :func:`aim_batch` job by job."""
     fps, index, parts = [], {}, []
+    if not jobs:
+        return []
     for fp, px, py, w in jobs:
         px, py = np.broadcast_arrays(np.atleast_1d(np.asarray(px, dtype=np.float64)),
                                      np.atleast_1d(np.asarray(py, dtype=np.float64)))

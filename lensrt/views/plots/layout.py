@@ -53,7 +53,7 @@ def element_outlines(lens: Lens) -> list[np.ndarray]:
 def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: float | None = None,
                 rays_per_field: int = 9, device: str | None = None, title: str = "") -> Path:
     """Cross-section of ``lens`` (y-z plane) with meridional ray bundles at normalised fields ``hy``."""
-    from ...analysis.raysets import aim_batch, field_spec, object_field_point
+    from ...analysis.raysets import aim_batches, field_spec, object_field_point
     from ...trace import trace
     from ...trace.status import OK, TIR, VIGNETTED
     hy = [0.0, 0.7, 1.0] if hy is None else list(hy)
@@ -82,21 +82,28 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
             ax.plot(_profile(lens, i, r), r, color="#1b3a57", lw=1.0, zorder=3)  # a lone surface
     # rays
     img_h = 0.0
-    for k, h in enumerate(hy):
-        spec = field_spec(lens, h)
-        fp = object_field_point(lens, spec.object_value)
-        # the meridional extent of the real (vignetted) pupil, then rays spread evenly across it
-        probe = np.linspace(-1.2, 1.2, 97)
-        pr = aim_batch(lens, fp, np.zeros_like(probe), probe, wl, "real", device)
-        ok = trace(lens, pr, "float64", device, clip=True).ok & pr.aimed
+    specs = [field_spec(lens, h) for h in hy]
+    fps = [object_field_point(lens, spec.object_value) for spec in specs]
+    # the meridional extent of the real (vignetted) pupil of every field (aimed together), then rays spread
+    # evenly across it
+    probe = np.linspace(-1.2, 1.2, 97)
+    probes = aim_batches(lens, [(fp, np.zeros_like(probe), probe, wl) for fp in fps], "real", device)
+    passed = [trace(lens, pr, "float64", device, clip=True).ok & pr.aimed for pr in probes]
+    spread = []
+    for ok in passed:
+        step = probe[1] - probe[0]
+        py = np.linspace(probe[ok].min() + 0.02 * step, probe[ok].max() - 0.02 * step, rays_per_field) \
+            if ok.any() else np.zeros(0)
+        spread.append(py)
+    fans = aim_batches(lens, [(fp, np.zeros_like(py), py, wl) for fp, py in zip(fps, spread) if len(py)], "real",
+                       device)[::-1]
+    for k, spec in enumerate(specs):
+        fp, py = fps[k], spread[k]
         colour = _FIELD_COLOURS[k % len(_FIELD_COLOURS)]
-        if not ok.any():
+        if not len(py):
             ax.plot([], [], color=colour, ls=":", label=f"{spec.label}: every ray vignetted")
             continue
-        lo, hi_py = probe[ok].min(), probe[ok].max()
-        step = probe[1] - probe[0]
-        py = np.linspace(lo + 0.02 * step, hi_py - 0.02 * step, rays_per_field)
-        rays = aim_batch(lens, fp, np.zeros_like(py), py, wl, "real", device)
+        rays = fans.pop()
         res = trace(lens, rays, "float64", device, clip=True, record=True)
         for j in range(len(py)):
             st, where = int(res.status[j]), int(res.surface[j])
