@@ -32,13 +32,14 @@ import numpy as np
 
 from ...errors import LensrtError
 from ...prescription.model import Lens
+from ...trace import RayBatch
 from .aberrations import RayFan, SpotDiagram, ray_fan, spot_diagrams
 from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
                     real_focal_length)
 from .pupils import RealPupils, real_pupils
-from ..raysets import (FieldSpec, chief_batch, field_display, field_key, lens_fields, object_field_point,
+from ..raysets import (FieldSpec, aim_batches, field_display, field_key, lens_fields, object_field_point,
                    paraxial_chief, trace64)
 from .vignetting import RI_DEFINITION, Vignetting, vignetting
 
@@ -74,9 +75,14 @@ def lateral_colour(lens: Lens, fields: Sequence[FieldSpec], wavelengths_nm: Sequ
     par = np.full((len(fields), len(wls)), np.nan)
     real = np.full((len(fields), len(wls)), np.nan)
     fps = [object_field_point(lens, f.object_value) for f in fields]
+    # the chief rays of every field and wavelength aimed in one solve
+    chiefs = aim_batches(lens, [(fp, 0.0, 0.0, float(w)) for w in wls for fp in fps], "real", device)
     for j, w in enumerate(wls):
         fo = first_order(lens, float(w))
-        r = trace64(lens, chief_batch(lens, fps, float(w), device), device, plane_z_mm=z)
+        part = chiefs[j * len(fps):(j + 1) * len(fps)]
+        chief = RayBatch(np.concatenate([c.origin_mm for c in part]), np.concatenate([c.direction for c in part]),
+                         float(w), np.concatenate([c.aimed for c in part]))
+        r = trace64(lens, chief, device, plane_z_mm=z)
         real[:, j] = np.where(r.ok, r.position_mm[:, 1], np.nan)
         for i, f in enumerate(fields):
             h, u = paraxial_chief(lens, fo, f.object_value)
