@@ -27,7 +27,7 @@ from ..prescription.model import Lens
 from ..trace import RayBatch, RayResult, kernel_to_stop, trace
 from ..trace.aiming import FieldPoint, aim_many, aim_rays, beam_basis, field_point, pupil_geometry
 
-__all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "aim_batches", "chief_batch",
+__all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "aim_batches", "chief_batch", "chief_batches",
            "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
            "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
            "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
@@ -162,6 +162,21 @@ def chief_batch(lens: Lens, fps: Sequence[FieldPoint], wavelength_nm: float,
     o, d, ok = aim_many(lens, fps, np.arange(len(fps)), 0.0, 0.0, float(wavelength_nm), "real",
                         kernel_to_stop(lens, device))
     return RayBatch(o, d, float(wavelength_nm), ok)
+
+
+def chief_batches(lens: Lens, fps: Sequence[FieldPoint], wavelengths_nm: Sequence[float],
+                  device: str | None = None) -> list[RayBatch]:
+    """:func:`chief_batch` at each of several wavelengths (one RayBatch per wavelength), aimed in one solve."""
+    fps = list(fps)
+    wls = [float(w) for w in wavelengths_nm]
+    parts = aim_batches(lens, [(fp, 0.0, 0.0, w) for w in wls for fp in fps], "real", device)
+    out = []
+    for j, w in enumerate(wls):
+        part = parts[j * len(fps):(j + 1) * len(fps)]
+        out.append(RayBatch(np.concatenate([c.origin_mm for c in part]).reshape(-1, 3),
+                            np.concatenate([c.direction for c in part]).reshape(-1, 3), w,
+                            np.concatenate([c.aimed for c in part]).astype(bool)))
+    return out
 
 
 def trace64(lens: Lens, rays: RayBatch, device: str | None = None, *, clip: bool = False,

@@ -39,8 +39,8 @@ from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, Field
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
                     real_focal_length)
 from .pupils import RealPupils, real_pupils
-from ..raysets import (FieldSpec, aim_batches, field_display, field_key, lens_fields, object_field_point,
-                   paraxial_chief, trace64)
+from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
+                       object_field_point, paraxial_chief, trace64)
 from .vignetting import RI_DEFINITION, Vignetting, vignetting
 
 __all__ = ["Comparison", "compare_lens", "lateral_colour", "LateralColour"]
@@ -233,7 +233,10 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     index = [int(np.argmin(np.abs(hy - f.hy))) for f in fields]
     notes = []
     focal = [real_focal_length(lens, w, device=dev) for w in wls]
-    dist = {w: distortion_curve(lens, hy, w, device=dev) for w in wls}
+    # the chief rays of the curves' field points at every wavelength, aimed in one solve
+    curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
+    chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
+    dist = {w: distortion_curve(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
     try:
         grid = grid_distortion(lens, 11, primary, device=dev)
     except LensrtError as e:
@@ -243,7 +246,7 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     bf = {f"{w:g}": best_focus(lens, [w], [1.0], device=dev) for w in wls}
     bf["polychromatic"] = best_focus(lens, list(lens.wavelengths.nm), device=dev)
     chrom = chromatic_focal_shift(lens, best_focus_wavelengths_nm=wls, device=dev)
-    fcurv = {w: field_curvature(lens, hy, w, device=dev) for w in wls}
+    fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
     lat = lateral_colour(lens, fields, wls, device=dev)
     pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))

@@ -42,6 +42,7 @@ import numpy as np
 
 from ...errors import LensrtError
 from ...prescription.model import Lens
+from ...trace import RayBatch
 from ..raysets import chief_batch, field_spec, object_field_point, paraxial_chief, trace64
 
 __all__ = ["DISTORTION_DEFINITIONS", "MAPPINGS", "DistortionCurve", "GridDistortion", "distortion_curve",
@@ -144,7 +145,8 @@ class DistortionCurve:
 
 
 def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, wavelength_nm: float | None = None,
-                     device: str | None = None, object_values: Sequence[float] | None = None) -> DistortionCurve:
+                     device: str | None = None, object_values: Sequence[float] | None = None,
+                     chief: RayBatch | None = None) -> DistortionCurve:
     """Chief-ray heights and distortion (both definitions, module docstring) at field points.
 
     Parameters
@@ -156,6 +158,9 @@ def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None,
         Default: the primary; the paraxial image plane is this wavelength's.
     device : str, optional
         Warp device for the float64 store kernel.
+    chief : RayBatch, optional
+        The real chief rays of these field points at this wavelength, when the caller aimed them already
+        (:func:`lensrt.analysis.raysets.chief_batches`).
     object_values : array, optional
         Object-space field values (rad at infinity, else mm) instead of ``hy``.
     """
@@ -170,7 +175,7 @@ def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None,
         obj = np.asarray(object_values, dtype=np.float64)
         hs = np.full(len(obj), np.nan)
     fps = [object_field_point(lens, float(v)) for v in obj]
-    chief = chief_batch(lens, fps, wl, device)
+    chief = chief_batch(lens, fps, wl, device) if chief is None else chief
     res = trace64(lens, chief, device)
     valid = res.ok & chief.aimed
     z_img, z_par = lens.image_z_mm, fo.image_z_mm

@@ -314,8 +314,10 @@ class FieldCurvature:
 
 
 def field_curvature(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, wavelength_nm: float | None = None,
-                    device: str | None = None, object_values: Sequence[float] | None = None) -> FieldCurvature:
-    """Sagittal and tangential foci from close rays about the real chief rays (module docstring)."""
+                    device: str | None = None, object_values: Sequence[float] | None = None,
+                    chief: RayBatch | None = None) -> FieldCurvature:
+    """Sagittal and tangential foci from close rays about the real chief rays (module docstring); ``chief``:
+    those chief rays at this wavelength when the caller aimed them already."""
     from ...paraxial import first_order, seidel_sums
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     fo = first_order(lens, wl)
@@ -325,7 +327,7 @@ def field_curvature(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, 
     else:
         obj = np.asarray(object_values, dtype=np.float64)
     fps = [object_field_point(lens, float(v)) for v in obj]
-    chief = chief_batch(lens, fps, wl, device)
+    chief = chief_batch(lens, fps, wl, device) if chief is None else chief
     close = close_ray_batch(lens, chief, fps)
     r = trace64(lens, close, device)
     ok = r.ok.reshape(-1, 3).all(axis=1) & chief.aimed
