@@ -34,7 +34,8 @@ UNIT_SUFFIXES = ("_mm", "_nm", "_deg", "_percent", "_mm2", "_sr", "_per_mm", "_u
 #: keys of numbers without a unit (ratios, counts, normalised coordinates, Estimate fields)
 DIMENSIONLESS = {"hy", "value", "stderr", "samples", "rays", "rays_per_field", "weights", "zones", "pupil",
                  "cos4", "mapping_factor", "relative_illumination_exit_pupil", "f_number", "working_f_number",
-                 "real_working_f_number", "paraxial_magnification", "real_magnification", "primary_nm"}
+                 "real_working_f_number", "paraxial_magnification", "real_magnification", "primary_nm",
+                 "launches", "copies"}  # counts (the telemetry of the command)
 
 
 def _numeric_keys(obj, key: str, out: set[str]) -> None:
