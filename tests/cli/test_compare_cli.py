@@ -30,7 +30,7 @@ def check_png(path: Path, min_bytes: int = 20_000) -> None:
     assert w >= 400 and h >= 300
 
 
-UNIT_SUFFIXES = ("_mm", "_nm", "_deg", "_percent", "_mm2", "_sr", "_per_mm", "_um", "_waves", "seconds")
+UNIT_SUFFIXES = ("_mm", "_nm", "_deg", "_percent", "_mm2", "_sr", "_per_mm", "_um", "_waves", "seconds", "_s")
 #: keys of numbers without a unit (ratios, counts, normalised coordinates, Estimate fields)
 DIMENSIONLESS = {"hy", "value", "stderr", "samples", "rays", "rays_per_field", "weights", "zones", "pupil",
                  "cos4", "mapping_factor", "relative_illumination_exit_pupil", "f_number", "working_f_number",
