@@ -211,3 +211,33 @@ def layer_optics(cam: Camera, depth_mm: float, f_pin_mm: float, rays: int = 1 <<
     ri_se = ri_b.std(axis=1, ddof=1) / math.sqrt(ri_b.shape[1])
     return LayerOptics(float(depth_mm), r, y, ideal, ri, ri_se, float(p_b[0].mean() * jac[0]),
                        {"pupil_projected_solid_angle_sr": p_b.mean(axis=1).tolist(), "area_ratio": jac.tolist()})
+
+
+def cached_layer_optics(cam: Camera, depth_mm: float, f_pin_mm: float, rays: int, seed: int,
+                        directory: "Path | None") -> LayerOptics:
+    """:func:`layer_optics`, kept as JSON in ``directory`` (None: not cached), keyed by everything it depends on."""
+    import hashlib
+    import json
+    from pathlib import Path
+    if directory is None:
+        return layer_optics(cam, depth_mm, f_pin_mm, rays, seed)
+    key = json.dumps({"camera": cam.key(), "depth_mm": float(depth_mm), "f_pin_mm": round(f_pin_mm, 9),
+                      "rays": int(rays), "seed": int(seed), "n": TABLE_RADII, "v": 1}, sort_keys=True)
+    path = Path(directory) / f"optics_{hashlib.sha256(key.encode()).hexdigest()[:24]}.json"
+    if path.is_file():
+        try:
+            d = json.loads(path.read_text(encoding="utf-8"))
+            return LayerOptics(d["depth_mm"], *(np.array(d[k]) for k in ("r", "y", "ideal", "ri", "ri_se")),
+                               d["gain"], d["extra"])
+        except (OSError, ValueError, KeyError):
+            pass
+    opt = layer_optics(cam, depth_mm, f_pin_mm, rays, seed)
+    data = {"depth_mm": opt.depth_mm, "r": opt.radius_mm.tolist(), "y": opt.object_height_mm.tolist(),
+            "ideal": opt.ideal_radius_mm.tolist(), "ri": opt.ri.tolist(), "ri_se": opt.ri_stderr.tolist(),
+            "gain": opt.axis_gain_sr, "extra": opt.extra}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(data), encoding="utf-8")
+    except OSError as err:
+        raise LensrtError(f"cannot write the optics cache {path}: {err}", hint="give --cache-dir or --no-cache") from None
+    return opt

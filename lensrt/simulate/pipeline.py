@@ -22,7 +22,8 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from .compose import assign_layers, composite_band, layer_depths_mm, warp_layer
-from .optics import Camera, LayerOptics, far_depth_mm, layer_optics, make_camera, pinhole_focal_mm
+from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
+from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
 from .spectral import Bands, make_bands, round_trip_matrix
 
@@ -147,12 +148,13 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     cam = make_camera(lens, shape, options.sensor, options.focus_m, options.f_number, options.device)
     depths, idx, derr = _depth_plan(cam, depth_m, options.layers)
     f_pin = pinhole_focal_mm(cam)
-    optics = [layer_optics(cam, float(d), f_pin, options.ri_rays, options.seed) for d in depths]
+    where = cache_dir(options.cache_dir) if options.use_cache else None
+    optics = [cached_layer_optics(cam, float(d), f_pin, options.ri_rays, options.seed, where) for d in depths]
+    ref = _reference_gain(cam, optics, depths, f_pin, options, where)
     t1 = time.perf_counter()
     grid = compute_psf_grid(cam, bands, depths, options.grid, options.rays, options.seed, options.cache_dir,
                             options.use_cache)
     t2 = time.perf_counter()
-    ref = _reference_gain(cam, optics, depths, f_pin, options)
     sharp, outside = [], 0.0
     for li, opt in enumerate(optics):
         mask = None if idx is None else (idx == li)
@@ -181,13 +183,13 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
 
 
 def _reference_gain(cam: Camera, optics: list[LayerOptics], depths: np.ndarray, f_pin: float,
-                    options: SimulateOptions) -> float:
+                    options: SimulateOptions, where) -> float:
     """The on-axis gain (sr) at the focus distance: the output's unit (white in focus on the axis = 1)."""
     fd = cam.focus.distance_mm if math.isfinite(cam.focus.distance_mm) else far_depth_mm(cam.lens)
     for d, o in zip(depths, optics):
         if abs(d - fd) <= 1e-9 * fd:
             return o.axis_gain_sr
-    return layer_optics(cam, float(fd), f_pin, options.ri_rays, options.seed).axis_gain_sr
+    return cached_layer_optics(cam, float(fd), f_pin, options.ri_rays, options.seed, where).axis_gain_sr
 
 
 def _notes(cam: Camera, depths: np.ndarray, derr: float, grid: PsfGrid) -> list[str]:
