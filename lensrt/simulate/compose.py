@@ -18,7 +18,9 @@ with the "over" operator, C <- B + (1 - A) C, Acc <- A + (1 - A) Acc (Porter &
 Duff 1984; the layered depth-of-field scheme of Kraus & Strengert, "Depth-of-Field
 Rendering by Pyramidal Image Processing", Eurographics 2007, and Lee, Eisemann &
 Seidel, "Real-time lens blur effects and focus control", SIGGRAPH 2010). The
-result is C / Acc: the division renormalises where a layer's hidden part (behind
+B and A are first divided by the same blur of a full layer of ones, so that
+a layer covering everything has A = 1 exactly (and the frame's edge does not
+darken). The result is C / Acc: the division renormalises where a layer's hidden part (behind
 a nearer layer, or beyond the frame edge) would otherwise darken its blur -- the
 single-image input cannot show what is hidden. So a sharp foreground stays sharp
 (its A is 1 over it: nothing from behind leaks onto it), and a blurred foreground
@@ -90,9 +92,15 @@ def composite_band(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.nd
     c = acc = var = None
     for (sharp, alpha), psf, n in zip(layers, psfs, rays):
         y = sharp @ y_weights
-        stack = np.concatenate([sharp * alpha[..., None], alpha[..., None], (y * y * alpha)[..., None]], axis=-1)
+        ones = np.ones_like(alpha)
+        stack = np.concatenate([sharp * alpha[..., None], alpha[..., None], (y * y * alpha)[..., None],
+                                ones[..., None]], axis=-1)
         blurred = convolve_varying(stack, psf, wr, wc, rows, cols)
-        b, a, q = blurred[..., :3], np.clip(blurred[..., 3], 0.0, 1.0), blurred[..., 4]
+        # divide by the operator's response to a full, uniform layer U: a layer that covers everything then has
+        # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
+        u = np.maximum(blurred[..., 5], 1e-12)
+        b, q = blurred[..., :3] / u[..., None], blurred[..., 4] / u
+        a = np.clip(blurred[..., 3] / u, 0.0, 1.0)
         v = np.maximum(q - (b @ y_weights) ** 2, 0.0) / max(n, 1.0)  # ray-sampling variance of h * (Y alpha)
         if c is None:
             c, acc, var = b, a, v

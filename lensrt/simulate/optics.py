@@ -34,10 +34,11 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Lens
 
-__all__ = ["Camera", "LayerOptics", "make_camera", "layer_optics", "picture_positions_mm"]
+__all__ = ["Camera", "LayerOptics", "make_camera", "layer_optics", "cached_layer_optics", "picture_positions_mm",
+           "object_heights", "pinhole_focal_mm", "far_depth_mm"]
 
 #: radii of a layer's chief-ray table (0 .. 1.04 x the frame's corner radius)
-TABLE_RADII = 40
+TABLE_RADII = 24
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,7 @@ class LayerOptics:
                 "relative_illumination_stderr": self.ri_stderr.tolist(), "axis_gain_sr": self.axis_gain_sr}
 
 
-def _heights(cam: Camera, depth_mm: float, radii_mm: np.ndarray) -> np.ndarray:
+def object_heights(cam: Camera, depth_mm: float, radii_mm: np.ndarray) -> np.ndarray:
     """Signed object heights at ``depth_mm`` whose real chief rays land at ``radii_mm``; one error if any fails."""
     from ..analysis.bokeh_trace import object_heights_for_image
     y, ok = object_heights_for_image(cam.lens, depth_mm, cam.sensor_z_mm, radii_mm, cam.wavelength_nm, cam.device)
@@ -160,7 +161,7 @@ def pinhole_focal_mm(cam: Camera) -> float:
     """f_pin: the real r / tan(theta) near the axis for an object at the focus distance (far: 1e4 f)."""
     d = _focus_depth_mm(cam)
     r = 1e-3 * max(cam.corner_mm, cam.pitch_mm)
-    y = abs(float(_heights(cam, d, np.array([r]))[0]))
+    y = abs(float(object_heights(cam, d, np.array([r]))[0]))
     return r * (d + cam.z_ep_mm) / y
 
 
@@ -182,7 +183,7 @@ def _pupil_flux(cam: Camera, obj: np.ndarray, rays: int, seed: int) -> np.ndarra
     from ..trace.sampling import spectrum_discrete
     from ..trace.stream import Grid, StreamSource, stream
     boxes, _ = pupil_boxes(cam.lens, obj, [cam.wavelength_nm], cam.sensor_z_mm, stop_radius_mm=cam.stop_radius_mm,
-                           device=cam.device)
+                           device=cam.device, coarse=64, fine=32)
     srcs = [StreamSource(FieldPoint(False, None, tuple(float(v) for v in o)), b, cam.sensor_z_mm, (0.0, 0.0), 0,
                          "lambertian", seed=seed + k, rng_index=0) for k, (o, b) in enumerate(zip(obj, boxes))]
     res = stream(cam.lens, srcs, Grid(1, 1, 1.0), rays, spectrum=spectrum_discrete([cam.wavelength_nm]),
@@ -197,13 +198,13 @@ def layer_optics(cam: Camera, depth_mm: float, f_pin_mm: float, rays: int = 1 <<
     """Real mapping and relative illumination of the depth ``depth_mm`` (module docstring)."""
     from scipy.interpolate import CubicSpline
     r = np.linspace(0.0, 1.04 * cam.corner_mm, TABLE_RADII)
-    y = np.abs(_heights(cam, depth_mm, r))
+    y_signed = object_heights(cam, depth_mm, r)  # negative where the lens inverts the image
+    y = np.abs(y_signed)
     ideal = f_pin_mm * y / (depth_mm + cam.z_ep_mm)
     dy = CubicSpline(r, y)(r, 1)
     with np.errstate(divide="ignore", invalid="ignore"):
         jac = np.where(r > 0, y / np.where(r > 0, r, 1.0) * dy, dy ** 2)  # object area per image area
-    obj = np.stack([np.zeros_like(r), -y, np.full_like(r, -depth_mm)], axis=1)
-    obj[:, 1] = _heights(cam, depth_mm, r)  # the signed height (the lens may invert)
+    obj = np.stack([np.zeros_like(r), y_signed, np.full_like(r, -depth_mm)], axis=1)
     p_b = _pupil_flux(cam, obj, rays, seed)  # (S, B)
     e_b = p_b * jac[:, None]
     ri = e_b.mean(axis=1) / e_b[0].mean()

@@ -110,11 +110,11 @@ def _seed(*parts: int) -> int:
 
 def _layer_sources(cam: Camera, depth_mm: float, pix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(object points (S, 3), sensor targets (S, 2)) of pixel positions ``pix`` (S, 2) = (row, col)."""
-    from .optics import _heights
+    from .optics import object_heights
     u, v = picture_positions_mm(cam, pix[:, 0], pix[:, 1])
     tx, ty = -u, -v
     rad = np.hypot(tx, ty)
-    y = _heights(cam, depth_mm, rad)
+    y = object_heights(cam, depth_mm, rad)
     with np.errstate(invalid="ignore", divide="ignore"):
         ux, uy = np.where(rad > 0, tx / np.where(rad > 0, rad, 1), 0.0), np.where(rad > 0, ty / np.where(rad > 0, rad, 1), 1.0)
     obj = np.stack([ux * y, uy * y, np.full_like(y, -depth_mm)], axis=1)
@@ -146,7 +146,8 @@ def _stream_layer(cam: Camera, bands: Bands, depth_mm: float, li: int, pix: np.n
     from ..trace.stream import Grid, StreamSource, stream
     obj, tgt = _layer_sources(cam, depth_mm, pix)
     wls = sorted({float(bands.centre_nm.min()), cam.wavelength_nm, float(bands.centre_nm.max())})
-    boxes, foot = pupil_boxes(cam.lens, obj, wls, cam.sensor_z_mm, stop_radius_mm=cam.stop_radius_mm, device=cam.device)
+    boxes, foot = pupil_boxes(cam.lens, obj, wls, cam.sensor_z_mm, stop_radius_mm=cam.stop_radius_mm, device=cam.device,
+                             coarse=64, fine=48)
     half = _window_half(cam, foot, tgt)
     n_nodes = len(pix) - n_check
     plan = [(k, b) for k in range(n_nodes) for b in range(bands.count)]
