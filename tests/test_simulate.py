@@ -247,3 +247,26 @@ def test_huge_image_is_one_clear_error(dgauss):
     big = np.broadcast_to(np.zeros((1, 1, 3), np.float32), (60000, 80000, 3))  # no memory behind it
     with pytest.raises(LensrtError, match="working memory"):
         simulate(big, dgauss, None, SimulateOptions(sensor="36x27", device="cpu"))
+
+
+def test_cli_writes_linear_exr_png_and_sensor_outputs_with_sidecars(tmp_path, capsys):
+    import json
+
+    from lensrt.io.exr import read_exr
+    from lensrt.io.png import write_png
+    img = np.full((12, 16, 3), 0.6)
+    img[:, 8:] = 0.2
+    write_png(tmp_path / "in.png", img, 16)
+    from lensrt.cli import main
+    rc = main(["simulate", str(tmp_path / "in.png"), "--sensor", "16x12", "--grid", "2x2", "--rays", "2048",
+               "--bands", "2", "--cache-dir", str(tmp_path / "c"), "--sensor-preset", "phone_12mp", "--iso", "200",
+               "--no-noise", "--device", "cpu", "-o", str(tmp_path / "out" / "sim")])
+    assert rc == 0, capsys.readouterr().err
+    ch, meta = read_exr(tmp_path / "out" / "sim.exr")
+    assert set(ch) == {"R", "G", "B", "Y_stderr"} and ch["G"].shape == (12, 16)
+    assert ch["G"][:, :6].mean() > 2 * ch["G"][:, 10:].mean()  # the picture came through (0.6 vs 0.2 sRGB)
+    for name in ("sim.json", "sim_raw.json", "sim_camera.json"):
+        side = json.loads((tmp_path / "out" / name).read_text())
+        assert {"psf_monte_carlo", "interpolation"} <= set(side["errors"])
+    assert json.loads((tmp_path / "out" / "sim_raw.json").read_text())["sensor"]["iso"] == 200
+    assert (tmp_path / "out" / "sim_raw.exr").is_file() and (tmp_path / "out" / "sim_camera.png").is_file()

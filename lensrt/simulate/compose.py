@@ -92,13 +92,11 @@ def composite_band(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.nd
     c = acc = var = None
     for (sharp, alpha), psf, n in zip(layers, psfs, rays):
         y = sharp @ y_weights
-        ones = np.ones_like(alpha)
-        stack = np.concatenate([sharp * alpha[..., None], alpha[..., None], (y * y * alpha)[..., None],
-                                ones[..., None]], axis=-1)
-        blurred = convolve_varying(stack, psf, wr, wc, rows, cols)
+        stack = np.concatenate([sharp * alpha[..., None], alpha[..., None], (y * y * alpha)[..., None]], axis=-1)
+        blurred = convolve_varying(stack, psf, wr, wc, rows, cols)  # tiles where the layer is empty are skipped
         # divide by the operator's response to a full, uniform layer U: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
-        u = np.maximum(blurred[..., 5], 1e-12)
+        u = np.maximum(convolve_varying(np.ones(alpha.shape + (1,)), psf, wr, wc, rows, cols)[..., 0], 1e-12)
         b, q = blurred[..., :3] / u[..., None], blurred[..., 4] / u
         a = np.clip(blurred[..., 3] / u, 0.0, 1.0)
         v = np.maximum(q - (b @ y_weights) ** 2, 0.0) / max(n, 1.0)  # ray-sampling variance of h * (Y alpha)

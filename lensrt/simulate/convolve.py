@@ -25,6 +25,7 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
                      rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Blur ``image`` (H, W, C) by node PSFs ``psf`` (gr, gc, n, n) (n odd, centred), tent weights ``wr`` (gr, H) and
     ``wc`` (gc, W) on node pixels ``rows``, ``cols``; returns (H, W, C) float64."""
+    from scipy.fft import set_workers
     from scipy.signal import fftconvolve
     h_img, w_img, n_ch = image.shape
     half = psf.shape[-1] // 2
@@ -37,5 +38,6 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
             if not np.any(tile):
                 continue
             k = psf[i, j].astype(np.float64)[:, :, None]
-            out[r0:r1 + 2 * half, c0:c1 + 2 * half] += fftconvolve(tile, k, mode="full", axes=(0, 1))
+            with set_workers(-1):  # the FFTs on every core
+                out[r0:r1 + 2 * half, c0:c1 + 2 * half] += fftconvolve(tile, k, mode="full", axes=(0, 1))
     return out[half:half + h_img, half:half + w_img]
