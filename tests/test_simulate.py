@@ -270,3 +270,25 @@ def test_cli_writes_linear_exr_png_and_sensor_outputs_with_sidecars(tmp_path, ca
         assert {"psf_monte_carlo", "interpolation"} <= set(side["errors"])
     assert json.loads((tmp_path / "out" / "sim_raw.json").read_text())["sensor"]["iso"] == 200
     assert (tmp_path / "out" / "sim_raw.exr").is_file() and (tmp_path / "out" / "sim_camera.png").is_file()
+
+
+def test_readers_png16_tiff16_exr_and_depth_codes(tmp_path):
+    from lensrt.io.exr import write_exr
+    from lensrt.io.png import write_png, write_tiff
+    from lensrt.isp.tone import srgb_decode
+    from lensrt.simulate.inputs import read_depth_m, read_image_linear
+    rng = np.random.default_rng(0)
+    enc = rng.random((6, 9, 3))
+    q16 = np.round(enc * 65535) / 65535
+    write_png(tmp_path / "a.png", enc, 16)
+    np.testing.assert_allclose(read_image_linear(tmp_path / "a.png"), srgb_decode(q16), atol=1e-6)  # all 16 bits
+    write_tiff(tmp_path / "a.tif", enc, 16)
+    np.testing.assert_allclose(read_image_linear(tmp_path / "a.tif"), srgb_decode(q16), atol=1e-6)
+    lin = rng.random((6, 9, 3)) * 4.0  # HDR, linear
+    write_exr(tmp_path / "a.exr", {"R": lin[..., 0], "G": lin[..., 1], "B": lin[..., 2]})
+    np.testing.assert_allclose(read_image_linear(tmp_path / "a.exr"), lin, rtol=1e-6)
+    codes = rng.integers(100, 60000, (6, 9))
+    write_png(tmp_path / "d.png", np.repeat((codes / 65535.0)[..., None], 3, axis=2), 16)
+    np.testing.assert_allclose(read_depth_m(tmp_path / "d.png", (6, 9), 0.001), codes * 0.001)
+    with pytest.raises(LensrtError, match="depth-scale-m"):
+        read_depth_m(tmp_path / "d.png", (6, 9))

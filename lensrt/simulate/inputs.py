@@ -24,8 +24,9 @@ MAX_PIXELS = 64_000_000
 _SRGB_EXT = {".png", ".jpg", ".jpeg", ".tif", ".tiff"}
 
 
-def decode_png(path: Path) -> np.ndarray:
-    """Decode a non-interlaced 8- or 16-bit grey/RGB(A) PNG to (rows, cols, channels) floats in [0, 1]."""
+def decode_png(path: Path, codes: bool = False) -> np.ndarray:
+    """Decode a non-interlaced 8- or 16-bit grey/RGB(A) PNG to (rows, cols, channels) floats in [0, 1]
+    (``codes``: the integer code values instead)."""
     data = path.read_bytes()
     if data[:8] != b"\x89PNG\r\n\x1a\n":
         raise LensrtError("not a PNG file", path=path)
@@ -76,10 +77,10 @@ def decode_png(path: Path) -> np.ndarray:
     px = out.astype(np.uint8).reshape(h, w * bpp)
     if depth == 16:
         vals = px.reshape(h, w * chans, 2).astype(np.uint32)
-        arr = ((vals[..., 0] << 8) | vals[..., 1]).reshape(h, w, chans) / 65535.0
+        code = ((vals[..., 0] << 8) | vals[..., 1]).reshape(h, w, chans)
     else:
-        arr = px.reshape(h, w, chans) / 255.0
-    return arr.astype(np.float64)
+        code = px.reshape(h, w, chans).astype(np.uint32)
+    return code.astype(np.float64) if codes else code / (65535.0 if depth == 16 else 255.0)
 
 
 def _png_is_16bit_colour(path: Path) -> bool:
@@ -104,10 +105,19 @@ def _read_pillow(path: Path) -> np.ndarray:
                           hint="use a PNG, JPEG, TIFF, EXR or .npy file") from None
 
 
+def _imread(path: Path) -> np.ndarray:
+    """imageio's reader, quiet about its vendored-tifffile deprecation."""
+    import warnings
+
+    import imageio.v3 as iio
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return np.asarray(iio.imread(path))
+
+
 def _read_tiff(path: Path) -> np.ndarray:
     try:
-        import imageio.v3 as iio
-        a = np.asarray(iio.imread(path))
+        a = _imread(path)
     except Exception:  # noqa: BLE001 - any reader failure: fall back to Pillow's message
         return _read_pillow(path)
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype, 1.0)
@@ -173,6 +183,22 @@ def read_image_linear(path: str | Path, encoding: str = "auto") -> np.ndarray:
     return np.ascontiguousarray(arr, dtype=np.float32)
 
 
+def _depth_codes(path: Path) -> np.ndarray:
+    """Integer code values (rows, cols, channels) of a PNG or TIFF depth map."""
+    try:
+        if path.suffix.lower() == ".png":
+            return decode_png(path, codes=True)
+        a = _imread(path)
+    except LensrtError:
+        raise
+    except Exception as err:  # noqa: BLE001 - any decoder failure is a bad file
+        raise LensrtError(f"cannot read the depth map: {err}", path=path) from None
+    if a.dtype.kind not in "ui":
+        raise LensrtError(f"a PNG/TIFF depth map must hold integer codes, not {a.dtype}", path=path,
+                          hint="use EXR or .npy for depths in metres")
+    return a.astype(np.float64).reshape(a.shape[0], a.shape[1], -1)
+
+
 def read_depth_m(path: str | Path, shape: tuple[int, int], depth_scale_m: float | None = None) -> np.ndarray:
     """A depth map (metres, float64, ``shape`` = the image's (rows, cols)), checked.
 
@@ -190,9 +216,7 @@ def read_depth_m(path: str | Path, shape: tuple[int, int], depth_scale_m: float 
     elif ext in (".png", ".tif", ".tiff"):
         if depth_scale_m is None or not depth_scale_m > 0:
             raise LensrtError("a PNG/TIFF depth map needs --depth-scale-m (metres per code value)", path=path)
-        raw, _ = _raw_pixels(path)
-        code = np.round(raw[..., 0] * (65535.0 if ext != ".png" or raw.max() <= 1.0 else 1.0))
-        d = code * float(depth_scale_m)
+        d = _depth_codes(path)[..., 0] * float(depth_scale_m)
     else:
         raise LensrtError(f"depth maps are EXR, 16-bit PNG/TIFF or .npy, not {ext or 'no extension'}", path=path)
     d = np.asarray(d, dtype=np.float64)
