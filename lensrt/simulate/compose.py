@@ -31,10 +31,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import LensrtError
-from .convolve import convolve_varying
+from .convolve import convolve_bands
 from .optics import Camera, LayerOptics, picture_positions_mm
 
-__all__ = ["layer_depths_mm", "assign_layers", "warp_layer", "composite_band"]
+__all__ = ["layer_depths_mm", "assign_layers", "warp_layer", "composite_layers"]
 
 
 def layer_depths_mm(depth_m: np.ndarray, n_layers: int) -> np.ndarray:
@@ -81,25 +81,46 @@ def warp_layer(cam: Camera, opt: LayerOptics, image: np.ndarray, mask: np.ndarra
     return sharp, alpha, outside
 
 
-def composite_band(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.ndarray], y_weights: np.ndarray,
-                   rays: list[float], wr: np.ndarray, wc: np.ndarray, rows: np.ndarray,
-                   cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One band: (rgb coefficients (H, W, 3), variance of the band's Y from the PSFs' rays (H, W)).
+def _products(sharp: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """(H, W, 10): colour x alpha (3), alpha, and the 6 products rgb_c rgb_c' alpha (c <= c')."""
+    pairs = [sharp[..., a] * sharp[..., b] for a in range(3) for b in range(a, 3)]
+    return np.concatenate([sharp * alpha[..., None], alpha[..., None], np.stack(pairs, axis=-1) * alpha[..., None]],
+                          axis=-1)
 
-    ``layers`` far to near: (sharp (H, W, 3), alpha (H, W)); ``psfs`` their node PSFs (gr, gc, n, n) for this band;
-    ``y_weights`` (3,) the band's Y per coefficient; ``rays`` the rays landed per PSF of each layer.
+
+def _mix(y_weights: np.ndarray) -> np.ndarray:
+    """(K, 5, 10): per band, colour (3) and alpha pass through; Y^2 alpha = sum w_c w_c' (rgb_c rgb_c' alpha)."""
+    k = len(y_weights)
+    m = np.zeros((k, 5, 10))
+    m[:, :4, :4] = np.eye(4)
+    col = 4
+    for a in range(3):
+        for b in range(a, 3):
+            m[:, 4, col] = y_weights[:, a] * y_weights[:, b] * (1.0 if a == b else 2.0)
+            col += 1
+    return m
+
+
+def composite_layers(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.ndarray], y_weights: np.ndarray,
+                     rays: np.ndarray, wr: np.ndarray, wc: np.ndarray, rows: np.ndarray,
+                     cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All bands: (rgb coefficients (K, H, W, 3), variance of Y from the PSFs' rays (H, W)).
+
+    ``layers`` far to near: (sharp (H, W, 3), alpha (H, W)); ``psfs[l]`` (K, gr, gc, n, n); ``y_weights`` (K, 3)
+    each band's Y per coefficient; ``rays`` (L, K) rays landed per PSF. Each layer's tiles are transformed once
+    for all bands (:func:`lensrt.simulate.convolve.convolve_bands`).
     """
+    mix = _mix(np.asarray(y_weights, dtype=np.float64))
     c = acc = var = None
-    for (sharp, alpha), psf, n in zip(layers, psfs, rays):
-        y = sharp @ y_weights
-        stack = np.concatenate([sharp * alpha[..., None], alpha[..., None], (y * y * alpha)[..., None]], axis=-1)
-        blurred = convolve_varying(stack, psf, wr, wc, rows, cols)  # tiles where the layer is empty are skipped
+    for li, ((sharp, alpha), psf) in enumerate(zip(layers, psfs)):
+        blurred, u = convolve_bands(_products(sharp, alpha), psf, mix, wr, wc, rows, cols)
         # divide by the operator's response to a full, uniform layer U: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
-        u = np.maximum(convolve_varying(np.ones(alpha.shape + (1,)), psf, wr, wc, rows, cols)[..., 0], 1e-12)
+        u = np.maximum(u, 1e-12)
         b, q = blurred[..., :3] / u[..., None], blurred[..., 4] / u
         a = np.clip(blurred[..., 3] / u, 0.0, 1.0)
-        v = np.maximum(q - (b @ y_weights) ** 2, 0.0) / max(n, 1.0)  # ray-sampling variance of h * (Y alpha)
+        yb = np.einsum("khwc,kc->khw", b, y_weights)
+        v = np.maximum(q - yb ** 2, 0.0) / np.maximum(rays[li], 1.0)[:, None, None]  # ray-sampling variance
         if c is None:
             c, acc, var = b, a, v
         else:
@@ -108,4 +129,4 @@ def composite_band(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.nd
             acc = a + (1.0 - a) * acc
     good = acc > 1e-6
     inv = np.where(good, 1.0 / np.where(good, acc, 1.0), 0.0)
-    return c * inv[..., None], var * inv * inv
+    return c * inv[..., None], (var * inv * inv).sum(axis=0)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["convolve_varying"]
+__all__ = ["convolve_varying", "convolve_bands"]
 
 
 def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.ndarray,
@@ -41,3 +41,43 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
             with set_workers(-1):  # the FFTs on every core
                 out[r0:r1 + 2 * half, c0:c1 + 2 * half] += fftconvolve(tile, k, mode="full", axes=(0, 1))
     return out[half:half + h_img, half:half + w_img]
+
+
+def _tile_bounds(k: int, nodes: np.ndarray) -> tuple[int, int]:
+    """Pixel range [start, stop) of node k's tent (the cells either side)."""
+    return int(nodes[max(k - 1, 0)]), int(nodes[min(k + 1, len(nodes) - 1)]) + 1
+
+
+def convolve_bands(image: np.ndarray, psfs: np.ndarray, mix: np.ndarray, wr: np.ndarray, wc: np.ndarray,
+                   rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`convolve_varying` for K bands at once, sharing each tile's forward FFT between the bands.
+
+    ``image`` (H, W, C); ``psfs`` (K, gr, gc, n, n); ``mix`` (K, O, C) mixes the input channels into O output
+    channels per band (linear, so it is applied to the spectra). Returns (K, H, W, O) and, for a uniform image
+    of ones, the full-layer response (K, H, W) -- both with the same tiles, kernels and weights.
+    """
+    from scipy import fft
+    h_img, w_img, _ = image.shape
+    n_b, n_out = mix.shape[0], mix.shape[1]
+    n = psfs.shape[-1]
+    half = n // 2
+    out = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half, n_out))
+    ones = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half))
+    for i in range(len(rows)):
+        r0, r1 = _tile_bounds(i, rows)
+        for j in range(len(cols)):
+            c0, c1 = _tile_bounds(j, cols)
+            wt = wr[i, r0:r1, None] * wc[j, c0:c1][None, :]
+            shape = (fft.next_fast_len(r1 - r0 + n - 1, True), fft.next_fast_len(c1 - c0 + n - 1, True))
+            kf = fft.rfft2(psfs[:, i, j].astype(np.float64), s=shape, axes=(1, 2), workers=-1)  # (K, fy, fx)
+            f_one = fft.rfft2(wt, s=shape, workers=-1)
+            u = fft.irfft2(kf * f_one[None], s=shape, axes=(1, 2), workers=-1)
+            ones[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += u[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
+            tile = image[r0:r1, c0:c1] * wt[..., None]
+            if not np.any(tile):
+                continue
+            f_img = fft.rfft2(tile, s=shape, axes=(0, 1), workers=-1)  # (fy, fx, C)
+            spec = np.einsum("koc,yxc,kyx->kyxo", mix, f_img, kf)
+            res = fft.irfft2(spec, s=shape, axes=(1, 2), workers=-1)
+            out[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += res[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
+    return out[:, half:half + h_img, half:half + w_img], ones[:, half:half + h_img, half:half + w_img]

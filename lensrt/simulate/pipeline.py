@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .compose import assign_layers, composite_band, layer_depths_mm, warp_layer
+from .compose import assign_layers, composite_layers, layer_depths_mm, warp_layer
 from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
 from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
@@ -119,7 +119,7 @@ class Simulation:
 
 def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
     """Working memory of a simulation of ``shape`` (rough: float64 stacks of layers and bands)."""
-    return int(shape[0] * shape[1] * 8 * (4 * layers + 3 * bands + 16))
+    return int(shape[0] * shape[1] * 8 * (4 * layers + 11 * bands + 16))
 
 
 def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
@@ -162,14 +162,11 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
         sharp.append((s, a))
         outside = max(outside, out)
     wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
-    coef = np.zeros((bands.count,) + shape + (3,), dtype=np.float32)
-    var_y = np.zeros(shape)
-    for b in range(bands.count):
-        yw = bands.xyz_matrix[b][1]
-        psfs = [grid.psf[li][b] for li in range(len(depths))]
-        rays = [float(grid.rays_landed[li, b].mean()) for li in range(len(depths))]
-        c, v = composite_band(sharp, psfs, yw, rays, wr, wc, grid.node_rows, grid.node_cols)
-        coef[b], var_y = c, var_y + v
+    psfs = [grid.psf[li] for li in range(len(depths))]
+    rays = grid.rays_landed.reshape(len(depths), bands.count, -1).mean(axis=2).astype(np.float64)
+    coef, var_y = composite_layers(sharp, psfs, bands.xyz_matrix[:, 1, :], rays, wr, wc, grid.node_rows,
+                                   grid.node_cols)
+    coef = coef.astype(np.float32)
     from ..isp.colour import xyz_to_linear_srgb
     xyz = np.einsum("bkc,bhwc->hwk", bands.xyz_matrix, coef.astype(np.float64))
     rgb = xyz_to_linear_srgb(xyz).astype(np.float32)
