@@ -296,7 +296,7 @@ def test_readers_png16_tiff16_exr_and_depth_codes(tmp_path):
 
 def test_source_side_interpolation_is_exact_and_seamless():
     """A point anywhere gets exactly the bilinear blend of its four node PSFs (no seams, flux kept), and the
-    all-bands FFT path equals the one-band one."""
+    all-bands FFT path equals the one-band one (float64 reference)."""
     from lensrt.simulate.convolve import convolve_bands, convolve_varying
     from lensrt.simulate.psf_grid import blend_at, hat_weights, node_positions
     rng = np.random.default_rng(1)
@@ -315,6 +315,7 @@ def test_source_side_interpolation_is_exact_and_seamless():
     img = rng.random((h, w, 3))
     mix = rng.random((2, 2, 3))
     both, ones = convolve_bands(img, np.stack([psf, psf[::-1]]), mix, wr, wc, rows, cols)
-    np.testing.assert_allclose(both[1], convolve_varying(img, psf[::-1], wr, wc, rows, cols) @ mix[1].T, atol=1e-12)
+    # (the all-bands path runs its FFTs in single precision)
+    np.testing.assert_allclose(both[1], convolve_varying(img, psf[::-1], wr, wc, rows, cols) @ mix[1].T, atol=2e-6)
     np.testing.assert_allclose(ones[0], convolve_varying(np.ones((h, w, 1)), psf, wr, wc, rows, cols)[..., 0],
-                               atol=1e-12)
+                               atol=1e-6)

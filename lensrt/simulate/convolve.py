@@ -69,15 +69,16 @@ def convolve_bands(image: np.ndarray, psfs: np.ndarray, mix: np.ndarray, wr: np.
             c0, c1 = _tile_bounds(j, cols)
             wt = wr[i, r0:r1, None] * wc[j, c0:c1][None, :]
             shape = (fft.next_fast_len(r1 - r0 + n - 1, True), fft.next_fast_len(c1 - c0 + n - 1, True))
-            kf = fft.rfft2(psfs[:, i, j].astype(np.float64), s=shape, axes=(1, 2), workers=-1)  # (K, fy, fx)
-            f_one = fft.rfft2(wt, s=shape, workers=-1)
+            # single precision FFTs (about 1e-7 of the signal; accumulated in float64)
+            kf = fft.rfft2(psfs[:, i, j].astype(np.float32), s=shape, axes=(1, 2), workers=-1)  # (K, fy, fx)
+            f_one = fft.rfft2(wt.astype(np.float32), s=shape, workers=-1)
             u = fft.irfft2(kf * f_one[None], s=shape, axes=(1, 2), workers=-1)
             ones[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += u[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
             tile = image[r0:r1, c0:c1] * wt[..., None]
             if not np.any(tile):
                 continue
-            f_img = fft.rfft2(tile, s=shape, axes=(0, 1), workers=-1)  # (fy, fx, C)
-            spec = np.einsum("koc,yxc,kyx->kyxo", mix, f_img, kf)
+            f_img = fft.rfft2(tile.astype(np.float32), s=shape, axes=(0, 1), workers=-1)  # (fy, fx, C)
+            spec = np.matmul(f_img[None], mix.transpose(0, 2, 1)[:, None].astype(f_img.dtype)) * kf[..., None]
             res = fft.irfft2(spec, s=shape, axes=(1, 2), workers=-1)
             out[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += res[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
     return out[:, half:half + h_img, half:half + w_img], ones[:, half:half + h_img, half:half + w_img]
