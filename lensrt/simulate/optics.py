@@ -9,13 +9,13 @@ point at depth d (mm in front of the first vertex, the bokeh stage's frame) and
 angle theta sits at height (d + z_EP) tan(theta).
 
 Real mapping (distortion). For a table of real image radii r on the sensor
-plane, :func:`lensrt.analysis.bokeh_trace.object_heights_for_image` finds the
+plane, :func:`lensrt.analysis.bokeh.trace.object_heights_for_image` finds the
 object height y(r) at depth d whose real chief ray (primary wavelength, through
 the centre of the real stop) lands at r; so each output radius r takes the
 input at the ideal radius r_i(r) = f_pin |y| / (d + z_EP) (a backward warp;
 azimuths are kept -- lensrt's surfaces are rotationally symmetric).
 
-Relative illumination (flux method, as :mod:`lensrt.analysis.vignetting` for a
+Relative illumination (flux method, as :mod:`lensrt.analysis.compare.vignetting` for a
 finite object). A Lambertian object element dA at height y sends the flux
 L dA P(y) into the lens, P the projected solid angle of the real, vignetted
 pupil seen from it (stream kernel, Lambertian weights, batches); it lands on the
@@ -46,7 +46,7 @@ class Camera:
     """Lens, focus, aperture and pixel frame of a simulation (lengths in mm)."""
 
     lens: Lens
-    focus: object  # lensrt.analysis.bokeh_focus.Focus
+    focus: object  # lensrt.analysis.bokeh.focus.Focus
     stop_radius_mm: float | None
     f_number: float | None
     shape: tuple[int, int]
@@ -81,7 +81,7 @@ class Camera:
 def make_camera(lens: Lens, shape: tuple[int, int], sensor: str = "full-frame", focus_m: float = math.inf,
                 f_number: float | None = None, device: str | None = None) -> Camera:
     """The camera for an image of ``shape`` (rows, cols) spread over ``sensor`` (square pixels)."""
-    from ..analysis.bokeh_focus import focus_lens, stop_radius_for_f_number
+    from ..analysis.bokeh.focus import focus_lens, stop_radius_for_f_number
     from ..paraxial import first_order
     from ..paraxial.photographic import sensor_format
     fmt = sensor_format(sensor)
@@ -147,7 +147,7 @@ class LayerOptics:
 
 def object_heights(cam: Camera, depth_mm: float, radii_mm: np.ndarray) -> np.ndarray:
     """Signed object heights at ``depth_mm`` whose real chief rays land at ``radii_mm``; one error if any fails."""
-    from ..analysis.bokeh_trace import object_heights_for_image
+    from ..analysis.bokeh.trace import object_heights_for_image
     y, ok = object_heights_for_image(cam.lens, depth_mm, cam.sensor_z_mm, radii_mm, cam.wavelength_nm, cam.device)
     if not np.all(ok):
         bad = float(np.min(np.asarray(radii_mm)[~ok]))
@@ -178,7 +178,7 @@ def far_depth_mm(lens: Lens) -> float:
 
 def _pupil_flux(cam: Camera, obj: np.ndarray, rays: int, seed: int) -> np.ndarray:
     """Per-batch projected solid angle (sr) of the real pupil from each object point (S, B)."""
-    from ..analysis.bokeh_trace import pupil_boxes
+    from ..analysis.bokeh.trace import pupil_boxes
     from ..trace.aiming import FieldPoint
     from ..trace.sampling import spectrum_discrete
     from ..trace.stream import Grid, StreamSource, stream

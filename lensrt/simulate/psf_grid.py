@@ -4,7 +4,7 @@ Each PSF comes from lensrt's stream kernel, the machinery of the PSF maps and th
 bokeh tracer: Monte Carlo rays from a Lambertian object point at the layer's depth
 over its *real* pupil box (iris and f-number included, so vignetting and cat's
 eyes are in), placed so that its real chief ray (primary wavelength) lands on the
-node (:func:`lensrt.analysis.bokeh_trace.object_heights_for_image`), one
+node (:func:`lensrt.analysis.bokeh.trace.object_heights_for_image`), one
 wavelength per band, binned on the sensor at the image's own pixel pitch in a
 window centred on the node's chief ray. So a PSF holds the blur *and* the band's
 lateral colour (its offset from the primary chief ray); the warp moves the
@@ -140,7 +140,7 @@ def _check_pixels(rows: np.ndarray, cols: np.ndarray) -> list[tuple[int, int]]:
 def _stream_layer(cam: Camera, bands: Bands, depth_mm: float, li: int, pix: np.ndarray, n_check: int,
                   check_band: int, rays: int, seed: int) -> dict:
     """One stream launch: every node x band, plus two direct PSFs per check point; histograms per source."""
-    from ..analysis.bokeh_trace import pupil_boxes
+    from ..analysis.bokeh.trace import pupil_boxes
     from ..trace.aiming import FieldPoint
     from ..trace.sampling import spectrum_discrete
     from ..trace.stream import Grid, StreamSource, stream

@@ -1,7 +1,7 @@
 """Image simulation (lensrt.simulate, ``lensrt simulate``): oracles on small images and few rays.
 
 * uniform white -> the output's falloff is lensrt's real relative illumination
-  (lensrt.analysis.vignetting, an independent flux computation) within 1 %;
+  (lensrt.analysis.compare.vignetting, an independent flux computation) within 1 %;
 * a point source reproduces the real PSF: centroid and RMS radius against the bokeh
   tracer's spot of the same object point (lensrt.analysis.bokeh.bokeh_spot);
 * distortion: dots land where the real chief ray of their direction (traced forward,
@@ -55,7 +55,7 @@ def _centroid(img: np.ndarray) -> tuple[float, float]:
 
 
 def test_uniform_white_follows_real_relative_illumination(dgauss, cache):
-    from lensrt.analysis.vignetting import vignetting
+    from lensrt.analysis.compare.vignetting import vignetting
     sim = simulate(np.ones(SHAPE + (3,), np.float32), dgauss, None, _opts(cache, ri_rays=1 << 16, bands=1))
     # the oracle: vignetting's flux method at the field angles of 5 points along the picture's diagonal
     cam = sim.camera
