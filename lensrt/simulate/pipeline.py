@@ -27,10 +27,20 @@ from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
 from .spectral import Bands, make_bands, round_trip_matrix
 
-__all__ = ["SimulateOptions", "Simulation", "simulate", "memory_bytes", "MEMORY_LIMIT_BYTES"]
+__all__ = ["SimulateOptions", "Simulation", "simulate", "memory_bytes", "memory_limit_bytes", "MEMORY_LIMIT_BYTES"]
 
-#: working memory a simulation may take (bytes); beyond it, one clear error
+#: working memory a simulation may take where the machine's memory cannot be read (bytes)
 MEMORY_LIMIT_BYTES = 8 << 30
+
+
+def memory_limit_bytes() -> int:
+    """Working memory a simulation may take: 60 % of the machine's physical memory (else
+    :data:`MEMORY_LIMIT_BYTES`); beyond it, one clear error."""
+    import os
+    try:
+        return int(0.6 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return MEMORY_LIMIT_BYTES
 
 
 @dataclass(frozen=True)
@@ -118,8 +128,9 @@ class Simulation:
 
 
 def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
-    """Working memory of a simulation of ``shape`` (rough: float64 stacks of layers and bands)."""
-    return int(shape[0] * shape[1] * 8 * (4 * layers + 11 * bands + 16))
+    """Working memory of a simulation of ``shape`` (bytes; float64: 4 channels per layer, the all-band blur,
+    compositing accumulators and temporaries, 18 channels per band)."""
+    return int(shape[0] * shape[1] * 8 * (4 * layers + 18 * bands + 16))
 
 
 def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
@@ -138,10 +149,11 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     t0 = time.perf_counter()
     shape = image.shape[:2]
     need = memory_bytes(shape, options.bands, options.layers if depth_m is not None else 1)
-    if need > MEMORY_LIMIT_BYTES:
+    limit = memory_limit_bytes()
+    if need > limit:
         raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {need / 2**30:.1f} GiB of working memory, "
-                          f"more than {MEMORY_LIMIT_BYTES / 2**30:.0f} GiB", hint="use a smaller image, fewer --bands "
-                          "or fewer --layers")
+                          f"more than the {limit / 2**30:.1f} GiB allowed (60 % of this machine's)",
+                          hint="use a smaller image, fewer --bands or fewer --layers")
     if depth_m is not None and depth_m.shape != shape:
         raise LensrtError(f"the depth map is {depth_m.shape[1]} x {depth_m.shape[0]}, the image {shape[1]} x {shape[0]}")
     bands = make_bands(options.bands)
