@@ -119,7 +119,7 @@ def main() -> None:
         device=args.device, use_cache=False))
     t_sim = time.perf_counter() - t0
     white_cd_m2 = 1000.0 / math.pi
-    simabs = sim.rgb.astype(np.float64) * sim.extra_gain * white_cd_m2  # lux (Y) scale
+    simabs = sim.rgb.astype(np.float64) * sim.reference_gain_sr * white_cd_m2  # lux (Y) scale
     write_png(out / "sim.png", np.clip(simabs / np.percentile(ren, 99.5), 0, 1) ** (1 / 2.2), 8)
     lum = np.array([0.2126, 0.7152, 0.0722])
     ys, yr = simabs @ lum, ren @ lum

@@ -39,7 +39,7 @@ def spectral_irradiance(sim: Simulation, white_cd_m2: float) -> tuple[np.ndarray
     band, basis = spectral_basis(sim.bands, wl)  # (n,), (n, 3) D65 x B_c, relative
     white = basis.sum(axis=1)
     k = float(white_cd_m2) / float(illuminance_lux(white, wl))  # radiance scale: white -> white_cd_m2
-    gain = k * sim.extra_gain
+    gain = k * sim.reference_gain_sr
     e = np.einsum("hwnc,nc->hwn", sim.coefficients[band].transpose(1, 2, 0, 3), basis) * gain
     return np.maximum(e, 0.0).astype(np.float32), wl
 
@@ -54,7 +54,7 @@ def sensor_stage(sim: Simulation, preset: str, iso: float | None, exposure_s: fl
     sensor = sensor_from_spec({"preset": preset, "rows": rows, "cols": cols})
     iso_v = float(iso) if iso is not None else float(sensor.base_iso)
     if exposure_s is None:
-        n_w = float(np.sqrt(np.pi / (4.0 * sim.extra_gain)))  # the working f-number of the real on-axis gain
+        n_w = float(np.sqrt(np.pi / (4.0 * sim.reference_gain_sr)))  # the working f-number of the real on-axis gain
         exposure_s = metered_exposure_time_s(0.18 * white_cd_m2, n_w, iso_v)  # metered on 18 % grey
     if not exposure_s > 0:
         raise LensrtError(f"exposure {exposure_s!r} s must be positive")

@@ -8,7 +8,7 @@ layer and band (:mod:`.psf_grid`, cached); per layer the warp (:mod:`.compose`);
 per band the blurred layers composited back to front (:mod:`.compose`,
 :mod:`.convolve`); XYZ -> linear sRGB. The output is *relative* sensor-plane
 irradiance: a white (1, 1, 1) input on the axis, in focus, gives 1 (absolute:
-times ``axis_gain_sr`` x the scene's white radiance, see :mod:`.optics`).
+times ``Simulation.reference_gain_sr`` x the scene's white radiance, see :mod:`.optics`).
 """
 from __future__ import annotations
 
@@ -82,11 +82,8 @@ class Simulation:
     depth_error_per_m: float = 0.0
     outside_fraction: float = 0.0
 
-    @property
-    def axis_gain_sr(self) -> float:
-        return self.layers[0].axis_gain_sr if len(self.layers) == 1 else self.extra_gain
-
-    extra_gain: float = 0.0
+    #: on-axis gain (sr) at the focus distance: the output's unit (absolute irradiance = rgb x this x radiance)
+    reference_gain_sr: float = 0.0
 
     def errors(self) -> dict:
         """The error estimates of the sidecar."""
@@ -118,6 +115,7 @@ class Simulation:
 
     def to_dict(self) -> dict:
         return {"camera": self.camera.to_dict(), "bands": self.bands.to_dict(),
+                "reference_gain_sr": self.reference_gain_sr,
                 "layers": [o.to_dict() for o in self.layers], "psf_grid": self.psf_grid.summary(),
                 "seconds": self.seconds, "errors": self.errors(), "notes": self.notes,
                 "scheme": {"convolution": "source-side bilinear interpolation of node PSFs (Nagy & O'Leary 1998), "
@@ -186,7 +184,7 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     sim = Simulation(rgb, coef, np.sqrt(var_y).astype(np.float32), cam, bands, optics, grid,
                      {"optics": t1 - t0, "psf_grid": t2 - t1, "convolution": t3 - t2, "total": t3 - t0},
                      [], derr, outside)
-    sim.extra_gain = ref
+    sim.reference_gain_sr = ref
     sim.notes += _notes(cam, depths, derr, grid)
     return sim
 
