@@ -12,8 +12,16 @@ __all__ = ["register", "cmd_simulate"]
 
 
 def _grid(text: str) -> tuple[int, int]:
+    """``RxC`` -> (rows, cols), at least 2 x 2 nodes (an argparse type: a bad value is argparse's usage error)."""
     from ..analysis.fields import parse_grid
-    return parse_grid(text)
+    from ..errors import LensrtError
+    try:
+        rows, cols = parse_grid(text)
+    except LensrtError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    if rows < 2 or cols < 2:
+        raise argparse.ArgumentTypeError(f"a PSF grid of {text} nodes: use at least 2x2 (corners included)")
+    return rows, cols
 
 
 def register(sub: argparse._SubParsersAction) -> None:
