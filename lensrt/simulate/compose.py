@@ -78,14 +78,14 @@ def warp_layer(cam: Camera, opt: LayerOptics, image: np.ndarray, mask: np.ndarra
     alpha = np.ones((rows, cols)) if mask is None else map_coordinates(mask.astype(np.float64), coords, order=0,
                                                                        mode="nearest")
     sharp *= (opt.ri_at(r) * gain)[..., None]
-    return sharp, alpha, outside
+    return sharp.astype(np.float32), alpha.astype(np.float32), outside
 
 
 def _products(sharp: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """(H, W, 10): colour x alpha (3), alpha, and the 6 products rgb_c rgb_c' alpha (c <= c')."""
     pairs = [sharp[..., a] * sharp[..., b] for a in range(3) for b in range(a, 3)]
     return np.concatenate([sharp * alpha[..., None], alpha[..., None], np.stack(pairs, axis=-1) * alpha[..., None]],
-                          axis=-1)
+                          axis=-1, dtype=np.float32)
 
 
 def _mix(y_weights: np.ndarray) -> np.ndarray:
@@ -116,11 +116,11 @@ def composite_layers(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.
         blurred, u = convolve_bands(_products(sharp, alpha), psf, mix, wr, wc, rows, cols)
         # divide by the operator's response to a full, uniform layer U: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
-        u = np.maximum(u, 1e-12)
+        u = np.maximum(u, np.float32(1e-12))
         b, q = blurred[..., :3] / u[..., None], blurred[..., 4] / u
         a = np.clip(blurred[..., 3] / u, 0.0, 1.0)
-        yb = np.einsum("khwc,kc->khw", b, y_weights)
-        v = np.maximum(q - yb ** 2, 0.0) / np.maximum(rays[li], 1.0)[:, None, None]  # ray-sampling variance
+        yb = np.einsum("khwc,kc->khw", b, y_weights.astype(np.float32))
+        v = np.maximum(q - yb ** 2, 0.0) / np.maximum(rays[li], 1.0).astype(np.float32)[:, None, None]  # ray sampling
         if c is None:
             c, acc, var = b, a, v
         else:

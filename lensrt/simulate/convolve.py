@@ -61,8 +61,8 @@ def convolve_bands(image: np.ndarray, psfs: np.ndarray, mix: np.ndarray, wr: np.
     n_b, n_out = mix.shape[0], mix.shape[1]
     n = psfs.shape[-1]
     half = n // 2
-    out = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half, n_out))
-    ones = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half))
+    out = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half, n_out), dtype=np.float32)  # float32: memory
+    ones = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half), dtype=np.float32)
     for i in range(len(rows)):
         r0, r1 = _tile_bounds(i, rows)
         for j in range(len(cols)):

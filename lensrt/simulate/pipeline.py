@@ -126,9 +126,9 @@ class Simulation:
 
 
 def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
-    """Working memory of a simulation of ``shape`` (bytes; float64: 4 channels per layer, the all-band blur,
-    compositing accumulators and temporaries, 18 channels per band)."""
-    return int(shape[0] * shape[1] * 8 * (4 * layers + 18 * bands + 16))
+    """Working memory of a simulation of ``shape`` (bytes; float32: 4 channels per layer, the all-band blur,
+    compositing accumulators and temporaries, 18 channels per band, and float64 warp temporaries)."""
+    return int(shape[0] * shape[1] * 4 * (4 * layers + 18 * bands + 32))
 
 
 def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
