@@ -68,7 +68,7 @@ image = "{image.name}"
 """
 
 
-def main() -> None:
+def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pixels", default="96x72")
     ap.add_argument("--sensor", default="24x18")
@@ -80,7 +80,11 @@ def main() -> None:
     ap.add_argument("--bands", type=int, default=6)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--out", default="acceptance_out")
-    args = ap.parse_args()
+    return ap
+
+
+def run(args: argparse.Namespace) -> dict:
+    """Render, simulate and compare (module docstring); the comparison as a dict."""
     from lensrt import load_lens
     from lensrt.cli import main as cli
     from lensrt.io.exr import read_exr
@@ -140,7 +144,11 @@ def main() -> None:
            "per_channel_rel_rms": [float(np.sqrt(np.mean(((simabs[..., i] - ren[..., i]) / ren[..., i]) ** 2)))
                                    for i in range(3)]}
     np.save(out / "rel_diff.npy", rel)
-    print(json.dumps(res, indent=1))
+    return res
+
+
+def main() -> None:
+    print(json.dumps(run(parser().parse_args()), indent=1))
 
 
 if __name__ == "__main__":

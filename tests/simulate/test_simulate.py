@@ -319,3 +319,18 @@ def test_source_side_interpolation_is_exact_and_seamless():
     np.testing.assert_allclose(both[1], convolve_varying(img, psf[::-1], wr, wc, rows, cols) @ mix[1].T, atol=2e-6)
     np.testing.assert_allclose(ones[0], convolve_varying(np.ones((h, w, 1)), psf, wr, wc, rows, cols)[..., 0],
                                atol=1e-6)
+
+
+@pytest.mark.slow
+def test_acceptance_against_the_path_tracer_on_a_textured_plane(tmp_path):
+    """benchmarks/acceptance_simulate.py, smaller: per-pixel relative difference of Y <= 2 % RMS beyond the
+    render's own noise, absolute scale within 1 % (the full-size numbers are in docs/guide/simulate.md)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import acceptance_simulate as acc
+    res = acc.run(acc.parser().parse_args(["--pixels", "48x36", "--spp", "256", "--rays", "16384", "--grid",
+                                           "4x5", "--bands", "3", "--out", str(tmp_path)]))
+    assert abs(res["mean_ratio_sim_over_render"] - 1.0) < 0.01, res
+    assert res["rel_rms_beyond_noise"] < 0.02, res
+    assert res["corners_rel_rms"] < 0.02 + res["corners_noise_rel_rms"], res
