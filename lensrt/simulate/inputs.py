@@ -162,7 +162,7 @@ def read_image_linear(path: str | Path, encoding: str = "auto") -> np.ndarray:
     ``encoding``: ``auto`` (sRGB for PNG/JPEG/TIFF, linear for EXR and .npy), ``srgb`` or ``linear``.
     Negative values are an error; linear values above 1 (HDR) are kept.
     """
-    from ..isp.tone import srgb_decode
+    from ..colour import srgb_decode
     path = Path(path)
     if not path.is_file():
         raise LensrtError("the image file does not exist", path=path)

@@ -34,7 +34,7 @@ SENSOR_WAVELENGTHS_NM = np.arange(385.0, 780.0, 10.0)
 
 def spectral_irradiance(sim: Simulation, white_cd_m2: float) -> tuple[np.ndarray, np.ndarray]:
     """(E (H, W, n) in W / (m^2 nm), wavelength_nm (n,)) of the simulated image (module docstring)."""
-    from ..sensor.exposure import illuminance_lux
+    from ..colour import illuminance_lux
     wl = SENSOR_WAVELENGTHS_NM
     band, basis = spectral_basis(sim.bands, wl)  # (n,), (n, 3) D65 x B_c, relative
     white = basis.sum(axis=1)
@@ -84,7 +84,7 @@ def write_outputs(sim: Simulation, prefix: str | Path, *, preset: str | None = N
     """Write the files of the module docstring; returns kind -> path."""
     from ..io.exr import write_exr
     from ..io.png import write_png
-    from ..isp.tone import srgb_encode
+    from ..colour import srgb_encode
     prefix = Path(prefix)
     if prefix.suffix.lower() in (".exr", ".png", ".json"):
         prefix = prefix.with_suffix("")

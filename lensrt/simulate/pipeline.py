@@ -177,7 +177,7 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     coef, var_y = composite_layers(sharp, psfs, bands.xyz_matrix[:, 1, :], rays, wr, wc, grid.node_rows,
                                    grid.node_cols)
     coef = coef.astype(np.float32)
-    from ..isp.colour import xyz_to_linear_srgb
+    from ..colour import xyz_to_linear_srgb
     xyz = np.einsum("bkc,bhwc->hwk", bands.xyz_matrix, coef.astype(np.float64))
     rgb = xyz_to_linear_srgb(xyz).astype(np.float32)
     t3 = time.perf_counter()

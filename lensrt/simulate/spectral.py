@@ -33,14 +33,15 @@ _RANGE_NM = (380.0, 780.0)
 
 @lru_cache(maxsize=4)
 def _fine_tables(step_nm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(wavelength_nm (n,), CIE 1931 cmfs (n, 3), D65 (n,), Mallett-Yuksel basis (n, 3)) on one grid."""
-    import colour
+    """(wavelength_nm (n,), CIE 1931 cmfs (n, 3), D65 (n,), Mallett-Yuksel basis (n, 3)) on one grid
+    (colour-science's tables, through :mod:`lensrt.colour`)."""
+    from ..colour import WavelengthGrid, cie_xyz_cmfs, mallett2019_basis, spectrum
+    grid = WavelengthGrid(_RANGE_NM[0], _RANGE_NM[1], float(step_nm))
     wl = np.arange(_RANGE_NM[0], _RANGE_NM[1] + 0.5 * step_nm, step_nm)
-    shape = colour.SpectralShape(float(wl[0]), float(wl[-1]), float(step_nm))
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape).values
-    d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(shape).values
-    basis = colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019.copy().align(shape).values
-    return wl, np.asarray(cmfs, float), np.asarray(d65, float), np.asarray(basis, float)
+    cmfs = np.asarray(cie_xyz_cmfs(grid), float).T
+    d65 = np.asarray(spectrum("D65", grid), float)
+    basis = np.asarray(mallett2019_basis(grid), float).T
+    return wl, cmfs, d65, basis
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,6 @@ def spectral_basis(bands: Bands, wavelength_nm: np.ndarray) -> tuple[np.ndarray,
 def round_trip_matrix(bands: Bands) -> np.ndarray:
     """linear sRGB out = M @ (r, g, b) in for sharp PSFs: XYZ -> sRGB of sum_b W_b (the identity up to the
     basis's and the grid's accuracy)."""
-    from ..isp.colour import xyz_to_linear_srgb
+    from ..colour import xyz_to_linear_srgb
     total = bands.xyz_matrix.sum(axis=0)  # (3 XYZ, 3 rgb)
     return xyz_to_linear_srgb(total.T).T

@@ -85,7 +85,7 @@ def _spot(lens, cam, row, col, depth_mm, wavelength_nm):
     from lensrt.analysis.bokeh import bokeh_spot, spot_source
     x, y = _sensor_xy(cam, row, col)
     src = spot_source(lens, cam.focus, depth_mm, image_mm=(float(x), float(y)), device="cpu")
-    spot = bokeh_spot(lens, cam.focus, src, light=f"{wavelength_nm:.4f}", rays=1 << 16, device="cpu")
+    spot = bokeh_spot(lens, cam.focus, src, light=f"lines:{wavelength_nm:.4f}", rays=1 << 16, device="cpu")
     rec = spot.sources[0]
     cx, cy = rec["centroid_mm"]
     u, v = -cx, -cy
@@ -275,7 +275,7 @@ def test_cli_writes_linear_exr_png_and_sensor_outputs_with_sidecars(tmp_path, ca
 def test_readers_png16_tiff16_exr_and_depth_codes(tmp_path):
     from lensrt.io.exr import write_exr
     from lensrt.io.png import write_png, write_tiff
-    from lensrt.isp.tone import srgb_decode
+    from lensrt.colour import srgb_decode
     from lensrt.simulate.inputs import read_depth_m, read_image_linear
     rng = np.random.default_rng(0)
     enc = rng.random((6, 9, 3))
