@@ -133,6 +133,13 @@ def test_report_json_and_monte_carlo_records(reports, name):
         assert m["samples"] > 0 and m["seconds"] > 0 and m["stderr"], m
         assert m["stderr_max"] is None or math.isfinite(m["stderr_max"])
         assert f"{m['samples']:,}" in page  # the Monte Carlo table shows it
+    # telemetry: every section's launches, copies and seconds, and the whole report's, which holds them all
+    for s in data["sections"]:
+        assert {"wall_s", "kernel_s", "launches", "copies"} <= set(s), s["key"]
+        assert min(s["launches"], s["copies"], s["wall_s"], s["kernel_s"]) >= 0
+    total = data["telemetry"]
+    assert total["launches"] >= sum(s["launches"] for s in data["sections"]) > 0
+    assert total["copies"] >= sum(s["copies"] for s in data["sections"])
     # the PSF map's record is the sum over its field points, as psf.json says
     psf = _strict_json(d / "psf.json")
     rec = next(m for m in data["monte_carlo"] if m["figure"] == "psf.png")
