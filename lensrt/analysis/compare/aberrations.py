@@ -40,7 +40,7 @@ from ...units import NM_PER_MM
 from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
                    trace64)
 
-__all__ = ["RayFan", "ray_fan", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
+__all__ = ["RayFan", "ray_fan", "fan_jobs", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
 
 def opd_to_reference_sphere_mm(p: np.ndarray, v: np.ndarray, opl: np.ndarray, chief: int, xp_z_mm: float,
@@ -94,14 +94,19 @@ class RayFan:
                 "exit_pupil_z_mm": self.exit_pupil_z_mm, "aim": self.aim}
 
 
-def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm: Sequence[float] | None = None,
-            pupil: Sequence[float] | None = None, *, aim: str = "real", plane_z_mm: float | None = None,
-            clip: bool = True, device: str | None = None, object_value: float | None = None) -> RayFan:
-    """Transverse-aberration and OPD fan (module docstring) at normalised field ``hy`` along +y.
+def fan_jobs(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm: Sequence[float] | None = None,
+             pupil: Sequence[float] | None = None, object_value: float | None = None) -> list[tuple]:
+    """What :func:`ray_fan` aims (jobs for :func:`lensrt.analysis.raysets.aim_batches`): the reference chief ray
+    at the primary wavelength, then per wavelength the fan and its chief ray -- so that a caller can aim the
+    fans of many fields in one solve and hand each its part (``ray_fan(..., aimed=...)``)."""
+    fp, wls, px, py = _fan_rays(lens, hy, fan, wavelengths_nm, pupil, object_value)[1:5]
+    primary = lens.wavelengths.primary_nm
+    return [(fp, 0.0, 0.0, primary)] + [job for w in wls for job in ((fp, px, py, float(w)),
+                                                                      (fp, 0.0, 0.0, float(w)))]
 
-    ``pupil`` default: 41 points in [-1, 1]; ``plane_z_mm`` default: the image surface;
-    ``clip`` applies the clear apertures (False: CODE V's unblocked ssp rays).
-    """
+
+def _fan_rays(lens: Lens, hy: float, fan: str, wavelengths_nm, pupil, object_value):
+    """(label, field point, wavelengths, px, py, rho, object-space field value) of a fan."""
     if fan not in ("tangential", "sagittal"):
         raise LensrtError(f"unknown fan {fan!r}", hint="use 'tangential' or 'sagittal'")
     spec = field_spec(lens, hy) if object_value is None else None
@@ -112,12 +117,23 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     rho = np.linspace(-1.0, 1.0, 41) if pupil is None else np.asarray(pupil, dtype=np.float64)
     px, py = (np.zeros_like(rho), rho) if fan == "tangential" else (rho, np.zeros_like(rho))
     px, py = np.concatenate([[0.0], px]), np.concatenate([[0.0], py])
+    return label, fp, wls, px, py, rho, obj
+
+
+def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm: Sequence[float] | None = None,
+            pupil: Sequence[float] | None = None, *, aim: str = "real", plane_z_mm: float | None = None,
+            clip: bool = True, device: str | None = None, object_value: float | None = None,
+            aimed: list | None = None) -> RayFan:
+    """Transverse-aberration and OPD fan (module docstring) at normalised field ``hy`` along +y.
+
+    ``pupil`` default: 41 points in [-1, 1]; ``plane_z_mm`` default: the image surface;
+    ``clip`` applies the clear apertures (False: CODE V's unblocked ssp rays).
+    """
+    label, fp, wls, px, py, rho, obj = _fan_rays(lens, hy, fan, wavelengths_nm, pupil, object_value)
     z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
-    primary = lens.wavelengths.primary_nm
     # every ray of the fan aimed at once: the reference chief ray, then per wavelength the fan and its chief ray
-    aimed = aim_batches(lens, [(fp, 0.0, 0.0, primary)] + [job for w in wls for job in
-                                                          ((fp, px, py, float(w)), (fp, 0.0, 0.0, float(w)))],
-                        aim, device)
+    if aimed is None:
+        aimed = aim_batches(lens, fan_jobs(lens, hy, fan, wavelengths_nm, pupil, object_value), aim, device)
     ref = trace64(lens, aimed[0], device, plane_z_mm=z)
     if not ref.ok[0]:
         raise LensrtError(f"the chief ray of field {label} does not reach the image")

@@ -33,7 +33,7 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
-from .aberrations import RayFan, SpotDiagram, ray_fan, spot_diagrams
+from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams
 from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
@@ -190,6 +190,27 @@ class Comparison:
         return out
 
 
+#: the sagittal fans of compare_lens: one half of the pupil (the other is its mirror image)
+_SAGITTAL_PUPIL = np.linspace(0.0, 1.0, 21)
+
+
+def _aim_fans(lens: Lens, fields: list[FieldSpec], wls, device: str | None) -> list:
+    """The rays of every field's tangential and sagittal fan aimed in one solve: [tangential, sagittal] per
+    field, each the list :func:`ray_fan` takes as ``aimed`` (None where that fan could not be set up)."""
+    jobs, spans = [], []
+    for f in fields:
+        for fan, pupil in (("tangential", None), ("sagittal", _SAGITTAL_PUPIL)):
+            try:
+                part = fan_jobs(lens, f.hy, fan, wls, pupil)
+            except LensrtError:
+                spans.append(None)
+                continue
+            spans.append((len(jobs), len(jobs) + len(part)))
+            jobs += part
+    aimed = aim_batches(lens, jobs, "real", device)
+    return [None if sp is None else aimed[sp[0]:sp[1]] for sp in spans]
+
+
 def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
                  extra_fields: Sequence[float] | None = None, device: str | None = None, rays: int = 1 << 16,
                  seed: int = 0, curve_points: int = 21, fans: bool = True, spots: bool = True,
@@ -263,10 +284,12 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
         notes += [f"no spot diagram at {f.label}: every ray is vignetted" for f in fields if f.label not in have]
     fan = []
     if fans:
-        for f in fields:
+        aimed = _aim_fans(lens, fields, wls, dev)
+        for k, f in enumerate(fields):
             try:
-                pair = (ray_fan(lens, f.hy, "tangential", wls, device=dev),
-                        ray_fan(lens, f.hy, "sagittal", wls, pupil=np.linspace(0.0, 1.0, 21), device=dev))
+                pair = (ray_fan(lens, f.hy, "tangential", wls, device=dev, aimed=aimed[2 * k]),
+                        ray_fan(lens, f.hy, "sagittal", wls, pupil=_SAGITTAL_PUPIL, device=dev,
+                                aimed=aimed[2 * k + 1]))
             except LensrtError as e:
                 notes.append(f"no ray fan at {f.label}: {e}")
                 continue
