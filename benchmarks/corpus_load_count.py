@@ -1,0 +1,77 @@
+"""Load every lens file of the rayoptics test corpus with lensrt and count outcomes.
+
+Usage (from the repository root)::
+
+    PYTHONPATH=. python benchmarks/corpus_load_count.py [--efl]
+
+Prints one line per file (OK with the EFL, or the one-line error) and the
+totals. The corpus is the 41 lens files the ``rayoptics`` wheel ships under
+``rayoptics/zemax/tests`` and ``rayoptics/codev/tests`` (.zmx/.seq; the
+.smx duplicates are not lens files lensrt reads). With ``--efl`` each loaded
+file's EFL is compared with rayoptics' own (where rayoptics loads the file).
+"""
+from __future__ import annotations
+
+import sys
+import traceback
+import warnings
+from pathlib import Path
+
+__all__ = ["corpus_files", "main"]
+
+
+def corpus_files() -> list[Path]:
+    """The 41 .zmx/.seq files of the rayoptics wheel's test folders (sorted)."""
+    import rayoptics
+    root = Path(rayoptics.__file__).parent
+    out = []
+    for sub in ("zemax/tests", "codev/tests"):
+        out += [p for p in (root / sub).iterdir() if p.suffix.lower() in (".zmx", ".seq")]
+    return sorted(out)
+
+
+def _rayoptics_efl(path: Path) -> float | None:
+    try:
+        from rayoptics.environment import open_model
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            opm = open_model(str(path), info=False)
+        return float(opm["analysis_results"]["parax_data"].fod.efl)
+    except Exception:  # noqa: BLE001 -- the oracle's own failures are reported as "n/a"
+        return None
+
+
+def main(argv: list[str]) -> int:
+    from lensrt.errors import LensrtError
+    from lensrt.loading import load_lens
+    from lensrt.paraxial.first_order import first_order
+    want_efl = "--efl" in argv
+    ok = clean = crash = 0
+    for p in corpus_files():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                lens = load_lens(p)
+                efl = first_order(lens).efl_mm
+        except LensrtError as e:
+            clean += 1
+            print(f"ERROR {p.name}: {str(e).splitlines()[0][:160]}")
+            continue
+        except Exception:  # noqa: BLE001 -- a traceback is a bug, counted and shown
+            crash += 1
+            print(f"CRASH {p.name}:\n{traceback.format_exc()}")
+            continue
+        ok += 1
+        line = f"OK    {p.name}: EFL {efl:.9g} mm"
+        if want_efl:
+            ref = _rayoptics_efl(p)
+            if ref is not None:
+                rel = abs(efl - ref) / abs(ref) if ref else float("nan")
+                line += f"   rayoptics {ref:.9g} mm  rel {rel:.2e}"
+        print(line)
+    print(f"loaded {ok}, clean errors {clean}, tracebacks {crash}, of {ok + clean + crash}")
+    return 0 if crash == 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
