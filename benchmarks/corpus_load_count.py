@@ -8,7 +8,10 @@ Prints one line per file (OK with the EFL, or the one-line error) and the
 totals. The corpus is the 41 lens files the ``rayoptics`` wheel ships under
 ``rayoptics/zemax/tests`` and ``rayoptics/codev/tests`` (.zmx/.seq; the
 .smx duplicates are not lens files lensrt reads). With ``--efl`` each loaded
-file's EFL is compared with rayoptics' own (where rayoptics loads the file).
+file's focal length is compared with rayoptics' ``efl`` (where rayoptics loads the
+file). rayoptics' efl is n'/Phi with the image-space index signed by the
+direction of travel, i.e. lensrt's ``rear_focal_length_mm`` (lensrt's
+``efl_mm`` is 1/Phi: they differ in sign after an odd number of mirrors).
 """
 from __future__ import annotations
 
@@ -52,7 +55,8 @@ def main(argv: list[str]) -> int:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 lens = load_lens(p)
-                efl = first_order(lens).efl_mm
+                fo = first_order(lens)
+                efl, rear = fo.efl_mm, fo.rear_focal_length_mm
         except LensrtError as e:
             clean += 1
             print(f"ERROR {p.name}: {str(e).splitlines()[0][:160]}")
@@ -66,8 +70,8 @@ def main(argv: list[str]) -> int:
         if want_efl:
             ref = _rayoptics_efl(p)
             if ref is not None:
-                rel = abs(efl - ref) / abs(ref) if ref else float("nan")
-                line += f"   rayoptics {ref:.9g} mm  rel {rel:.2e}"
+                rel = abs(rear - ref) / abs(ref) if ref else float("nan")
+                line += f"   f' {rear:.9g}  rayoptics efl {ref:.9g} mm  rel {rel:.2e}"
         print(line)
     print(f"loaded {ok}, clean errors {clean}, tracebacks {crash}, of {ok + clean + crash}")
     return 0 if crash == 0 else 1

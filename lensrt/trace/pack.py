@@ -33,7 +33,7 @@ from .status import APERTURE_TOLERANCE
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
-           "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
+           "pack_arrays", "index_table", "check_kernel_geometry", "KERNEL_GEOMETRY_ERROR", "PackedLens", "pack_lens", "real_dtype"]
 
 S_C, S_KP1, S_SD2, S_THICK, S_KIND, S_NASPH, S_ASPH = range(7)
 MAX_ASPHERE = 10
@@ -50,7 +50,13 @@ _CACHE_SIZE = 32
 
 def pack_arrays(lens: Lens, iris: Iris | None = None,
                 stop_radius_mm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(surf, media, iris) float64 host arrays of ``lens`` (module docstring)."""
+    """(surf, media, iris) float64 host arrays of ``lens`` (module docstring).
+
+    Raises :class:`~lensrt.errors.LensrtError` for a lens the kernels do not
+    trace (mirrors, tilts/decenters, surface apertures): only the float64
+    reference tracer (:mod:`lensrt.trace.reference`) traces those for now.
+    """
+    check_kernel_geometry(lens)
     n = lens.n_surfaces
     surf = np.zeros((n + 1, SURF_COLS))
     for i, s in enumerate(lens.surfaces):
@@ -59,7 +65,7 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
                               f"at most {MAX_ASPHERE} (r^2 .. r^{2 * MAX_ASPHERE})")
         surf[i, S_C] = s.curvature_per_mm
         surf[i, S_KP1] = 1.0 + s.conic
-        sd = s.semi_diameter_mm
+        sd = s.semi_diameter_mm if lens.clips_semi_diameter(i) else None
         surf[i, S_SD2] = -1.0 if sd is None else (sd * (1.0 + APERTURE_TOLERANCE)) ** 2
         surf[i, S_THICK] = s.thickness_mm
         surf[i, S_KIND] = 2.0 if s.asphere else (1.0 if s.curvature_per_mm != 0.0 else 0.0)
@@ -88,6 +94,25 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
     iris_row[IRIS_COS_HALF] = math.cos(half)
     iris_row[IRIS_HALF] = half
     return surf, media, iris_row
+
+
+#: the one error for a lens the Warp kernels cannot trace
+KERNEL_GEOMETRY_ERROR = ("lensrt traces tilted/decentred/reflective systems only in the reference tracer for now")
+
+
+def check_kernel_geometry(lens: Lens) -> None:
+    """Refuse a lens with mirrors, coordinate transforms or surface apertures (never trace it wrongly)."""
+    if lens.is_centred and not lens.has_mirrors:
+        return
+    what = []
+    if lens.has_mirrors:
+        what.append("mirrors")
+    if any(s.transform_before or s.transform_after for s in lens.surfaces) or lens.image_transform:
+        what.append("tilts/decenters")
+    if any(s.apertures for s in lens.surfaces):
+        what.append("surface apertures/obscurations")
+    raise LensrtError(f"{KERNEL_GEOMETRY_ERROR} ({lens.name or 'this lens'} has {', '.join(what)})",
+                      path=lens.path, hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
 
 
 def index_table(lens: Lens, wavelength_nm: np.ndarray) -> np.ndarray:

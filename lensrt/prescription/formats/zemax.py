@@ -400,7 +400,8 @@ class _Reader:
         warnings.warn(f"{self.path}:{no}: glass {name!r} is in no GCAT catalog lensrt has (searched: {where}"
                       f"{extra}): using the GLAS line's n_d = {glass.nd:g}, V_d = {glass.vd:g} as a model glass",
                       GlassFallbackWarning, stacklevel=3)
-        self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); not in GCAT catalogs"))
+        if all(k != f"model_glass_{name}" for k, _ in self.notes):  # one note per glass name
+            self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); not in GCAT catalogs"))
         return glass
 
     # -- assemble --------------------------------------------------------------
