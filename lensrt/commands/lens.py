@@ -45,6 +45,27 @@ def _describe_fields(lens) -> str:
     return f"{f.kind.replace('_', ' ')}s {', '.join(f'{v:g}' for v in f.y)} mm"
 
 
+def _clipping(lens, i: int) -> str:
+    """What vignettes at surface ``i``: its semi-diameter (or not, under the aperture rule), its apertures."""
+    s = lens.surfaces[i]
+    parts = []
+    if i == lens.stop_index:
+        parts.append("stop")
+    elif s.semi_diameter_mm is not None:
+        parts.append("sd" if lens.clips_semi_diameter(i) else "none (sd not clipping)")
+    parts += [a.describe() for a in s.apertures]
+    return "; ".join(parts) or "none"
+
+
+def _kind(s) -> str:
+    kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
+    if s.mirror:
+        kind += " mirror"
+    if s.transform_before is not None or s.transform_after is not None:
+        kind += " tilt/dec"
+    return kind
+
+
 def lens_table(lens) -> tuple[list[list], list[str]]:
     """Rows and headers of the surface table at the primary wavelength."""
     wl = lens.wavelengths.primary_nm
@@ -53,11 +74,16 @@ def lens_table(lens) -> tuple[list[list], list[str]]:
     for i, s in enumerate(lens.surfaces):
         sd = s.semi_diameter_mm
         sd_text = "-" if sd is None else (f"{sd:.4f}" + ("*" if s.semi_diameter_auto else ""))
-        kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
         rows.append(["STO" if s.is_stop else str(i + 1), s.radius_mm, s.thickness_mm,
                      s.material.describe() if not s.material.is_air else "air", float(n[i + 1]), sd_text,
-                     s.conic, kind])
-    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type"]
+                     s.conic, _kind(s), _clipping(lens, i)])
+    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type",
+                  "vignettes"]
+
+
+_RULES = {"every_surface": "every_surface (every semi-diameter vignettes: the photographic reading, as pbrt's "
+                           "tables mean it)",
+          "opticstudio": "opticstudio (only user-defined semi-diameters, surface apertures and the stop vignette)"}
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -72,7 +98,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                     "wavelengths_nm": list(lens.wavelengths.nm), "primary_nm": lens.wavelengths.primary_nm,
                     "fields": {"type": lens.fields.kind, "y": list(lens.fields.y), "x": list(lens.fields.x)},
                     "iris": {"blades": lens.iris.blades, "rotation_rad": lens.iris.rotation_rad},
-                    "notes": lens.meta,
+                    "notes": lens.meta, "aperture_rule": lens.aperture_rule,
                     "surfaces": [dict(zip(headers, r)) for r in rows]})
         return 0
     emit(f"{lens.name or lens.path}")
@@ -84,6 +110,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                                      for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
     if lens.iris.blades:
         emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
+    emit(f"aperture rule: {_RULES[lens.aperture_rule]}")
     emit(format_table(rows, headers))
     emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
     if any(s.semi_diameter_auto for s in lens.surfaces):

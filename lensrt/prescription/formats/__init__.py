@@ -10,7 +10,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, located
 from ..model import Lens
 
 __all__ = ["FORMATS", "read_lens", "read_text", "detect_format"]
@@ -101,13 +101,15 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     **options
         Reader options named ``<format>_<option>`` (e.g. ``pbrt_thickness="next"``,
         ``pbrt_field_deg=20``); ``None`` values are ignored. An option for
-        another format than the file's is an error.
+        another format than the file's is an error. ``aperture_rule``
+        (any format) sets :attr:`Lens.aperture_rule`: which semi-diameters vignette.
 
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """
     text = read_text(path)
     fmt = format or detect_format(path, text)
+    rule = options.pop("aperture_rule", None)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
@@ -121,4 +123,8 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
-    return reader(path, text=text, **kwargs)
+    lens = reader(path, text=text, **kwargs)
+    if rule is not None:
+        with located(path):
+            lens = lens.replace(aperture_rule=rule)
+    return lens
