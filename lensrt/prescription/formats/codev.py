@@ -56,7 +56,8 @@ IGNORED = {
     "EDG": "edge thickness solve (solved value kept)", "UMY": "solve (solved value kept)",
     "UCY": "solve (solved value kept)", "IMY": "solve (solved value kept)", "ICY": "solve (solved value kept)",
     "CA": "clear aperture mode", "WID": "wide-angle flag", "SPH": "spherical profile",
-    "CUM": "mirror substrate curvature (drawing only)", "THM": "mirror substrate thickness (drawing only)",
+    "CLS": "wavelength colour labels (display)", "CUM": "mirror substrate curvature (drawing only)",
+    "THM": "mirror substrate thickness (drawing only)",
 }
 UNSUPPORTED = {
     "RET": "a coordinate return", "XOD": "an offset decenter", "YOD": "an offset decenter",
