@@ -41,12 +41,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from types import SimpleNamespace
 
-from .kernels import N_COUNTS, N_STATS, RAY_OUT_COLS, SRC, FIXED_POINT_BITS
+from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS, SRC
 from .pack import real_dtype
-from .sampling import sampling_funcs
 from .shape import ASPHERE, CONIC, IRIS_CIRCLE, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
-from .status import GRAZING_COS, INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
-from .surfaces import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
+from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from .reference import NEWTON_MAX_ITER
 
 __all__ = ["StreamOptions", "Tuning", "DEFAULT_TUNING", "GPU_TUNING", "stream_kernel", "store_kernel", "module_tag"]
@@ -501,223 +499,88 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
                            trace_fast=trace_fast)
 
 
+def _fast_samples(wp, real, module: str, sampler: int):
+    """``samples(i, sl, bseed, wseed, rseed)``: ray i's pupil point (u0, u1) and wavelength sample,
+    the sampler fixed at compile time (the generic kernel's ``generic_samples``, branch-free)."""
+    from .kernels import sampling as sm
+    from .kernels import stream_body as sb
+
+    def samples(i: int, sl: sb.Slots, bseed: wp.uint32, wseed: wp.uint32, rseed: int):
+        u0 = real(0.0)
+        u1 = real(0.0)
+        uw = real(0.0)
+        if wp.static(sampler == 2):
+            u0, u1 = sm.sobol_2d(wp.uint32(i), bseed, real(0.0))
+            uw = sm.sobol_1d(wp.uint32(i), wseed, real(0.0))
+        elif wp.static(sampler == 3):
+            state = wp.rand_init(rseed, i)
+            u0, u1 = sm.r2_2d(wp.uint32(i), bseed, real(0.0))
+            uw = real(wp.randf(state))
+        else:
+            state = wp.rand_init(rseed, i)
+            u0 = real(wp.randf(state))
+            u1 = real(wp.randf(state))
+            uw = real(wp.randf(state))
+            if wp.static(sampler == 1):
+                # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
+                n_cells = sl.n_strata * sl.n_strata
+                strat = i < n_cells * sl.n_wstrata
+                cell = i % n_cells
+                u0 = wp.where(strat, (real(cell % sl.n_strata) + u0) / real(sl.n_strata), u0)
+                u1 = wp.where(strat, (real(cell // sl.n_strata) + u1) / real(sl.n_strata), u1)
+                uw = wp.where(strat, (real(i // n_cells) + uw) / real(sl.n_wstrata), uw)
+        return u0, u1, uw
+
+    return wp.func(samples, module=module, name=f"samples_{sampler}")
+
+
 @lru_cache(maxsize=64)
 def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                   tuning: Tuning = DEFAULT_TUNING) -> SimpleNamespace:
-    """The specialised stream kernel of ``shape`` with ``opts`` (the generic trace_stream's contract)."""
+    """The specialised stream kernel of ``shape`` with ``opts`` (the generic trace_stream's contract
+    and per-ray body, :mod:`lensrt.trace.kernels.stream_body`; only the samples and the trace differ)."""
     from ..device import warp
+    from .kernels import stream_body as sb
     wp = warp()
     real = real_dtype(wp, precision)
     mod = _module("stream", precision, (shape, opts, tuning))
     wp.set_module_options({"enable_backward": False}, module=mod)
     lay = Layout(shape)
     Consts = _consts_type(wp, real, lay.size, tuning.consts)
-    tf = _build_trace(wp, real, mod, shape, opts.table, Consts)
-    trace_fast = tf.trace_fast
-    sm = sampling_funcs(wp, real, mod)
-    u32 = wp.uint32
-    fixed_one = float(2**FIXED_POINT_BITS)
-    sampler = int(opts.sampler)
-    table = bool(opts.table)
-    channels = bool(opts.channels)
-    histogram = bool(opts.histogram)
-    (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
-     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY, _IDX, _IDY, _WSCALE) = (SRC[k] for k in SRC)
-    assert N_STATS == 8 and N_COUNTS == 8
+    trace_fast = _build_trace(wp, real, mod, shape, opts.table, Consts).trace_fast
+    samples = _fast_samples(wp, real, mod, int(opts.sampler))
+    table, channels, histogram = int(opts.table), int(opts.channels), bool(opts.histogram)
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
     def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
-                          index_table: wp.array2d(dtype=real),
-                          n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
-                          hist: wp.array(dtype=wp.int64), nx: int, ny: int,
-                          n_layers: int, n_rep: int, hist_batches: int,
-                          epoch: int, n_batches: int, n_slots: int, slot_rays: int,
-                          start: int, count: int, n_strata: int, n_wstrata: int, tid_base: int, rep_base: int,
-                          stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64)):
-        # one thread per slot (kernels.trace_stream's contract)
-        tid = wp.tid() + tid_base
-        q = tid % n_slots
-        g = tid // n_slots
-        src = g // n_batches
-        batch = g % n_batches
-        rep = rep_base + tid % n_rep
-        kind = int(sources[src, _KIND])
-        ox = sources[src, _OX]
-        oy = sources[src, _OY]
-        oz = sources[src, _OZ]
-        wx = sources[src, _WX]
-        wy = sources[src, _WY]
-        wz = sources[src, _WZ]
-        e1x = sources[src, _E1X]
-        e1y = sources[src, _E1Y]
-        e1z = sources[src, _E1Z]
-        e2x = sources[src, _E2X]
-        e2y = sources[src, _E2Y]
-        e2z = sources[src, _E2Z]
-        cx = sources[src, _CX]
-        cy = sources[src, _CY]
-        cz = sources[src, _CZ]
-        a0 = sources[src, _A0]
-        a1 = sources[src, _A1]
-        b0 = sources[src, _B0]
-        b1 = sources[src, _B1]
-        dist = sources[src, _DIST]
-        plane_dz = sources[src, _PLANE_DZ]
-        gx0 = sources[src, _GX0]
-        gy0 = sources[src, _GY0]
-        layer = int(sources[src, _LAYER])
-        refx = sources[src, _SX]
-        refy = sources[src, _SY]
-        inv_dx = sources[src, _IDX]
-        inv_dy = sources[src, _IDY]
-        wscale = sources[src, _WSCALE]
-        spec_off = src_int[src, 2]
-        spec_n = src_int[src, 3]
-        # one independent randomisation per (source seed, source index, batch, epoch), as in
-        # kernels.trace_stream
-        bseed = sm.hash_u32(u32(src_int[src, 0]) ^ sm.hash_u32(u32(src_int[src, 1] * n_batches + batch)
-                                                               ^ sm.hash_u32(u32(epoch))))
-        wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
-        rseed = int(bseed >> u32(1))
-        plane_size = nx * ny
-        n_cells = n_strata * n_strata
-        n_strat = n_cells * n_wstrata
-        hist_base = (((rep * n_layers + layer) * hist_batches + batch % hist_batches) * n_chan) * plane_size
-        sw = wp.float64(0.0)
-        swx = wp.float64(0.0)
-        swy = wp.float64(0.0)
-        swxx = wp.float64(0.0)
-        swyy = wp.float64(0.0)
-        swxy = wp.float64(0.0)
-        swg = wp.float64(0.0)
-        c_ok = int(0)
-        c_missed = int(0)
-        c_vig = int(0)
-        c_tir = int(0)
-        c_nc = int(0)
-        c_inv = int(0)
-        c_out = int(0)
-        c_graze = int(0)
-        k = q * slot_rays
-        k_end = wp.min(k + slot_rays, count)
+                          index_table: wp.array2d(dtype=real), chan: wp.array2d(dtype=real), chan_nm0: real,
+                          chan_dnm: real, h: sb.Histogram, sl: sb.Slots, stats: wp.array2d(dtype=wp.float64),
+                          counts: wp.array2d(dtype=wp.int64)):
+        # one thread per slot (the generic trace_stream's contract and body)
+        tid = wp.tid() + sl.tid_base
+        q, src, batch, rep = sb.slot_of(tid, sl, h)
+        bseed, wseed, rseed = sb.batch_seeds(src_int, src, sl, batch)
+        base = sb.hist_base(h, sources, src, rep, batch)
+        plane_dz = sources[src, wp.static(SRC["plane_dz"])]
+        s = sb.SlotSums()
+        k = q * sl.slot_rays
+        k_end = wp.min(k + sl.slot_rays, sl.count)
         while k < k_end:
             # branch-free like trace_fast (see _build_trace): no value of one ray outlives it
-            i = start + k
-            u0 = real(0.0)
-            u1 = real(0.0)
-            uw = real(0.0)
-            if wp.static(sampler == 2):
-                u0, u1 = sm.sobol_2d(u32(i), bseed)
-                uw = sm.sobol_1d(u32(i), wseed)
-            elif wp.static(sampler == 3):
-                state = wp.rand_init(rseed, i)
-                u0, u1 = sm.r2_2d(u32(i), bseed)
-                uw = real(wp.randf(state))
-            else:
-                state = wp.rand_init(rseed, i)
-                u0 = real(wp.randf(state))
-                u1 = real(wp.randf(state))
-                uw = real(wp.randf(state))
-                if wp.static(sampler == 1):
-                    # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
-                    strat = i < n_strat
-                    cell = i % n_cells
-                    u0 = wp.where(strat, (real(cell % n_strata) + u0) / real(n_strata), u0)
-                    u1 = wp.where(strat, (real(cell // n_strata) + u1) / real(n_strata), u1)
-                    uw = wp.where(strat, (real(i // n_cells) + uw) / real(n_wstrata), uw)
-            pa = a0 + u0 * (a1 - a0)
-            pb = b0 + u1 * (b1 - b0)
-            # wavelength: the bin k with cdf[k] <= uw < cdf[k + 1] (sampling.sample_cdf)
-            lo = spec_off
-            hi = spec_off + spec_n
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                below = spec_cdf[mid] <= uw
-                lo = wp.where(below, mid, lo)
-                hi = wp.where(below, hi, mid)
-            row = lo
-            wl = spec_nm[lo]
-            if wp.static(not table):
-                width = spec_cdf[lo + 1] - spec_cdf[lo]
-                f = wp.clamp((uw - spec_cdf[lo]) / wp.where(width > real(0.0), width, real(1.0)),
-                             real(0.0), real(1.0))
-                f = wp.where(width > real(0.0), f, real(0.5))
-                wl = wl + f * (spec_nm[lo + 1] - wl)
-            px = cx + pa * e1x + pb * e2x
-            py = cy + pa * e1y + pb * e2y
-            pz = cz + pa * e1z + pb * e2z
-            # from an object point: along P - O, weight cos(theta_plane) (D / rho)^2 (x cos(theta_obj))
-            vx = px - ox
-            vy = py - oy
-            vz = pz - oz
-            rho = wp.sqrt(vx * vx + vy * vy + vz * vz)
-            point = kind != 0
-            rs = wp.where(point, rho, real(1.0))
-            dx = wp.where(point, vx / rs, wx)
-            dy = wp.where(point, vy / rs, wy)
-            dz = wp.where(point, vz / rs, wz)
-            qq = dist / rs
-            weight = wp.where(point, (dx * wx + dy * wy + dz * wz) * qq * qq, real(1.0))
-            weight = wp.where(kind == 1, weight * dz, weight) * wscale
+            i = sl.start + k
+            u0, u1, uw = samples(i, sl, bseed, wseed, rseed)
+            wl, row = sb.pick_wavelength(uw, wp.static(table), spec_nm, spec_cdf, src_int[src, 2], src_int[src, 3])
+            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(sources, src, u0, u1)
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
-            ok = st == int(OK)
-            c_ok = c_ok + wp.where(ok, 1, 0)
-            c_graze = c_graze + wp.where(ok and min_cos < real(GRAZING_COS), 1, 0)
-            c_missed = c_missed + wp.where(st == int(MISSED), 1, 0)
-            c_vig = c_vig + wp.where(st == int(VIGNETTED), 1, 0)
-            c_tir = c_tir + wp.where(st == int(TIR), 1, 0)
-            c_nc = c_nc + wp.where(st == int(NO_CONVERGE), 1, 0)
-            c_inv = c_inv + wp.where(st == int(INVALID), 1, 0)
-            xd = wp.float64(wp.where(ok, x - refx, real(0.0)))
-            yd = wp.float64(wp.where(ok, y - refy, real(0.0)))
-            wd = wp.float64(wp.where(ok, weight, real(0.0)))
-            sw = sw + wd
-            swx = swx + wd * xd
-            swy = swy + wd * yd
-            swxx = swxx + wd * xd * xd
-            swyy = swyy + wd * yd * yd
-            swxy = swxy + wd * xd * yd
-            fx = (x - gx0) * inv_dx
-            fy = (y - gy0) * inv_dy
-            on_grid = ok and fx >= real(0.0) and fy >= real(0.0) and fx < real(nx) and fy < real(ny)
-            swg = swg + wp.where(on_grid, wd, wp.float64(0.0))
-            c_out = c_out + wp.where(ok and not on_grid, 1, 0)
+            s, on_grid, fx, fy = sb.accumulate(s, st, min_cos, x, y, weight, sources, src, h)
             if wp.static(histogram):
                 if on_grid:
-                    base = hist_base + int(fy) * nx + int(fx)
-                    if wp.static(not channels):
-                        wp.atomic_add(hist, base, wp.int64(weight * real(fixed_one) + real(0.5)))
-                    else:
-                        pos = (wl - chan_nm0) / chan_dnm
-                        g = chan.shape[1]
-                        if pos >= real(0.0) and pos <= real(g - 1):
-                            k0 = wp.min(int(pos), g - 2)
-                            fr = pos - real(k0)
-                            for c in range(n_chan):
-                                cw = chan[c, k0] * (real(1.0) - fr) + chan[c, k0 + 1] * fr
-                                v = weight * cw * real(fixed_one) + real(0.5)
-                                if v >= real(1.0):
-                                    wp.atomic_add(hist, base + c * plane_size, wp.int64(v))
+                    sb.bin_ray(h, base, fx, fy, weight, wl, wp.static(channels), chan, chan_nm0, chan_dnm)
             k = k + 1
-        stats[tid, 0] = wp.float64(c_ok)
-        stats[tid, 1] = sw
-        stats[tid, 2] = swx
-        stats[tid, 3] = swy
-        stats[tid, 4] = swxx
-        stats[tid, 5] = swyy
-        stats[tid, 6] = swxy
-        stats[tid, 7] = swg
-        counts[tid, 0] = wp.int64(c_ok)
-        counts[tid, 1] = wp.int64(c_missed)
-        counts[tid, 2] = wp.int64(c_vig)
-        counts[tid, 3] = wp.int64(c_tir)
-        counts[tid, 4] = wp.int64(c_nc)
-        counts[tid, 5] = wp.int64(c_inv)
-        counts[tid, 6] = wp.int64(c_out)
-        counts[tid, 7] = wp.int64(c_graze)
+        sb.store_slot(stats, counts, tid, s)
 
-    return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real, layout=lay,
-                           trace_fast=trace_fast)
+    return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
+                           layout=lay, trace_fast=trace_fast)
