@@ -6,6 +6,12 @@ One row per surface plus one for the image surface (a plane)::
                1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
+A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
+direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
+odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
+curvature and asphere terms are then stored multiplied by that sign (the surface
+seen in the frame mirrored in z, as :mod:`.reference_general` meets it).
 ``media[m]`` holds medium m (0 = object space, m = i + 1 after surface i):
 ``[0, n]`` for a constant index (air included) or ``[1, p_0 .. p_14]`` with the 15
 coefficients of :func:`lensrt.prescription.materials.index_from_packed`.
@@ -31,13 +37,19 @@ from ..prescription.model import Iris, Lens
 from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
+           "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "pack_geometry",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
            "pack_arrays", "index_table", "check_kernel_geometry", "KERNEL_GEOMETRY_ERROR", "PackedLens", "pack_lens", "real_dtype"]
 
 S_C, S_KP1, S_SD2, S_THICK, S_KIND, S_NASPH, S_ASPH = range(7)
 MAX_ASPHERE = 10
-SURF_COLS = S_ASPH + MAX_ASPHERE
+#: geometry columns after the asphere block (module docstring): mirror flag, travel sign at the
+#: surface, lens-wide geometry flag, the surface frame's origin (3) and axes (9, row-major, columns = axes)
+S_MIRROR = S_ASPH + MAX_ASPHERE
+S_SIGN, S_GEOM, S_ORIGIN = S_MIRROR + 1, S_MIRROR + 2, S_MIRROR + 3
+S_AXES = S_ORIGIN + 3
+SURF_COLS = S_AXES + 9
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
 (IRIS_STOP, IRIS_RADIUS, IRIS_BLADES, IRIS_ROTATION, IRIS_ROUNDNESS, IRIS_OBSTRUCTION, IRIS_COS_HALF,
@@ -73,6 +85,7 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
         surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
+    pack_geometry(lens, surf)
     media = np.zeros((n + 1, MEDIA_COLS))
     for m, mat in enumerate(lens.media()):
         p = np.asarray(mat.packed(), dtype=np.float64)
@@ -97,22 +110,35 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
 
 
 #: the one error for a lens the Warp kernels cannot trace
-KERNEL_GEOMETRY_ERROR = ("lensrt traces tilted/decentred/reflective systems only in the reference tracer for now")
+KERNEL_GEOMETRY_ERROR = "lensrt traces surface apertures and obscurations only in the reference tracer for now"
 
 
 def check_kernel_geometry(lens: Lens) -> None:
-    """Refuse a lens with mirrors, coordinate transforms or surface apertures (never trace it wrongly)."""
+    """Refuse a lens with surface apertures/obscurations (never trace it wrongly); mirrors and
+    transforms are traced (the geometry columns)."""
+    if any(s.apertures for s in lens.surfaces):
+        raise LensrtError(f"{KERNEL_GEOMETRY_ERROR} ({lens.name or 'this lens'} has surface apertures or "
+                          "obscurations)", path=lens.path,
+                          hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
+
+
+def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
+    """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
+    surf[:, S_SIGN] = 1.0
+    surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
     if lens.is_centred and not lens.has_mirrors:
         return
-    what = []
-    if lens.has_mirrors:
-        what.append("mirrors")
-    if any(s.transform_before or s.transform_after for s in lens.surfaces) or lens.image_transform:
-        what.append("tilts/decenters")
-    if any(s.apertures for s in lens.surfaces):
-        what.append("surface apertures/obscurations")
-    raise LensrtError(f"{KERNEL_GEOMETRY_ERROR} ({lens.name or 'this lens'} has {', '.join(what)})",
-                      path=lens.path, hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
+    from ..prescription.frames import surface_frames, travel_signs
+    signs = travel_signs(lens)
+    for i, (origin, axes) in enumerate(surface_frames(lens)):
+        surf[i, S_GEOM] = 1.0
+        surf[i, S_SIGN] = signs[i]
+        surf[i, S_ORIGIN:S_ORIGIN + 3] = origin
+        surf[i, S_AXES:S_AXES + 9] = axes.ravel()
+        if i < lens.n_surfaces:
+            surf[i, S_MIRROR] = 1.0 if lens.surfaces[i].mirror else 0.0
+            surf[i, S_C] *= signs[i]
+            surf[i, S_ASPH:S_ASPH + MAX_ASPHERE] *= signs[i]
 
 
 def index_table(lens: Lens, wavelength_nm: np.ndarray) -> np.ndarray:
