@@ -29,7 +29,7 @@ from lensrt.prescription.frames import surface_frames
 from lensrt.prescription.geometry import CoordinateTransform, SurfaceAperture
 from lensrt.prescription.materials import AIR
 from lensrt.prescription.model import Aperture, Fields, Lens, Surface, Wavelengths
-from lensrt.trace.pack import KERNEL_GEOMETRY_ERROR, S_SD2, pack_arrays
+from lensrt.trace.pack import S_SD2, pack_arrays
 from lensrt.trace.reference import trace_reference
 from lensrt.trace.status import OK, VIGNETTED
 
@@ -199,11 +199,14 @@ def test_opticstudio_rule_clips_only_user_defined_semi_diameters() -> None:
     assert trace_reference(ours, (0.0, 0.5, -1.0), (0, 0, 1), wl).status == OK
 
 
-def test_warp_path_refuses_surface_apertures() -> None:
-    with pytest.raises(LensrtError, match="only in the reference tracer"):
-        pack_arrays(cassegrain_system())
-    assert "reference tracer" in KERNEL_GEOMETRY_ERROR
-    pack_arrays(folded_system())  # mirrors and transforms pack (tests/test_geometry_kernels.py)
+def test_geometry_lenses_pack_with_their_frames() -> None:
+    from lensrt.trace.pack import S_APER, S_GEOM, S_SIGN
+    surf, _, _ = pack_arrays(cassegrain_system())
+    assert np.all(surf[:, S_GEOM] == 1.0) and list(surf[:, S_SIGN]) == [1.0, 1.0, -1.0, 1.0]
+    assert surf[0, S_APER] == 1.0  # the obscuration: a circle
+    plain, _, _ = pack_arrays(cassegrain_system().replace(surfaces=tuple(
+        Surface(s.curvature_per_mm, abs(s.thickness_mm), AIR, is_stop=s.is_stop) for s in cassegrain_system().surfaces)))
+    assert np.all(plain[:, S_GEOM] == 0.0)
 
 
 @pytest.mark.parametrize("make", [folded_system, tilted_decentred_system, mangin_system, cassegrain_system])

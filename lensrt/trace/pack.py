@@ -37,10 +37,11 @@ from ..prescription.model import Iris, Lens
 from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
-           "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "pack_geometry",
+           "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "S_APER", "MAX_SURFACE_APERTURES", "APERTURE_COLS",
+           "APERTURE_SHAPE_CODES", "pack_geometry",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
-           "pack_arrays", "index_table", "check_kernel_geometry", "KERNEL_GEOMETRY_ERROR", "PackedLens", "pack_lens", "real_dtype"]
+           "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
 
 S_C, S_KP1, S_SD2, S_THICK, S_KIND, S_NASPH, S_ASPH = range(7)
 MAX_ASPHERE = 10
@@ -49,7 +50,14 @@ MAX_ASPHERE = 10
 S_MIRROR = S_ASPH + MAX_ASPHERE
 S_SIGN, S_GEOM, S_ORIGIN = S_MIRROR + 1, S_MIRROR + 2, S_MIRROR + 3
 S_AXES = S_ORIGIN + 3
-SURF_COLS = S_AXES + 9
+#: up to MAX_SURFACE_APERTURES surface apertures per surface, APERTURE_COLS columns each from S_APER:
+#: shape code (0 none, 1 circle, 2 annulus, 3 rectangle, 4 ellipse), a, b, decenter x, y, cos and sin
+#: of the rotation, obscuration flag (sizes with APERTURE_TOLERANCE applied)
+S_APER = S_AXES + 9
+MAX_SURFACE_APERTURES = 2
+APERTURE_COLS = 8
+SURF_COLS = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
 (IRIS_STOP, IRIS_RADIUS, IRIS_BLADES, IRIS_ROTATION, IRIS_ROUNDNESS, IRIS_OBSTRUCTION, IRIS_COS_HALF,
@@ -64,11 +72,9 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
                 stop_radius_mm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(surf, media, iris) float64 host arrays of ``lens`` (module docstring).
 
-    Raises :class:`~lensrt.errors.LensrtError` for a lens the kernels do not
-    trace (mirrors, tilts/decenters, surface apertures): only the float64
-    reference tracer (:mod:`lensrt.trace.reference`) traces those for now.
+    Mirrors, coordinate transforms and surface apertures fill the geometry
+    columns (:func:`pack_geometry`).
     """
-    check_kernel_geometry(lens)
     n = lens.n_surfaces
     surf = np.zeros((n + 1, SURF_COLS))
     for i, s in enumerate(lens.surfaces):
@@ -109,19 +115,6 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
     return surf, media, iris_row
 
 
-#: the one error for a lens the Warp kernels cannot trace
-KERNEL_GEOMETRY_ERROR = "lensrt traces surface apertures and obscurations only in the reference tracer for now"
-
-
-def check_kernel_geometry(lens: Lens) -> None:
-    """Refuse a lens with surface apertures/obscurations (never trace it wrongly); mirrors and
-    transforms are traced (the geometry columns)."""
-    if any(s.apertures for s in lens.surfaces):
-        raise LensrtError(f"{KERNEL_GEOMETRY_ERROR} ({lens.name or 'this lens'} has surface apertures or "
-                          "obscurations)", path=lens.path,
-                          hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
-
-
 def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
@@ -139,6 +132,22 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
             surf[i, S_MIRROR] = 1.0 if lens.surfaces[i].mirror else 0.0
             surf[i, S_C] *= signs[i]
             surf[i, S_ASPH:S_ASPH + MAX_ASPHERE] *= signs[i]
+            _pack_apertures(lens, i, surf)
+
+
+def _pack_apertures(lens: Lens, i: int, surf: np.ndarray) -> None:
+    aps = lens.surfaces[i].apertures
+    if len(aps) > MAX_SURFACE_APERTURES:
+        raise LensrtError(f"surface {i + 1} has {len(aps)} surface apertures; the kernels take at most "
+                          f"{MAX_SURFACE_APERTURES}", path=lens.path,
+                          hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
+    g = 1.0 + APERTURE_TOLERANCE
+    for k, a in enumerate(aps):
+        grow = 1.0 / g if a.obscuration else g  # the tolerance always favours passing
+        b = a.b / grow if a.shape == "annulus" else a.b * grow
+        surf[i, S_APER + k * APERTURE_COLS:S_APER + (k + 1) * APERTURE_COLS] = (
+            APERTURE_SHAPE_CODES[a.shape], a.a * grow, b, a.decenter_x_mm, a.decenter_y_mm,
+            math.cos(a.rotation_rad), math.sin(a.rotation_rad), 1.0 if a.obscuration else 0.0)
 
 
 def index_table(lens: Lens, wavelength_nm: np.ndarray) -> np.ndarray:

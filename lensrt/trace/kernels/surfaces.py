@@ -18,13 +18,14 @@ import warp as wp
 
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
                     IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_GEOM, S_KIND, S_KP1,
-                    S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK)
+                    S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
+                    APERTURE_COLS)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
 __all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
-           "to_local", "to_global", "inside_iris", "trace_ray"]
+           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -282,6 +283,42 @@ def to_global(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: An
 
 
 @wp.func
+def passes_apertures(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any) -> int:
+    # surface apertures (pack.S_APER): a clear aperture passes its inside, an obscuration blocks it
+    passed = int(1)
+    for k in range(MAX_SURFACE_APERTURES):
+        col = S_APER + k * APERTURE_COLS
+        shape = int(surf[i, col])
+        if shape != 0:
+            a = surf[i, col + 1]
+            b = surf[i, col + 2]
+            du = x - surf[i, col + 3]
+            dv = y - surf[i, col + 4]
+            cr = surf[i, col + 5]
+            sr = surf[i, col + 6]
+            u = cr * du + sr * dv
+            v = cr * dv - sr * du
+            inside = int(0)
+            r2 = u * u + v * v
+            if shape == 1:
+                if r2 <= a * a:
+                    inside = int(1)
+            elif shape == 2:
+                if r2 <= a * a and r2 >= b * b:
+                    inside = int(1)
+            elif shape == 3:
+                if wp.abs(u) <= a and wp.abs(v) <= b:
+                    inside = int(1)
+            elif (u / a) * (u / a) + (v / b) * (v / b) <= type(x)(1.0):
+                inside = int(1)
+            if surf[i, col + 7] != type(x)(0.0):
+                inside = 1 - inside
+            if inside == 0:
+                passed = int(0)
+    return passed
+
+
+@wp.func
 def inside_iris(iris: wp.array(dtype=Any), x: Any, y: Any) -> int:
     # circle or regular N-gon (vertex at the rotation angle), roundness, central obstruction
     r = wp.sqrt(x * x + y * y)
@@ -372,13 +409,16 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             if i < end:
                 if clip != 0:
                     passed = int(1)
-                    if i == int(iris[IRIS_STOP]):
-                        if iris[IRIS_RADIUS] > type(x0)(0.0):
-                            passed = inside_iris(iris, x, y)
-                    else:
-                        sd2 = surf[i, S_SD2]
-                        if sd2 >= type(x0)(0.0) and x * x + y * y > sd2:
-                            passed = int(0)
+                    if geom != 0:
+                        passed = passes_apertures(surf, i, x, y)
+                    if passed != 0:
+                        if i == int(iris[IRIS_STOP]):
+                            if iris[IRIS_RADIUS] > type(x0)(0.0):
+                                passed = inside_iris(iris, x, y)
+                        else:
+                            sd2 = surf[i, S_SD2]
+                            if sd2 >= type(x0)(0.0) and x * x + y * y > sd2:
+                                passed = int(0)
                     if passed == 0:
                         status = int(VIGNETTED)
                         where = i
