@@ -21,11 +21,15 @@ from lensrt.prescription.model import Lens
 
 ROOT = Path(__file__).resolve().parent
 SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq", ROOT / "data" / "dgauss.50mm.dat",
-           ROOT.parent / "lens_prescriptions" / "codev_dblgauss_100mm_f2.toml"]
+           ROOT.parent / "lens_prescriptions" / "codev_dblgauss_100mm_f2.toml",
+           # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
+           # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
+           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
-          '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10"]
+          '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "MIRROR", "REFL", "DAR", "BEN", "REV",
+          "OBS", "COORDBRK", "90", "-45"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:
