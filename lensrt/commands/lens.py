@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from ..views.lens import APERTURE_RULE_TEXT, describe_aperture, describe_fields, lens_table
 from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
 
 __all__ = ["register"]
@@ -31,61 +32,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     l_.set_defaults(func=cmd_list)
 
 
-def _describe_aperture(lens) -> str:
-    ap = lens.aperture
-    return {"epd": f"entrance pupil diameter {ap.value:g} mm", "image_fno": f"image-space f/{ap.value:g}",
-            "object_na": f"object NA {ap.value:g}", "float_by_stop": "float by stop size"}[ap.kind]
-
-
-def _describe_fields(lens) -> str:
-    f = lens.fields
-    if f.kind == "angle":
-        vals = ", ".join(f"{math.degrees(v):g}" for v in f.y)
-        return f"angles {vals} deg"
-    return f"{f.kind.replace('_', ' ')}s {', '.join(f'{v:g}' for v in f.y)} mm"
-
-
-def _clipping(lens, i: int) -> str:
-    """What vignettes at surface ``i``: its semi-diameter (or not, under the aperture rule), its apertures."""
-    s = lens.surfaces[i]
-    parts = []
-    if i == lens.stop_index:
-        parts.append("stop")
-    elif s.semi_diameter_mm is not None:
-        parts.append("sd" if lens.clips_semi_diameter(i) else "none (sd not clipping)")
-    parts += [a.describe() for a in s.apertures]
-    return "; ".join(parts) or "none"
-
-
-def _kind(s) -> str:
-    kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
-    if s.mirror:
-        kind += " mirror"
-    if s.transform_before is not None or s.transform_after is not None:
-        kind += " tilt/dec"
-    return kind
-
-
-def lens_table(lens) -> tuple[list[list], list[str]]:
-    """Rows and headers of the surface table at the primary wavelength."""
-    wl = lens.wavelengths.primary_nm
-    n = lens.indices(wl)
-    rows = []
-    for i, s in enumerate(lens.surfaces):
-        sd = s.semi_diameter_mm
-        sd_text = "-" if sd is None else (f"{sd:.4f}" + ("*" if s.semi_diameter_auto else ""))
-        rows.append(["STO" if s.is_stop else str(i + 1), s.radius_mm, s.thickness_mm,
-                     s.material.describe() if not s.material.is_air else "air", float(n[i + 1]), sd_text,
-                     s.conic, _kind(s), _clipping(lens, i)])
-    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type",
-                  "vignettes"]
-
-
-_RULES = {"every_surface": "every_surface (every semi-diameter vignettes: the photographic reading, as pbrt's "
-                           "tables mean it)",
-          "opticstudio": "opticstudio (only user-defined semi-diameters, surface apertures and the stop vignette)"}
-
-
 def cmd_show(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
@@ -105,12 +51,12 @@ def cmd_show(args: argparse.Namespace) -> int:
     if lens.source:
         emit(f"source: {lens.source}")
     obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
-    emit(f"aperture: {_describe_aperture(lens)}; object at {obj}; fields: {_describe_fields(lens)}")
+    emit(f"aperture: {describe_aperture(lens)}; object at {obj}; fields: {describe_fields(lens)}")
     emit("wavelengths: " + ", ".join(f"{w:g}" + ("*" if i == lens.wavelengths.primary else "")
                                      for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
     if lens.iris.blades:
         emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
-    emit(f"aperture rule: {_RULES[lens.aperture_rule]}")
+    emit(f"aperture rule: {APERTURE_RULE_TEXT[lens.aperture_rule]}")
     emit(format_table(rows, headers))
     emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
     if any(s.semi_diameter_auto for s in lens.surfaces):

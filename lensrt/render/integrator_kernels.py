@@ -4,7 +4,7 @@ One Warp module (this one, float32), compiled on first use and cached on disk by
 It calls the tracer's own generic ``@wp.func`` surface code (:mod:`lensrt.trace.kernels.surfaces`,
 ``trace_ray`` with the forward tracer's signature, instantiated for float32) on the lens mirrored by
 :func:`lensrt.trace.reverse.reversed_lens`, and the scene stage's ``scene_radiance``
-(:mod:`lensrt.render.scene_kernels`). Plan switches (spectral or one wavelength, meshes,
+(:mod:`lensrt.render.scene.kernels`). Plan switches (spectral or one wavelength, meshes,
 shadow rays) are run-time values the kernel reads (the packed scene has no BVH when it has no
 meshes, no lights to sample when nothing is lit by them), so every plan uses this one compiled
 module.
@@ -37,7 +37,7 @@ import warp as wp
 from ..trace.kernels.sampling import i32
 from ..trace.kernels.surfaces import medium_index, trace_ray
 from ..trace.status import OK
-from . import scene_kernels as sk
+from .scene import kernels as sk
 
 __all__ = ["get_render_kernels", "MODULE", "camera_pass", "pupil_probe", "accumulate", "accumulate_moments",
            "finalize", "permute", "sensor_ray"]

@@ -173,7 +173,7 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
     d = options.object_distance_mm
     if d is not None and not (math.isinf(d) and math.isinf(lens.object_distance_mm)) \
             and d != lens.object_distance_mm:
-        from ..analysis.bokeh_focus import focus_lens
+        from ..analysis.bokeh.focus import focus_lens
         f = focus_lens(lens, d)
         last = lens.n_surfaces - 1
         shift = f.sensor_z_mm - lens.image_z_mm
