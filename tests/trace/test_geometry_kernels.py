@@ -2,7 +2,7 @@
 
 The generic store kernel (the shared ``@wp.func`` surface code of :mod:`lensrt.trace.kernels.surfaces`)
 traces the folded, tilted/decentred, Mangin and Cassegrain systems of
-``tests/test_geometry_optiland.py`` (there checked against optiland): float64 to 1e-9 mm
+``tests/oracles/geometry_cases.py`` (checked against optiland in ``test_geometry_optiland.py``) (there checked against optiland): float64 to 1e-9 mm
 and float32 within the documented bound, same statuses, same records; the specialised
 generator leaves such lenses to the generic kernel; surface apertures vignette as in the reference.
 """
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_geometry_optiland import (WL_NM, cassegrain_system, folded_system, mangin_system, ray_grid,
-                                    tilted_decentred_system)
+from geometry_cases import (WL_NM, cassegrain_system, folded_system, mangin_system, ray_grid,
+                            tilted_decentred_system)
 from test_trace_kernels import FLOAT32_BOUND_MM
 
 from lensrt.errors import LensrtError

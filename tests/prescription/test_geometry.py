@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_geometry_optiland import cassegrain_system, folded_system, mangin_system, tilted_decentred_system
+from geometry_cases import cassegrain_system, folded_system, mangin_system, tilted_decentred_system
 
 from lensrt.errors import LensrtError, PrescriptionError
 from lensrt.paraxial.first_order import first_order
@@ -33,7 +33,7 @@ from lensrt.trace.pack import S_SD2, pack_arrays
 from lensrt.trace.reference import trace_reference
 from lensrt.trace.status import OK, VIGNETTED
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _frames_close(a: Lens, b: Lens, tol: float = 1e-12) -> bool:

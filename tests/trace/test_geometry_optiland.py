@@ -16,18 +16,16 @@ import math
 import numpy as np
 import pytest
 
+from geometry_cases import SYSTEMS, WL_NM, cassegrain_system, ray_grid
+
 from lensrt.prescription.frames import surface_frames
-from lensrt.prescription.geometry import CoordinateTransform, SurfaceAperture
-from lensrt.prescription.materials import AIR, ModelGlass
-from lensrt.prescription.model import Aperture, Fields, Lens, Surface, Wavelengths
+from lensrt.prescription.model import Lens
 from lensrt.trace.reference import trace_reference
 from lensrt.trace.status import OK, VIGNETTED
 
 optiland = pytest.importorskip("optiland")
 
 TOL_MM = 1e-9
-WL_NM = 587.5618
-BK7 = ModelGlass(1.5168, 64.17, name="BK7-model")
 
 
 def _euler_zyx(axes: np.ndarray) -> tuple[float, float, float]:
@@ -63,16 +61,6 @@ def optiland_copy(lens: Lens, wavelength_nm: float = WL_NM):
     return op
 
 
-def ray_grid(half_width_mm: float, angle_deg: float = 0.0, z0_mm: float = -5.0) -> tuple[np.ndarray, np.ndarray]:
-    """Origins and directions of a 7 x 7 grid of parallel rays (global), tilted by ``angle_deg`` about x."""
-    g = np.linspace(-half_width_mm, half_width_mm, 7)
-    x, y = (v.ravel() for v in np.meshgrid(g, g))
-    t = math.radians(angle_deg)
-    o = np.stack([x, y, np.full_like(x, z0_mm)], axis=1)
-    d = np.tile([0.0, math.sin(t), math.cos(t)], (len(x), 1))
-    return o, d
-
-
 def lensrt_image_points(lens: Lens, o: np.ndarray, d: np.ndarray, clip: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Global image intercepts (nan where a ray failed) and statuses."""
     img_o, img_a = surface_frames(lens)[-1]
@@ -93,48 +81,6 @@ def optiland_image_points(lens: Lens, o: np.ndarray, d: np.ndarray) -> np.ndarra
                     d[:, 2].copy(), np.ones(len(o)), np.full(len(o), WL_NM / 1000.0))
     op.surface_group.trace(rays, skip=1)
     return np.stack([np.asarray(rays.x), np.asarray(rays.y), np.asarray(rays.z)], axis=1)
-
-
-def _lens(surfaces: list[Surface], **kw) -> Lens:
-    return Lens(tuple(surfaces), aperture=Aperture("epd", 10.0), fields=Fields("angle", (0.0, math.radians(1.0))),
-                wavelengths=Wavelengths((WL_NM,)), **kw)
-
-
-def folded_system() -> Lens:
-    """A singlet, then a flat mirror tilted 45 deg about x that folds the beam (CODE V BEN)."""
-    tilt = CoordinateTransform(tilt_x_rad=math.radians(45.0))
-    return _lens([Surface(1 / 60.0, 4.0, BK7, is_stop=True), Surface(-1 / 200.0, 40.0, AIR),
-                  Surface(0.0, -55.0, AIR, mirror=True, transform_before=tilt,
-                          transform_after=CoordinateTransform(tilt_x_rad=math.radians(45.0)))])
-
-
-def tilted_decentred_system() -> Lens:
-    """A singlet decentred 1.5 mm in x and y, tilted 4 deg about y and 3 about x (then returned, CODE V DAR),
-    and a second element behind a basic decenter with a tilt about z (order 1)."""
-    t = CoordinateTransform(decenter_x_mm=1.5, decenter_y_mm=-1.0, tilt_x_rad=math.radians(3.0),
-                            tilt_y_rad=math.radians(4.0))
-    u = CoordinateTransform(decenter_y_mm=0.7, tilt_x_rad=math.radians(-2.0), tilt_z_rad=math.radians(20.0), order=1)
-    return _lens([Surface(1 / 50.0, 5.0, BK7, is_stop=True, transform_before=t),
-                  Surface(-1 / 80.0, 10.0, AIR, transform_after=t.inverse()),
-                  Surface(1 / 120.0, 3.0, BK7, transform_before=u), Surface(0.0, 60.0, AIR)])
-
-
-def mangin_system() -> Lens:
-    """rayoptics' mangin.seq (R -1200 front, R -1000 silvered back, BK7-like glass), scaled to 1/10."""
-    return _lens([Surface(-1 / 120.0, 1.0, BK7, is_stop=True), Surface(-1 / 100.0, -1.0, BK7, mirror=True),
-                  Surface(-1 / 120.0, -50.0, AIR)])
-
-
-def cassegrain_system(obscuration_mm: float = 4.0) -> Lens:
-    """A Cassegrain (paraboloid primary, hyperboloid secondary) with the secondary's central obscuration."""
-    obs = SurfaceAperture("circle", obscuration_mm, obscuration=True)
-    return _lens([Surface(0.0, 30.0, AIR, is_stop=True, apertures=(obs,)),
-                  Surface(-1 / 200.0, -70.0, AIR, mirror=True, conic=-1.0),
-                  Surface(-1 / 70.0, 110.0, AIR, mirror=True, conic=-3.0)])
-
-
-SYSTEMS = {"folded": folded_system, "tilted_decentred": tilted_decentred_system, "mangin": mangin_system,
-           "cassegrain": cassegrain_system}
 
 
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
