@@ -237,7 +237,8 @@ class FirstOrder:
     half_field_deg: float  # largest object-space half field angle (chief-ray slope for heights)
     paraxial_image_height_mm: float  # at the largest field, in the paraxial image plane
     field_image_heights_mm: tuple[float, ...]  # at each field point (radial), paraxial image plane
-    #: the image-space rays diverge: the paraxial image lies in front of the last vertex (an object
+    #: the image-space rays diverge: the paraxial image lies in front of the last vertex (behind it, along
+    #: the direction light travels, after an odd number of mirrors) (an object
     #: inside the front focal point of a positive lens -- a magnifier); the lens's image surface then
     #: receives a blur, not an image
     image_virtual: bool = False
@@ -343,7 +344,7 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm,
         half_field_deg=half_field, paraxial_image_height_mm=h_img,
         field_image_heights_mm=tuple(float(h) for h in heights),
-        image_virtual=bool(image_offset < 0.0), unfolded_axis=not lens.is_centred,
+        image_virtual=bool(image_offset * math.copysign(1.0, nk) < 0.0), unfolded_axis=not lens.is_centred,
     )
 
 
