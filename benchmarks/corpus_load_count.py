@@ -34,11 +34,18 @@ def corpus_files() -> list[Path]:
 
 
 def _rayoptics_efl(path: Path) -> float | None:
+    import contextlib
+    import os
+    import tempfile
     try:
         from rayoptics.environment import open_model
-        with warnings.catch_warnings():
+        with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            opm = open_model(str(path), info=False)
+            here = os.getcwd()
+            os.chdir(tmp)  # rayoptics writes a reader log into the working directory
+            with contextlib.ExitStack() as stack:
+                stack.callback(os.chdir, here)
+                opm = open_model(str(path), info=False)
         return float(opm["analysis_results"]["parax_data"].fod.efl)
     except Exception:  # noqa: BLE001 -- the oracle's own failures are reported as "n/a"
         return None
