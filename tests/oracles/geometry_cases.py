@@ -61,11 +61,16 @@ def mangin_system() -> Lens:
 
 
 def cassegrain_system(obscuration_mm: float = 4.0) -> Lens:
-    """A Cassegrain (paraboloid primary, hyperboloid secondary) with the secondary's central obscuration."""
+    """A classical Cassegrain with the secondary's central obscuration in the stop plane.
+
+    Paraboloid primary R = -200 mm (f1 = 100), convex secondary R = -70 mm 70 mm in front of it, so 30 mm
+    inside the primary focus: it images that focus 210 mm away, magnification m = 7, and its conic
+    -((m + 1) / (m - 1))^2 = -16/9 leaves the axial image free of spherical aberration (EFL 700 mm).
+    """
     obs = SurfaceAperture("circle", obscuration_mm, obscuration=True)
     return _lens([Surface(0.0, 30.0, AIR, is_stop=True, apertures=(obs,)),
                   Surface(-1 / 200.0, -70.0, AIR, mirror=True, conic=-1.0),
-                  Surface(-1 / 70.0, 110.0, AIR, mirror=True, conic=-3.0)])
+                  Surface(-1 / 70.0, 110.0, AIR, mirror=True, conic=-16.0 / 9.0)])
 
 
 SYSTEMS = {"folded": folded_system, "tilted_decentred": tilted_decentred_system, "mangin": mangin_system,
