@@ -294,3 +294,8 @@ def test_afocal_lens_reports_angular_magnification() -> None:
     assert fo.afocal and math.isinf(fo.efl_mm)
     assert fo.angular_magnification == pytest.approx(-5.0, rel=1e-12)
     assert fo.exit_pupil_diameter_mm == pytest.approx(2.0, rel=1e-12)  # D / |M|
+    from lensrt.views.first_order import info_data
+    d = info_data(lens)
+    assert d["afocal"] and d["angular_magnification"] == fo.angular_magnification and d["seidel"] is None
+    with pytest.raises(LensrtError, match="afocal"):
+        info_data(lens, sensor="full-frame")
