@@ -79,7 +79,7 @@ def optiland_image_points(lens: Lens, o: np.ndarray, d: np.ndarray) -> np.ndarra
     op = optiland_copy(lens)
     rays = RealRays(o[:, 0].copy(), o[:, 1].copy(), o[:, 2].copy(), d[:, 0].copy(), d[:, 1].copy(),
                     d[:, 2].copy(), np.ones(len(o)), np.full(len(o), WL_NM / 1000.0))
-    op.surface_group.trace(rays, skip=1)
+    op.surfaces.trace(rays, skip=1)
     return np.stack([np.asarray(rays.x), np.asarray(rays.y), np.asarray(rays.z)], axis=1)
 
 
