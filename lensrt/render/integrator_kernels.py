@@ -105,7 +105,8 @@ def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist
     return wp.vec4(dx * inv, dy * inv, rear_dist * inv, rear_dist * inv)
 
 @wp.kernel
-def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32), iris: wp.array(dtype=wp.float32),
+def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32),
+                iris: wp.array(dtype=wp.float32),
                 n_surfaces: int, table: wp.array2d(dtype=wp.float32), rec: wp.array3d(dtype=wp.float32),
                 sensor_z: float, rear_dist: float,
                 width: int, ax0: float, ax1: float, ay0: float, ay1: float,
@@ -193,7 +194,8 @@ def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.f
     hits[o] = wp.int32(n_ok)
 
 @wp.kernel
-def pupil_probe(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32), iris: wp.array(dtype=wp.float32),
+def pupil_probe(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32),
+                iris: wp.array(dtype=wp.float32),
                 n_surfaces: int, table: wp.array2d(dtype=wp.float32), rec: wp.array3d(dtype=wp.float32),
                 sensor_z: float, rear_dist: float, radii: wp.array(dtype=float),
                 pts: wp.array(dtype=wp.vec2), lams: wp.array(dtype=float), n_pts: int, n_lam: int,

@@ -41,9 +41,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 from types import SimpleNamespace
 
-from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS, SRC
+from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS
 from .pack import real_dtype
-from .shape import ASPHERE, CONIC, IRIS_CIRCLE, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
+from .shape import ASPHERE, CONIC, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
 from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from .reference import NEWTON_MAX_ITER
 
@@ -113,237 +113,163 @@ def _consts_type(wp, real, size: int, mode: str):
     return wp.array(dtype=real)
 
 
-_LAZY_DIV = """
-    if (c) return a / b;
-    return a - a;
-"""
+def _make_sag(wp, real, module, shape, lay, Consts, i: int):
+    """``sag_slope`` of asphere ``i`` (its coefficients at fixed offsets of the constants)."""
+    na = shape.n_asphere[i]
+    base = lay.asph[i]
 
-_NATIVE: dict = {}
+    def sag_slope(P: Consts, c: real, kp1: real, r2: real):
+        # surfaces.sag_slope: sag z(r) and dz/d(r^2); ok false beyond the conic's extent
+        q = real(1.0) - kp1 * c * c * r2
+        root = wp.sqrt(wp.max(q, real(0.0)))
+        poly = real(0.0)
+        dpoly = real(0.0)
+        for jj in range(wp.static(na)):
+            a = P[wp.static(base + na - 1 - jj)]
+            poly = poly * r2 + a
+            dpoly = dpoly * r2 + real(wp.static(float(na - jj))) * a
+        sag = c * r2 / (real(1.0) + root) + poly * r2
+        slope = c / (real(2.0) * wp.where(q > real(0.0), root, real(1.0))) + dpoly
+        return q > real(0.0), sag, slope
 
-
-def _lazy_div(wp, real):
-    """``lazy_div(c, a, b)``: a / b where c, else 0 -- a division that a warp skips when no
-    thread needs it, without a Warp variable that only one branch defines (native snippet)."""
-    key = "f64" if real is wp.float64 else "f32"
-    if key not in _NATIVE:
-        if key == "f64":
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f64(c: bool, a: wp.float64, b: wp.float64) -> wp.float64:
-                ...
-
-            _NATIVE[key] = lazy_div_f64
-        else:
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f32(c: bool, a: wp.float32, b: wp.float32) -> wp.float32:
-                ...
-
-            _NATIVE[key] = lazy_div_f32
-    return _NATIVE[key]
+    return wp.func(sag_slope, module=module, name=f"sag_slope_s{i}")
 
 
-def _build_trace(wp, real, module, shape, table, Consts):
-    """The specialised ``@wp.func`` s of ``shape``; ``trace_fast`` traces one ray.
+def _make_asphere(wp, real, module, shape, lay, Consts, i: int, quadric_t):
+    """``intersect_asphere`` of surface ``i``."""
+    newton_tol = NEWTON_TOL_F64_MM if real is wp.float64 else NEWTON_TOL_F32_MM
+    sag_slope = _make_sag(wp, real, module, shape, lay, Consts, i)
+    co, ko = lay.c[i], lay.kp1[i]
 
-    The code is branch-free (``wp.where`` selects, no ``if`` that assigns): every value is
-    defined on every path, so a kernel looping over rays keeps no value of one ray alive
-    into the next (with branches, Warp's code generation leaves values that only one branch
-    defines, which the CUDA compiler must carry around the loop -- hundreds of registers).
-    A warp runs every branch its threads take anyway; failed rays keep their last state.
-    """
-    is64 = real is wp.float64
-    newton_tol = NEWTON_TOL_F64_MM if is64 else NEWTON_TOL_F32_MM
-    lay = Layout(shape)
-    n = shape.n_surfaces
-    kinds = tuple(shape.kinds) + (PLANE,)
-    func = wp.func(module=module)
-    lazy_div = _lazy_div(wp, real)
-    ZERO = real(0.0)
-    ONE = real(1.0)
-
-    # ---------------------------------------------------------------- pieces
-    @func
-    def quadric_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one; when both
-        # are, the one where the ray crosses toward the surface's +z side: t1 when B >= 0);
-        # q / A is divided out only where it is on the vertex branch
-        F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
-        B = N - c * (x * L + y * M + kp1 * z * N)
-        A = c * (L * L + M * M + kp1 * N * N)
-        disc = B * B - A * F
-        real_roots = disc >= real(0.0)
-        root = wp.sqrt(wp.max(disc, real(0.0)))
-        q = wp.where(B < real(0.0), B - root, B + root)
-        u = c * kp1
-        t1 = F / wp.where(q != real(0.0), q, real(1.0))
-        v1 = real_roots and q != real(0.0) and u * (z + t1 * N) < real(1.0)
-        lhs = u * (z * A + q * N)  # u (z + (q / A) N) < 1, multiplied by A
-        v2 = real_roots and A != real(0.0) and wp.where(A > real(0.0), lhs < A, lhs > A)
-        t2 = lazy_div(v2, q, A)
-        use2 = v2 and ((not v1) or B < real(0.0))
-        t = wp.where(use2, t2, wp.where(v1, t1, real(0.0)))
-        return v1 or v2, t
-
-    @func
-    def unit_near_one(x: real, y: real, z: real):
-        # (x, y, z) / |(x, y, z)| for |(x, y, z)| = 1 up to rounding: one Newton step from 1
-        f = real(1.5) - real(0.5) * (x * x + y * y + z * z)
-        return x * f, y * f, z * f
-
-    @func
-    def refract_unit(L: real, M: real, N: real, nx: real, ny: real, nz: real, mu: real):
-        # surfaces.refract with the ratio mu = n1 / n2 given, no angles, the result renormalised
-        # by unit_near_one; returns total internal reflection, L', M', N', min(cos I, cos I')
-        ci = L * nx + M * ny + N * nz
-        sg = wp.where(ci < real(0.0), real(-1.0), real(1.0))
-        cos_i = ci * sg
-        k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        cos_r = wp.sqrt(wp.max(k, real(0.0)))
-        g = cos_r - mu * cos_i
-        L2, M2, N2 = unit_near_one(mu * L + g * sg * nx, mu * M + g * sg * ny, mu * N + g * sg * nz)
-        return k < real(0.0), L2, M2, N2, wp.where(k < real(0.0), cos_i, wp.min(cos_i, cos_r))
-
-    # per-surface helpers that need the surface's constants at fixed offsets: built per surface
-    def make_sag(i: int):
-        na = shape.n_asphere[i]
-        base = lay.asph[i]
-
-        def sag_slope(P: Consts, c: real, kp1: real, r2: real):
-            # surfaces.sag_slope: sag z(r) and dz/d(r^2); ok false beyond the conic's extent
-            q = real(1.0) - kp1 * c * c * r2
-            root = wp.sqrt(wp.max(q, real(0.0)))
-            poly = real(0.0)
-            dpoly = real(0.0)
-            for jj in range(wp.static(na)):
-                a = P[wp.static(base + na - 1 - jj)]
-                poly = poly * r2 + a
-                dpoly = dpoly * r2 + real(wp.static(float(na - jj))) * a
-            sag = c * r2 / (real(1.0) + root) + poly * r2
-            slope = c / (real(2.0) * wp.where(q > real(0.0), root, real(1.0))) + dpoly
-            return q > real(0.0), sag, slope
-
-        return wp.func(sag_slope, module=module, name=f"sag_slope_s{i}")
-
-    def make_asphere(i: int):
-        sag_slope = make_sag(i)
-        co, ko = lay.c[i], lay.kp1[i]
-
-        def intersect_asphere(P: Consts, x: real, y: real, z: real, L: real, M: real, N: real):
-            # surfaces.intersect for kind 2: Newton on the sag from the conic's root; returns
-            # status, t, unit normal
-            c = real(0.0)
-            if wp.static(co >= 0):
-                c = P[wp.static(co)]
-            kp1 = P[wp.static(ko)]
-            ok, t = quadric_t(c, kp1, x, y, z, L, M, N)
-            status = wp.where(ok or N != real(0.0), int(OK), int(MISSED))
-            t = wp.where(ok, t, -z / wp.where(N != real(0.0), N, real(1.0)))
-            converged = int(0)
-            it = int(0)
-            while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
-                px = x + t * L
-                py = y + t * M
-                pz = z + t * N
-                oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
-                df = N - real(2.0) * slope * (px * L + py * M)
-                dt = (pz - sag) / wp.where(df != real(0.0), df, real(1.0))
-                status = wp.where(oks, wp.where(df == real(0.0), int(NO_CONVERGE), int(OK)), int(MISSED))
-                step = status == int(OK)
-                t = wp.where(step, t - dt, t)
-                converged = wp.where(step and wp.abs(dt) <= real(newton_tol), 1, 0)
-                it = it + 1
-            status = wp.where(status == int(OK) and converged == 0, int(NO_CONVERGE), status)
+    def intersect_asphere(P: Consts, x: real, y: real, z: real, L: real, M: real, N: real):
+        # surfaces.intersect for kind 2: Newton on the sag from the conic's root; returns
+        # status, t, unit normal
+        c = real(0.0)
+        if wp.static(co >= 0):
+            c = P[wp.static(co)]
+        kp1 = P[wp.static(ko)]
+        ok, t = quadric_t(c, kp1, x, y, z, L, M, N)
+        status = wp.where(ok or N != real(0.0), int(OK), int(MISSED))
+        t = wp.where(ok, t, -z / wp.where(N != real(0.0), N, real(1.0)))
+        converged = int(0)
+        it = int(0)
+        while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
             px = x + t * L
             py = y + t * M
+            pz = z + t * N
             oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
-            status = wp.where(status == int(OK) and not oks, int(MISSED), status)
-            nx = real(-2.0) * slope * px
-            ny = real(-2.0) * slope * py
-            inv = real(1.0) / wp.sqrt(nx * nx + ny * ny + real(1.0))
-            return status, t, nx * inv, ny * inv, inv
+            df = N - real(2.0) * slope * (px * L + py * M)
+            dt = (pz - sag) / wp.where(df != real(0.0), df, real(1.0))
+            status = wp.where(oks, wp.where(df == real(0.0), int(NO_CONVERGE), int(OK)), int(MISSED))
+            step = status == int(OK)
+            t = wp.where(step, t - dt, t)
+            converged = wp.where(step and wp.abs(dt) <= real(newton_tol), 1, 0)
+            it = it + 1
+        status = wp.where(status == int(OK) and converged == 0, int(NO_CONVERGE), status)
+        px = x + t * L
+        py = y + t * M
+        oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
+        status = wp.where(status == int(OK) and not oks, int(MISSED), status)
+        nx = real(-2.0) * slope * px
+        ny = real(-2.0) * slope * py
+        inv = real(1.0) / wp.sqrt(nx * nx + ny * ny + real(1.0))
+        return status, t, nx * inv, ny * inv, inv
 
-        return wp.func(intersect_asphere, module=module, name=f"intersect_asphere_s{i}")
+    return wp.func(intersect_asphere, module=module, name=f"intersect_asphere_s{i}")
 
-    def make_medium(m: int):
-        ms = shape.media[m]
-        if ms.constant:
-            return None
-        p = lay.p[m]
-        b = lay.b[m]
-        cs = lay.cs[m]
-        top = max(ms.inverse) if ms.inverse else 0
-        sell = list(ms.sellmeier)
-        ns = len(sell)
-        b0 = b[sell[0]] if ns > 0 else -1
-        b1 = b[sell[1]] if ns > 1 else -1
-        b2 = b[sell[2]] if ns > 2 else -1
-        c0 = cs[sell[0]] if ns > 0 else -1
-        c1 = cs[sell[1]] if ns > 1 else -1
-        c2 = cs[sell[2]] if ns > 2 else -1
 
-        def medium_n(P: Consts, w2: real, inv: real) -> real:
-            # n(w) of materials.index_from_packed with this medium's terms only; -1 where n^2 <= 0
-            n2 = real(0.0)
-            if wp.static(p[0] >= 0):
-                n2 = P[wp.static(p[0])]
-            if wp.static(p[2] >= 0):
-                n2 = n2 + w2 * w2 * P[wp.static(p[2])]
-            if wp.static(p[1] >= 0):
-                n2 = n2 + w2 * P[wp.static(p[1])]
-            if wp.static(top > 0):
-                # sum_k p_k inv^(k - 2), k = 3 .. top, by Horner
-                acc = real(0.0)
-                for kk in range(wp.static(top - 2)):
-                    acc = acc * inv
-                    if wp.static(p[top - kk] >= 0):
-                        acc = acc + P[wp.static(p[top - kk])]
-                n2 = n2 + acc * inv
-            if wp.static(ns == 1):
-                n2 = n2 + P[wp.static(b0)] * w2 / (w2 - P[wp.static(c0)])
-            elif wp.static(ns == 2):
-                d0 = w2 - P[wp.static(c0)]
-                d1 = w2 - P[wp.static(c1)]
-                n2 = n2 + w2 * (P[wp.static(b0)] * d1 + P[wp.static(b1)] * d0) / (d0 * d1)
-            elif wp.static(ns == 3):
-                d0 = w2 - P[wp.static(c0)]
-                d1 = w2 - P[wp.static(c1)]
-                d2 = w2 - P[wp.static(c2)]
-                num = P[wp.static(b0)] * d1 * d2 + P[wp.static(b1)] * d0 * d2 + P[wp.static(b2)] * d0 * d1
-                n2 = n2 + w2 * num / (d0 * d1 * d2)
-            return wp.where(n2 > real(0.0), wp.sqrt(wp.max(n2, real(0.0))), real(-1.0))
+def _make_medium(wp, real, module, shape, lay, Consts, m: int):
+    """``medium_n`` of medium ``m`` with its terms only (None for a constant index)."""
+    ms = shape.media[m]
+    if ms.constant:
+        return None
+    p = lay.p[m]
+    b = lay.b[m]
+    cs = lay.cs[m]
+    top = max(ms.inverse) if ms.inverse else 0
+    sell = list(ms.sellmeier)
+    ns = len(sell)
+    b0 = b[sell[0]] if ns > 0 else -1
+    b1 = b[sell[1]] if ns > 1 else -1
+    b2 = b[sell[2]] if ns > 2 else -1
+    c0 = cs[sell[0]] if ns > 0 else -1
+    c1 = cs[sell[1]] if ns > 1 else -1
+    c2 = cs[sell[2]] if ns > 2 else -1
 
-        return wp.func(medium_n, module=module, name=f"medium_n_m{m}")
+    def medium_n(P: Consts, w2: real, inv: real) -> real:
+        # n(w) of materials.index_from_packed with this medium's terms only; -1 where n^2 <= 0
+        n2 = real(0.0)
+        if wp.static(p[0] >= 0):
+            n2 = P[wp.static(p[0])]
+        if wp.static(p[2] >= 0):
+            n2 = n2 + w2 * w2 * P[wp.static(p[2])]
+        if wp.static(p[1] >= 0):
+            n2 = n2 + w2 * P[wp.static(p[1])]
+        if wp.static(top > 0):
+            # sum_k p_k inv^(k - 2), k = 3 .. top, by Horner
+            acc = real(0.0)
+            for kk in range(wp.static(top - 2)):
+                acc = acc * inv
+                if wp.static(p[top - kk] >= 0):
+                    acc = acc + P[wp.static(p[top - kk])]
+            n2 = n2 + acc * inv
+        if wp.static(ns == 1):
+            n2 = n2 + P[wp.static(b0)] * w2 / (w2 - P[wp.static(c0)])
+        elif wp.static(ns == 2):
+            d0 = w2 - P[wp.static(c0)]
+            d1 = w2 - P[wp.static(c1)]
+            n2 = n2 + w2 * (P[wp.static(b0)] * d1 + P[wp.static(b1)] * d0) / (d0 * d1)
+        elif wp.static(ns == 3):
+            d0 = w2 - P[wp.static(c0)]
+            d1 = w2 - P[wp.static(c1)]
+            d2 = w2 - P[wp.static(c2)]
+            num = P[wp.static(b0)] * d1 * d2 + P[wp.static(b1)] * d0 * d2 + P[wp.static(b2)] * d0 * d1
+            n2 = n2 + w2 * num / (d0 * d1 * d2)
+        return wp.where(n2 > real(0.0), wp.sqrt(wp.max(n2, real(0.0))), real(-1.0))
 
-    medium_fns = [make_medium(m) for m in range(n + 1)]
-    asphere_fns = [make_asphere(i) if kinds[i] == ASPHERE else None for i in range(n)] + [None]
-    is_const = [ms.constant for ms in shape.media]
+    return wp.func(medium_n, module=module, name=f"medium_n_m{m}")
+
+
+def _make_inside_stop(wp, real, module, shape, lay, Consts):
+    """``inside_stop``: the iris test at the stop (None when the lens has no iris)."""
     iris = shape.iris
     blades = shape.blades
-    stop = shape.stop
-    inside_stop = None
-    if iris != IRIS_NONE:
-        @func
-        def inside_stop(P: Consts, x: real, y: real) -> bool:
-            # surfaces.inside_iris: circle or regular N-gon (blade normals), roundness, obstruction
-            r2 = x * x + y * y
-            inside = r2 <= P[wp.static(lay.iris_limit2)]
-            if wp.static(shape.obstruction):
-                inside = inside and not (r2 < P[wp.static(lay.iris_obs2)])
-            if wp.static(iris == IRIS_POLYGON):
-                # the largest projection on the blades' outward normals is r cos(phi - half) in the
-                # nearest blade's sector; outside when r > rho + roundness (limit - rho), rho = a r / p
-                p = x * P[wp.static(lay.blade_cos)] + y * P[wp.static(lay.blade_sin)]
-                for k in range(wp.static(blades - 1)):
-                    p = wp.max(p, x * P[wp.static(lay.blade_cos + 1 + k)] + y * P[wp.static(lay.blade_sin + 1 + k)])
-                a = P[wp.static(lay.iris_apothem)]
-                if wp.static(shape.rounded):
-                    r = wp.sqrt(r2)
-                    rnd = P[wp.static(lay.iris_round)]
-                    inside = inside and not (r * p > (real(1.0) - rnd) * a * r + rnd * P[wp.static(lay.iris_limit)] * p)
-                else:
-                    inside = inside and not (p > a)
-            return inside
+    if iris == IRIS_NONE:
+        return None
 
-    @func
+    def inside_stop(P: Consts, x: real, y: real) -> bool:
+        # surfaces.inside_iris: circle or regular N-gon (blade normals), roundness, obstruction
+        r2 = x * x + y * y
+        inside = r2 <= P[wp.static(lay.iris_limit2)]
+        if wp.static(shape.obstruction):
+            inside = inside and not (r2 < P[wp.static(lay.iris_obs2)])
+        if wp.static(iris == IRIS_POLYGON):
+            # the largest projection on the blades' outward normals is r cos(phi - half) in the
+            # nearest blade's sector; outside when r > rho + roundness (limit - rho), rho = a r / p
+            p = x * P[wp.static(lay.blade_cos)] + y * P[wp.static(lay.blade_sin)]
+            for k in range(wp.static(blades - 1)):
+                p = wp.max(p, x * P[wp.static(lay.blade_cos + 1 + k)] + y * P[wp.static(lay.blade_sin + 1 + k)])
+            a = P[wp.static(lay.iris_apothem)]
+            if wp.static(shape.rounded):
+                r = wp.sqrt(r2)
+                rnd = P[wp.static(lay.iris_round)]
+                inside = inside and not (r * p > (real(1.0) - rnd) * a * r + rnd * P[wp.static(lay.iris_limit)] * p)
+            else:
+                inside = inside and not (p > a)
+        return inside
+
+    return wp.func(inside_stop, module=module)
+
+
+def _make_trace_fast(wp, real, module, shape, lay, Consts, table, quadric_t, unit_near_one, refract_unit,
+                     medium_fns, asphere_fns, inside_stop):
+    """``trace_fast``: one ray through the unrolled surface loop of ``shape``."""
+    n = shape.n_surfaces
+    kinds = tuple(shape.kinds) + (PLANE,)
+    is_const = [ms.constant for ms in shape.media]
+    iris = shape.iris
+    stop = shape.stop
+
     def trace_fast(P: Consts, x0: real, y0: real, z0: real, L0: real, M0: real, N0: real, w2: real,
                    index_table: wp.array2d(dtype=real), row: int, plane_dz: real):
         """Trace one ray (surfaces.trace_ray with end = n_surfaces, no record); returns status,
@@ -453,8 +379,31 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     z = wp.where(go, z - P[wp.static(lay.thick[i] if i < n else 0)], z)
         return status, where, x, y, z, L, M, N, opl, min_cos
 
+    return wp.func(trace_fast, module=module)
+
+
+def _build_trace(wp, real, module, shape, table, Consts):
+    """The specialised ``@wp.func`` s of ``shape``; ``trace_fast`` traces one ray.
+
+    The code is branch-free (``wp.where`` selects, no ``if`` that assigns): every value is
+    defined on every path, so a kernel looping over rays keeps no value of one ray alive
+    into the next (with branches, Warp's code generation leaves values that only one branch
+    defines, which the CUDA compiler must carry around the loop -- hundreds of registers).
+    A warp runs every branch its threads take anyway; failed rays keep their last state.
+    """
+    lay = Layout(shape)
+    n = shape.n_surfaces
+    kinds = tuple(shape.kinds) + (PLANE,)
+    from .kernels.fast import quadric_t, refract_unit, unit_near_one
+    medium_fns = [_make_medium(wp, real, module, shape, lay, Consts, m) for m in range(n + 1)]
+    asphere_fns = [_make_asphere(wp, real, module, shape, lay, Consts, i, quadric_t) if kinds[i] == ASPHERE else None
+                   for i in range(n)] + [None]
+    inside_stop = _make_inside_stop(wp, real, module, shape, lay, Consts)
+    trace_fast = _make_trace_fast(wp, real, module, shape, lay, Consts, table, quadric_t, unit_near_one,
+                                  refract_unit, medium_fns, asphere_fns, inside_stop)
     return SimpleNamespace(trace_fast=trace_fast, quadric_t=quadric_t, refract_unit=refract_unit,
                            inside_stop=inside_stop, medium_fns=medium_fns)
+
 
 
 def _module(kind: str, precision: str, key) -> str:
@@ -471,8 +420,8 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
     wp.set_module_options({"enable_backward": False}, module=mod)
     lay = Layout(shape)
     Consts = _consts_type(wp, real, lay.size, tuning.consts)
-    tf = _build_trace(wp, real, mod, shape, False, Consts)
-    trace_fast = tf.trace_fast
+    trace_fast = _build_trace(wp, real, mod, shape, False, Consts).trace_fast
+    from .kernels.surfaces import write_ray
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
     def trace_store_fast(P: Consts, rays: wp.array2d(dtype=real), plane_dz: real,
@@ -483,19 +432,11 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
         st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
             P, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4], rays[r, 5], w_um * w_um,
             index_table, -1, plane_dz)
-        out[r, 0] = x
-        out[r, 1] = y
-        out[r, 2] = z
-        out[r, 3] = L
-        out[r, 4] = M
-        out[r, 5] = N
-        out[r, 6] = opl
-        out[r, 7] = min_cos
-        status[r] = st
-        surface[r] = where
+        write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
     assert RAY_OUT_COLS == 8
-    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real, layout=lay,
+    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
+                           layout=lay,
                            trace_fast=trace_fast)
 
 
@@ -551,8 +492,10 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
     samples = _fast_samples(wp, real, mod, int(opts.sampler))
     table, channels, histogram = int(opts.table), int(opts.channels), bool(opts.histogram)
 
+    Source = sb.SOURCE[precision]
+
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
-    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
+    def trace_stream_fast(P: Consts, sources: wp.array(dtype=Source), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
                           index_table: wp.array2d(dtype=real), chan: wp.array2d(dtype=real), chan_nm0: real,
                           chan_dnm: real, h: sb.Histogram, sl: sb.Slots, stats: wp.array2d(dtype=wp.float64),
@@ -561,9 +504,10 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         tid = wp.tid() + sl.tid_base
         q, src, batch, rep = sb.slot_of(tid, sl, h)
         bseed, wseed, rseed = sb.batch_seeds(src_int, src, sl, batch)
-        base = sb.hist_base(h, sources, src, rep, batch)
-        plane_dz = sources[src, wp.static(SRC["plane_dz"])]
-        s = sb.SlotSums()
+        s = sources[src]
+        base = sb.hist_base(h, s, rep, batch)
+        plane_dz = s.plane_dz_mm
+        sums = sb.SlotSums()
         k = q * sl.slot_rays
         k_end = wp.min(k + sl.slot_rays, sl.count)
         while k < k_end:
@@ -571,16 +515,16 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
             i = sl.start + k
             u0, u1, uw = samples(i, sl, bseed, wseed, rseed)
             wl, row = sb.pick_wavelength(uw, wp.static(table), spec_nm, spec_cdf, src_int[src, 2], src_int[src, 3])
-            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(sources, src, u0, u1)
+            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(s, u0, u1)
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
-            s, on_grid, fx, fy = sb.accumulate(s, st, min_cos, x, y, weight, sources, src, h)
+            sums, on_grid, fx, fy = sb.accumulate(sums, st, min_cos, x, y, weight, s, h)
             if wp.static(histogram):
                 if on_grid:
                     sb.bin_ray(h, base, fx, fy, weight, wl, wp.static(channels), chan, chan_nm0, chan_dnm)
             k = k + 1
-        sb.store_slot(stats, counts, tid, s)
+        sb.store_slot(stats, counts, tid, sums)
 
     return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
                            layout=lay, trace_fast=trace_fast)

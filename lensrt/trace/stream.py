@@ -56,8 +56,8 @@ from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables
 from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "pupil_boxes",
-           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS", "SLOTS_MAX", "SLOT_MIN_RAYS",
-           "LAUNCH_SLOTS"]
+           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS", "SLOTS_MAX",
+           "SLOT_MIN_RAYS", "LAUNCH_SLOTS"]
 
 EMITTERS = ("lambertian", "isotropic")
 
@@ -447,7 +447,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                       dev.startswith("cuda"), batch_histograms=batch_histograms, threads_per_batch=threads_per_batch,
                       replicas=replicas, cpu_workers=cpu_workers, rays_per_launch=rays_per_launch)
     src_int, seeds = _source_ints(sources, seed, spec_off, spec_n)
-    t = device_tables(wp, dev, k.real, plan, _source_rows(lens, sources, grid), src_int, nm, cdf, table, chan)
+    t = device_tables(wp, dev, precision, plan, _source_rows(lens, sources, grid), src_int, nm, cdf, table, chan)
     use_table = int(mode == SPECTRUM_DISCRETE)
     chan_args = [t.chan, k.real(nm0), k.real(dnm)]
     if variant == "specialised":

@@ -104,13 +104,15 @@ def plan_slots(S: int, B: int, n_b: int, plane: int, layers: int, n_chan: int, i
     return plan
 
 
-def device_tables(wp: Any, dev: str, real: Any, plan: StreamPlan, rows: np.ndarray, src_int: np.ndarray,
+def device_tables(wp: Any, dev: str, precision: str, plan: StreamPlan, rows: np.ndarray, src_int: np.ndarray,
                   nm: np.ndarray, cdf: np.ndarray, table: np.ndarray, chan: np.ndarray) -> SimpleNamespace:
     """The kernels' arrays on ``dev``: sources, spectra, index and channel tables, the histogram,
     the per-slot sums of one launch and their running totals."""
+    from .kernels.stream_body import source_array
+    real = wp.float64 if precision == "float64" else wp.float32
     max_threads = plan.S * plan.B * plan.per_launch
     return SimpleNamespace(
-        src=wp.array(rows, dtype=real, device=dev), src_int=wp.array(src_int, dtype=wp.int32, device=dev),
+        src=source_array(rows, precision, dev), src_int=wp.array(src_int, dtype=wp.int32, device=dev),
         spec_nm=wp.array(nm, dtype=real, device=dev), spec_cdf=wp.array(cdf, dtype=real, device=dev),
         table=wp.array(table, dtype=real, device=dev), chan=wp.array(chan, dtype=real, device=dev),
         hist=wp.zeros(plan.hist_len, dtype=wp.int64, device=dev),

@@ -246,7 +246,7 @@ def test_rayoptics_corpus_loads_without_tracebacks(capsys) -> None:
         assert mod.main([]) == 0
     out = capsys.readouterr().out
     loaded = int(out.rsplit("loaded ", 1)[1].split(",")[0])
-    assert loaded >= 19 and "tracebacks 0" in out
+    assert loaded >= 27 and "tracebacks 0" in out
 
 
 def _threemir() -> Lens:
@@ -299,3 +299,11 @@ def test_afocal_lens_reports_angular_magnification() -> None:
     assert d["afocal"] and d["angular_magnification"] == fo.angular_magnification and d["seidel"] is None
     with pytest.raises(LensrtError, match="afocal"):
         info_data(lens, sensor="full-frame")
+
+
+def test_zemax_clap_with_infinite_outer_radius_is_a_central_obscuration() -> None:
+    """optiland exports a mirror's central hole as ``CLAP r INF``: everything outside r passes."""
+    lens = loads_zmx(ZMX_FOLD.replace("  GLAS MIRROR 0 0 1.5 40\n", "  GLAS MIRROR 0 0 1.5 40\n  CLAP 2 INF\n"))
+    assert lens.surfaces[3].apertures == (SurfaceAperture("circle", 2.0, obscuration=True),)
+    with pytest.raises(PrescriptionError, match="blocks every ray"):
+        loads_zmx(ZMX_FOLD.replace("  GLAS MIRROR 0 0 1.5 40\n", "  GLAS MIRROR 0 0 1.5 40\n  OBSC 0 INF\n"))

@@ -125,7 +125,7 @@ def test_camera_equation_on_axis():
     assert abs(e - exact) < 4.0 * se + 2e-4 * exact
     assert abs(e / camera_eq - 1.0) < 4.0 * se / e + sine_condition + 2e-4
     # Y is K_m y-bar(lambda) E for one line
-    from lensrt.render.spectra import cie_xyz_cmfs
+    from lensrt.colour import cie_xyz_cmfs
     ybar = float(np.interp(LINE_NM, scene.grid.nm, cie_xyz_cmfs(scene.grid)[1]))
     assert r.xyz[..., 1].mean() == pytest.approx(683.002 * ybar * e, rel=1e-5)
 

@@ -9,7 +9,8 @@ that reader and this one do not collide.
   ``transform_before`` is that change of frame; its thickness runs along the
   new z. Light is not refracted there (the medium does not change).
 * ``GLAS MIRROR``: a mirror; the medium after it is the one before it.
-* Surface apertures: ``CLAP rmin rmax`` (circular, annular when rmin > 0),
+* Surface apertures: ``CLAP rmin rmax`` (circular, annular when rmin > 0; ``CLAP rmin INF``, as
+  optiland exports a central hole, passes everything outside rmin: an obscuration),
   ``OBSC rmin rmax`` (circular obscuration, annular when rmin > 0),
   ``SQAP xhalf yhalf`` (rectangular), ``ELAP xhalf yhalf`` (elliptical),
   each moved by ``OBDC x y`` (the aperture decenter). A centred circular
@@ -19,6 +20,8 @@ that reader and this one do not collide.
   aperture rule.
 """
 from __future__ import annotations
+
+import math
 
 from ...errors import PrescriptionError
 from ...units import deg_to_rad
@@ -48,6 +51,10 @@ def aperture_entry(keyword: str, values: list[float], line: int, path: str | Non
     if len(values) < 2:
         raise PrescriptionError(f"{keyword} needs two sizes", path=path, line=line,
                                 hint=f"{keyword} <min radius or x half-width> <max radius or y half-width>")
+    if any(math.isinf(v) for v in values[:1]) or any(v < 0.0 for v in values[:2]) or \
+            (keyword not in ("CLAP", "OBSC") and math.isinf(values[1])):
+        raise PrescriptionError(f"{keyword} {values[0]:g} {values[1]:g}: sizes must be finite and not negative",
+                                path=path, line=line, hint="only the outer radius of CLAP/OBSC may be INF")
     if any(v != 0.0 for v in values[2:]):
         raise PrescriptionError(f"{keyword}: the aperture options {values[2:]} are not supported", path=path,
                                 line=line, hint="lensrt reads the two sizes of the aperture")
@@ -63,6 +70,12 @@ def surface_apertures(entries: list[tuple[str, float, float, int]], decenter: tu
         try:
             if kw in ("CLAP", "OBSC"):
                 rmin, rmax = first * unit_mm, second * unit_mm
+                if math.isinf(rmax):  # no outer edge: a CLAP passes all but its inner disc, an OBSC blocks all
+                    if kw == "OBSC":
+                        raise PrescriptionError("OBSC with an infinite outer radius blocks every ray")
+                    if rmin > 0.0:
+                        out.append(SurfaceAperture("circle", rmin, 0.0, dx, dy, obscuration=True))
+                    continue
                 shape = "circle" if rmin == 0.0 else "annulus"
                 out.append(SurfaceAperture(shape, rmax, rmin if rmin else 0.0, dx, dy,
                                            obscuration=kw == "OBSC"))

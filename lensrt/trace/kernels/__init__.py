@@ -62,7 +62,8 @@ N_RECORD = 9
 NEWTON_TOL_F64_MM = 1e-12
 NEWTON_TOL_F32_MM = 2e-6
 
-#: columns of a stream source row (see lensrt.trace.stream.StreamSource)
+#: columns of the host's stream source table (lensrt.trace.stream builds it from StreamSource s;
+#: kernels.stream_body.source_array packs it into the kernels' Source struct)
 SRC = dict(kind=0, ox=1, oy=2, oz=3, wx=4, wy=5, wz=6, e1x=7, e1y=8, e1z=9, e2x=10, e2y=11, e2z=12,
            cx=13, cy=14, cz=15, a0=16, a1=17, b0=18, b1=19, dist=20, plane_dz=21, gx0=22, gy0=23,
            layer=24, sx=25, sy=26, idx=27, idy=28, wscale=29)

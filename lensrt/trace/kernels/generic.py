@@ -1,4 +1,4 @@
-"""The generic trace kernels (module :mod:`lensrt.trace.kernels`): one source, one ``wp.overload`` per precision.
+"""The generic trace kernels (package :mod:`lensrt.trace.kernels`): one source, a ``wp.overload`` per precision.
 
 Kernels take ``typing.Any`` arrays and scalars (Warp generics); :func:`overloads` gives the
 float32 or float64 instances, registered at import. The contracts (slots, determinism) are in
@@ -12,18 +12,16 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from . import N_COUNTS, N_STATS, SRC
+from . import N_COUNTS, N_STATS
 from .sampling import hash_u32, sobol_1d, unit_square
-from .stream_body import (Histogram, Slots, SlotSums, accumulate, batch_seeds, bin_ray, hist_base, pick_wavelength,
-                          ray_from_source, slot_of, store_slot)
-from .surfaces import trace_ray
+from .stream_body import (SOURCE, Histogram, Slots, SlotSums, accumulate, batch_seeds, bin_ray, hist_base,
+                          pick_wavelength, ray_from_source, slot_of, store_slot)
+from .surfaces import trace_ray, write_ray
 
 __all__ = ["trace_store", "trace_stream", "generic_samples", "fold_slots", "sum_replicas", "sample_square", "overloads",
            "sample_unit_square"]
 
 wp.set_module_options({"enable_backward": False})
-
-_PLANE_DZ = SRC["plane_dz"]
 
 
 @wp.kernel
@@ -37,16 +35,7 @@ def trace_store(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris:
     st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
         surf, media, iris, n_surfaces, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4],
         rays[r, 5], w_um * w_um, index_table, -1, end, clip, plane_dz, record, rec, r)
-    out[r, 0] = x
-    out[r, 1] = y
-    out[r, 2] = z
-    out[r, 3] = L
-    out[r, 4] = M
-    out[r, 5] = N
-    out[r, 6] = opl
-    out[r, 7] = min_cos
-    status[r] = st
-    surface[r] = where
+    write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
 
 @wp.func
@@ -70,7 +59,7 @@ def generic_samples(sampler: int, i: int, sl: Slots, bseed: wp.uint32, wseed: wp
 
 @wp.kernel
 def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: wp.array(dtype=Any),
-                 n_surfaces: int, clip: int, sources: wp.array2d(dtype=Any), src_int: wp.array2d(dtype=wp.int32),
+                 n_surfaces: int, clip: int, sources: wp.array(dtype=Any), src_int: wp.array2d(dtype=wp.int32),
                  spec_nm: wp.array(dtype=Any), spec_cdf: wp.array(dtype=Any), use_table: int,
                  index_table: wp.array2d(dtype=Any), chan_mode: int, chan: wp.array2d(dtype=Any), chan_nm0: Any,
                  chan_dnm: Any, sampler: int, h: Histogram, sl: Slots, stats: wp.array2d(dtype=wp.float64),
@@ -80,25 +69,26 @@ def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris
     tid = wp.tid() + sl.tid_base
     q, src, batch, rep = slot_of(tid, sl, h)
     bseed, wseed, rseed = batch_seeds(src_int, src, sl, batch)
-    base = hist_base(h, sources, src, rep, batch)
-    plane_dz = sources[src, _PLANE_DZ]
-    s = SlotSums()
+    s = sources[src]
+    base = hist_base(h, s, rep, batch)
+    plane_dz = s.plane_dz_mm
+    sums = SlotSums()
     k = q * sl.slot_rays
     k_end = wp.min(k + sl.slot_rays, sl.count)
     while k < k_end:
         i = sl.start + k
         u0, u1, uw = generic_samples(sampler, i, sl, bseed, wseed, rseed, chan_nm0)
         wl, row = pick_wavelength(uw, use_table, spec_nm, spec_cdf, src_int[src, 2], src_int[src, 3])
-        px, py, pz, dx, dy, dz, weight = ray_from_source(sources, src, u0, u1)
+        px, py, pz, dx, dy, dz, weight = ray_from_source(s, u0, u1)
         w_um = wl * type(chan_nm0)(1.0e-3)
         st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
             surf, media, iris, n_surfaces, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row,
             n_surfaces, clip, plane_dz, 0, rec, 0)
-        s, on_grid, fx, fy = accumulate(s, st, min_cos, x, y, weight, sources, src, h)
+        sums, on_grid, fx, fy = accumulate(sums, st, min_cos, x, y, weight, s, h)
         if on_grid:
             bin_ray(h, base, fx, fy, weight, wl, chan_mode, chan, chan_nm0, chan_dnm)
         k = k + 1
-    store_slot(stats, counts, tid, s)
+    store_slot(stats, counts, tid, sums)
 
 
 @wp.kernel
@@ -145,12 +135,14 @@ def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=Any
 _REAL = {"float64": wp.float64, "float32": wp.float32}
 
 
-def _register(real) -> SimpleNamespace:
-    """The ``wp.overload`` s of the generic kernels for scalar type ``real``."""
+def _register(precision: str) -> SimpleNamespace:
+    """The ``wp.overload`` s of the generic kernels for one precision."""
+    real = _REAL[precision]
     a1, a2, a3 = wp.array(dtype=real), wp.array2d(dtype=real), wp.array3d(dtype=real)
     store = wp.overload(trace_store, {"surf": a2, "media": a2, "iris": a1, "rays": a2, "plane_dz": real,
                                       "index_table": a2, "out": a2, "rec": a3})
-    stream = wp.overload(trace_stream, {"surf": a2, "media": a2, "iris": a1, "sources": a2, "spec_nm": a1,
+    sources = wp.array(dtype=SOURCE[precision])
+    stream = wp.overload(trace_stream, {"surf": a2, "media": a2, "iris": a1, "sources": sources, "spec_nm": a1,
                                         "spec_cdf": a1, "index_table": a2, "chan": a2, "chan_nm0": real,
                                         "chan_dnm": real, "rec": a3})
     square = wp.overload(sample_square, {"out": a2})
@@ -158,7 +150,7 @@ def _register(real) -> SimpleNamespace:
                            sample_square=square, real=real, module="lensrt.trace.kernels.generic")
 
 
-_OVERLOADS = {name: _register(real) for name, real in _REAL.items()}
+_OVERLOADS = {precision: _register(precision) for precision in _REAL}
 
 
 def overloads(precision: str) -> SimpleNamespace:

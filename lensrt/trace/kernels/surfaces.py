@@ -25,7 +25,7 @@ from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
 __all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
-           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray"]
+           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -460,3 +460,19 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
         i = i + 1
     # the end state in the local frame of the last surface met (unmirrored)
     return status, where, x, y, sgn * z, L, M, sgn * N, opl, min_cos
+
+
+@wp.func
+def write_ray(out: wp.array2d(dtype=Any), status: wp.array(dtype=wp.int32), surface: wp.array(dtype=wp.int32), r: int,
+              st: int, where: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any, opl: Any, min_cos: Any):
+    """A traced ray's end state into the store kernels' outputs (``RAY_OUT_COLS`` columns)."""
+    out[r, 0] = x
+    out[r, 1] = y
+    out[r, 2] = z
+    out[r, 3] = L
+    out[r, 4] = M
+    out[r, 5] = N
+    out[r, 6] = opl
+    out[r, 7] = min_cos
+    status[r] = st
+    surface[r] = where
