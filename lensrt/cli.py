@@ -20,7 +20,7 @@ __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
 #: modules of lensrt.commands, in the order their subcommands appear in --help
 COMMAND_MODULES = ("lens", "info", "glass", "ray", "compare", "psf", "mtf", "wavefront", "bokeh", "render",
-                   "sensor", "converge", "report", "sweep")
+                   "sensor", "converge", "report", "sweep", "simulate")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-import lensrt.colour as sp
 from lensrt.render.spectra import WavelengthSampler
 from lensrt.render.plan import plan_render, wavelength_weight
 from lensrt.render.scene.load import builtin_scenes, load_scene, loads_scene
