@@ -10,7 +10,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, located
 from ..model import Lens
 
 __all__ = ["FORMATS", "read_lens", "read_text", "detect_format"]
@@ -104,7 +104,8 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         another format than the file's is an error. The glass options of every
         format: ``glass_substitute``, ``glass_model_fallback`` (bool) and
         ``glass_catalog`` (paths of ``.agf`` files or folders), see
-        :mod:`lensrt.prescription.glass_lookup`.
+        :mod:`lensrt.prescription.glass_lookup`. ``aperture_rule`` (any format)
+        sets :attr:`Lens.aperture_rule`: which semi-diameters vignette.
 
     Notes
     -----
@@ -113,6 +114,7 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     """
     text = read_text(path)
     fmt = format or detect_format(path, text)
+    rule = options.pop("aperture_rule", None)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
@@ -128,6 +130,15 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
+    lens = _read_with_glass_policy(reader, path, text, kwargs, glass)
+    if rule is not None:
+        with located(path):
+            lens = lens.replace(aperture_rule=rule)
+    return lens
+
+
+def _read_with_glass_policy(reader: Callable[..., Lens], path: str | Path, text: str, kwargs: dict,
+                            glass: dict) -> Lens:
     if not any(v for v in glass.values()):
         return reader(path, text=text, **kwargs)
     from ..glass_lookup import glass_policy
