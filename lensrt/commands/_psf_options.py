@@ -43,8 +43,8 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("spectrum and focus")
     g.add_argument("--wavelength-nm", metavar="LIST", help="wavelength(s) in nm, equal weights (default: the lens file's)")
     g.add_argument("--spectrum", metavar="NAME",
-                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...) or blackbody:<kelvin>, sampled "
-                        "continuously over --band")
+                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...), planck:<K>K or daylight:<K>K, "
+                        "sampled continuously over --band")
     g.add_argument("--band", metavar="MIN:MAX", help="wavelength band of --spectrum in nm (default 400:700)")
     g.add_argument("--lines", type=int, default=7, metavar="N",
                    help="wavelengths a diffraction PSF sums for --spectrum (midpoints of N equal bins; default 7)")
@@ -54,7 +54,7 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("method and sampling")
     g.add_argument("--method", choices=["geometric", "diffraction", "auto"], default=method_default,
                    help=f"geometric (ray histogram), diffraction (wavefront -> FFT/MFT/Huygens) or auto "
-                        f"(per field; see the README) (default {method_default})")
+                        f"(per field; see docs/explanation/how-psfs-are-made.md) (default {method_default})")
     g.add_argument("--rays", type=parse_count, default=1 << 20, metavar="N",
                    help="Monte Carlo rays per field point (geometric; 1e6 notation ok; default 1048576)")
     g.add_argument("--sampler", choices=["random", "stratified", "sobol", "r2"], default="sobol",

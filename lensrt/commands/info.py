@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..views.first_order import first_order_rows, format_value, info_data, seidel_rows
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
 
 __all__ = ["register"]
 
@@ -16,6 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "(z positions from the first vertex, +z toward the image), its Seidel "
                                    "sums, and with --sensor the angle of view and depth of field.")
     add_lens_argument(p)
+    add_reader_options(p)
     p.add_argument("--wavelength-nm", type=float, metavar="W", help="wavelength in nm (default: the lens's primary)")
     p.add_argument("--object-distance-mm", type=float, metavar="D",
                    help="object plane to first vertex in mm, 'inf' for infinity (default: the lens's own)")
@@ -30,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_info(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, **reader_options(args))
     d = info_data(lens, args.wavelength_nm, args.object_distance_mm, args.sensor, args.coc_mm)
     if args.json:
         print_json(d)
@@ -38,11 +39,24 @@ def cmd_info(args: argparse.Namespace) -> int:
     obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
     emit(lens.name or str(lens.path))
     emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
+    if d["afocal"]:
+        emit(f"afocal (no power): angular magnification {d['angular_magnification']:.6g}; entrance pupil "
+             f"z = {d['entrance_pupil_z_mm']:.6g} mm, diameter {d['entrance_pupil_diameter_mm']:.6g} mm; exit pupil "
+             f"z = {d['exit_pupil_z_mm']:.6g} mm, diameter {d['exit_pupil_diameter_mm']:.6g} mm")
+        return 0
+    if d.get("unfolded_axis"):
+        emit("the lens has tilts/decenters: these are the paraxial data of its unfolded axis (exact for tilted flat "
+             "fold mirrors, not for genuinely decentred systems)")
+    if lens.has_mirrors:
+        emit("mirrors: z is along the unfolded axis; after an odd number of mirrors light travels toward -z "
+             "(negative thicknesses, f' = n'/Phi with n' < 0)")
     if d["image_virtual"]:
         emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
              f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
              f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
     emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
+    for w in d["warnings"]:
+        emit(f"warning [{w['code']}]: {w['text']}")
     seidel = d["seidel"]
     srows = seidel_rows(lens, d)
     emit("")

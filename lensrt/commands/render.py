@@ -114,7 +114,7 @@ def _preview(args: argparse.Namespace, scene) -> int:
     from PIL import Image
     from ..io.paths import output_file
     from ..render.preview import preview_pinhole
-    from ..render.spectra import srgb_encode, xyz_to_linear_srgb
+    from ..colour import srgb_encode, xyz_to_linear_srgb
     width = 360 if args.width is None else args.width
     spp = 16 if args.spp is None else args.spp
     if width < 1 or width > 8192 or spp < 2:

@@ -54,7 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                      "(arrays irradiance (rows, cols, n) in W/(m^2 nm) and wavelength_nm)")
     src.add_argument("--flat", type=float, metavar="LUX", help="uniform field of this sensor-plane illuminance (lux)")
     src.add_argument("--colorchecker", action="store_true", help="the 24-patch ColorChecker (colour-science spectra)")
-    ex.add_argument("--illuminant", default="D65", help="illuminant of flat/chart and adopted white: D65, A, 3200K ...")
+    ex.add_argument("--illuminant", default="D65", help="illuminant of flat/chart and adopted white: D65, A, F2, planck:3200K, daylight:5000K ...")
     ex.add_argument("--exposure-s", type=float, help="exposure time (s); default: set by --level")
     ex.add_argument("--level", type=float, default=0.7,
                     help="without --exposure-s: the brightest green signal (chart: a perfect white) at this fraction of raw clipping")
@@ -270,7 +270,8 @@ def cmd_expose(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..isp import Isp, IspSettings, exposure_gain_for_iso
     from ..sensor import average_frames, dark_frame, electrons_to_raw, mean_photoelectrons
-    from ..sensor.exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
+    from ..colour import STANDARD_WAVELENGTHS_NM, parse_illuminant
+    from ..sensor.exposure import spectral_irradiance_from_illuminance
     t_start = time.perf_counter()
     _check_exposure(args.exposure_s)
     size = _size(args.size, args) if args.flat is not None else None  # before any work
@@ -278,9 +279,7 @@ def cmd_expose(args: argparse.Namespace) -> int:
     rng = np.random.default_rng(args.seed)
     chart = None
     bin_width = None
-    illuminant = _value(args.illuminant) if args.illuminant[:1].isdigit() else args.illuminant
-    if isinstance(illuminant, (int, float)):
-        illuminant = float(illuminant)
+    illuminant = parse_illuminant(args.illuminant)
     if args.colorchecker:
         from ..sensor.targets import colorchecker_scene
         _check_chart(args)
@@ -353,14 +352,10 @@ def cmd_expose(args: argparse.Namespace) -> int:
               "white_level_dn": raw.white_level_dn, "black_level_dn": raw.black_level_dn,
               "isp_seconds": result.seconds, "seconds": time.perf_counter() - t_start, "files": files}
     if chart is not None:
-        from ..isp.colour import delta_e2000_srgb, xyz_of_reflectances, xyz_to_linear_srgb
-        import colour
-        X, _ = xyz_of_reflectances(chart.reflectance, illuminant, wl)
-        if str(illuminant).upper() != "D65":
-            d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
-            _, wxyz = xyz_of_reflectances(chart.reflectance, illuminant, wl)
-            X = X @ np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(wxyz, d65, "Bradford")).T
-        ref = xyz_to_linear_srgb(X)
+        from ..colour import srgb_matrix_for_white
+        from ..isp.colour import delta_e2000_srgb, xyz_of_reflectances
+        X, wxyz = xyz_of_reflectances(chart.reflectance, illuminant, wl)
+        ref = X @ srgb_matrix_for_white(wxyz).T   # the colours the ISP aims at (adopted white -> sRGB white)
         got = np.array([result.linear[r0:r1, c0:c1].reshape(-1, 3).mean(axis=0) for r0, r1, c0, c1 in chart.boxes])
         de = delta_e2000_srgb(got, ref)
         report["delta_e2000"] = {"mean": float(de.mean()), "max": float(de.max()),

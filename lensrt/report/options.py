@@ -75,7 +75,7 @@ QUALITIES: dict[str, Quality] = {q.name: q for q in (
 
 @dataclass(frozen=True)
 class ReportOptions:
-    """Everything ``lensrt report`` can be told (README "Lens report").
+    """Everything ``lensrt report`` can be told (docs/tutorials/first-report.md).
 
     Attributes
     ----------

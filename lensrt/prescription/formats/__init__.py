@@ -10,7 +10,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, located
 from ..model import Lens
 
 __all__ = ["FORMATS", "read_lens", "read_text", "detect_format"]
@@ -101,16 +101,25 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     **options
         Reader options named ``<format>_<option>`` (e.g. ``pbrt_thickness="next"``,
         ``pbrt_field_deg=20``); ``None`` values are ignored. An option for
-        another format than the file's is an error.
+        another format than the file's is an error. The glass options of every
+        format: ``glass_substitute``, ``glass_model_fallback`` (bool) and
+        ``glass_catalog`` (paths of ``.agf`` files or folders), see
+        :mod:`lensrt.prescription.glass_lookup`. ``aperture_rule`` (any format)
+        sets :attr:`Lens.aperture_rule`: which semi-diameters vignette.
 
+    Notes
+    -----
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """
     text = read_text(path)
     fmt = format or detect_format(path, text)
+    rule = options.pop("aperture_rule", None)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
+    glass = {k: options.pop(k) for k in ("glass_substitute", "glass_model_fallback", "glass_catalog")
+             if k in options}
     for key, value in options.items():
         if value is None:
             continue
@@ -121,4 +130,19 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
-    return reader(path, text=text, **kwargs)
+    lens = _read_with_glass_policy(reader, path, text, kwargs, glass)
+    if rule is not None:
+        with located(path):
+            lens = lens.replace(aperture_rule=rule)
+    return lens
+
+
+def _read_with_glass_policy(reader: Callable[..., Lens], path: str | Path, text: str, kwargs: dict,
+                            glass: dict) -> Lens:
+    if not any(v for v in glass.values()):
+        return reader(path, text=text, **kwargs)
+    from ..glass_lookup import glass_policy
+    paths = glass.get("glass_catalog") or ()
+    with glass_policy(bool(glass.get("glass_substitute")), bool(glass.get("glass_model_fallback")),
+                      [paths] if isinstance(paths, (str, Path)) else list(paths)):
+        return reader(path, text=text, **kwargs)

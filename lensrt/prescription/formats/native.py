@@ -46,23 +46,26 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from ...errors import PrescriptionError, located
+from ...errors import PrescriptionError, UnknownGlassError, located
+from ..glass_lookup import lookup_any, user_catalogs
 from ..limits import check_asphere_power, check_catalog_names
 from ..materials import AIR, CATALOGS, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
+from .native_geometry import (SURFACE_KEYS, SYSTEM_KEYS, read_surface_geometry, read_system_geometry,
+                              write_surface_geometry, write_system_geometry)
 
 __all__ = ["read_native", "loads_native", "write_native", "dumps_native"]
 
 _KEYS = {
     "": {"format", "version", "lens", "system", "aperture", "iris", "fields", "wavelengths", "surface"},
     "lens": {"name", "source", "notes"},
-    "system": {"object_distance_mm", "object_material", "catalogs"},
+    "system": {"object_distance_mm", "object_material", "catalogs"} | SYSTEM_KEYS,
     "aperture": {"type", "value"},
     "iris": {"blades", "rotation_deg", "roundness", "obstruction_ratio"},
     "fields": {"type", "y", "x", "weights"},
     "wavelengths": {"nm", "weights", "primary_nm"},
     "surface": {"radius_mm", "curvature_per_mm", "thickness_mm", "material", "semi_diameter_mm",
-                "conic", "asphere", "stop", "label"},
+                "conic", "asphere", "stop", "label"} | SURFACE_KEYS,
 }
 _ASPH_KEY = re.compile(r"^A(\d+)$")
 #: the native format's name and version, as written in every file
@@ -107,6 +110,19 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
+def _material_spec(spec: object, catalogs: list[str] | None) -> Material:
+    """:func:`parse_material`, and for a glass name no vendor catalog holds: the same name (exactly, or an
+    alias such as ``CAF2``, ``F_SILICA``, ``GERMANIUM``) in the refractiveindex.info database or a user .agf."""
+    try:
+        return parse_material(spec, catalogs)
+    except UnknownGlassError:
+        name = spec if isinstance(spec, str) else spec.get("glass") if isinstance(spec, dict) else None
+        found = lookup_any(str(name), user_catalogs()) if name else None
+        if found is None:
+            raise
+        return found
+
+
 def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface:
     if "radius_mm" in row and "curvature_per_mm" in row:
         raise PrescriptionError("give radius_mm or curvature_per_mm, not both")
@@ -137,13 +153,14 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
     return Surface(
         curvature_per_mm=c,
         thickness_mm=_number(row["thickness_mm"], "thickness_mm"),
-        material=parse_material(row.get("material", "air"), catalogs),
+        material=_material_spec(row.get("material", "air"), catalogs),
         semi_diameter_mm=None if sd is None else _number(sd, "semi_diameter_mm"),
         conic=_number(row.get("conic", 0.0), "conic"),
         asphere=asphere,
         is_stop=stop,
         label=str(row.get("label", "")),
         line=line,
+        **read_surface_geometry(row),
     )
 
 
@@ -171,7 +188,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
     except tomllib.TOMLDecodeError as err:
         m = re.search(r"line (\d+)", str(err))
         raise PrescriptionError(f"not valid TOML: {err}", path=spath, line=int(m.group(1)) if m else None,
-                                hint="see the native format in the README") from None
+                                hint="see the native format in docs/reference/lens-format.md") from None
     sections, surface_lines = _section_lines(text)
     _check_keys(doc, "", None, spath)
     _check_format(doc, text, spath)
@@ -237,7 +254,8 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
                                   primary)
     with located(spath, sections.get("system")):
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
-        obj_mat = parse_material(sys_t.get("object_material", "air"), catalogs)
+        obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
+        geometry = read_system_geometry(sys_t)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
@@ -245,7 +263,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
         return Lens(surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                     object_distance_mm=dist, object_material=obj_mat, iris=iris,
                     name=str(lens_t.get("name", "")), source=str(lens_t.get("source", "")),
-                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath)
+                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath, **geometry)
 
 
 def read_native(path: str | Path, text: str | None = None) -> Lens:
@@ -289,6 +307,12 @@ def _s(text: str) -> str:
 def _material(m: Material) -> str:
     if m.is_air and not isinstance(m, ConstantIndex):
         return '"air"'
+    if isinstance(m, CatalogGlass) and not m.source.startswith("opticalglass") and m.source:
+        # a glass of the database, a user .agf or a CODE V PRV block: its packed formula travels with the lens
+        rng = "" if m.range_nm is None else f", range_nm = [{_f(m.range_nm[0])}, {_f(m.range_nm[1])}]"
+        return (f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)}, source = {_s(m.source)}, "
+                f"formula = {_s(m.formula)}, coefficients = [{', '.join(repr(float(c)) for c in m.coefficients)}]"
+                f"{rng}, range_is_limit = {'true' if m.range_is_limit else 'false'} }}")
     if isinstance(m, CatalogGlass):
         return f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)} }}"
     if isinstance(m, ModelGlass):
@@ -315,6 +339,7 @@ def dumps_native(lens: Lens) -> str:
     out += ["", "[system]", f"object_distance_mm = {_f(lens.object_distance_mm)}"]
     if lens.object_material != AIR:
         out.append(f"object_material = {_material(lens.object_material)}")
+    out += write_system_geometry(lens)
     out += ["", "[aperture]", f"type = {_s(lens.aperture.kind)}", f"value = {_f(lens.aperture.value)}"]
     ir = lens.iris
     out += ["", "[iris]", f"blades = {ir.blades}", f"rotation_deg = {_deg(ir.rotation_rad)}"]
@@ -354,6 +379,7 @@ def dumps_native(lens: Lens) -> str:
             out.append("stop = true")
         if s.label:
             out.append(f"label = {_s(s.label)}")
+        out += write_surface_geometry(s)
     return "\n".join(out) + "\n"
 
 
