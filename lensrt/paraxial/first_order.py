@@ -306,8 +306,9 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     # an object at (or within rounding of) the front focal point images to infinity: rounding leaves
     # a finite but meaningless image distance (1e17 mm), so anything beyond 1e9 focal lengths is infinity
     if (math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl)) and math.isinf(d_obj):
-        raise LensrtError(f"the lens is afocal (EFL {efl:.4g} mm, its power nearly zero): an object at infinity "
-                          "images at infinity", hint="a camera lens needs power; check the radii")
+        raise LensrtError(f"an object at infinity has no finite image: the image lies {image_offset:.4g} mm behind "
+                          f"the last vertex, more than 1e9 focal lengths (EFL {efl:.4g} mm)",
+                          hint="check the radii and thicknesses")
     if math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl):
         raise LensrtError(f"the image is at infinity at this object distance ({d_obj:g} mm: the object is at the "
                           f"front focal point, z = {front_focal_z:g} mm)",
