@@ -194,7 +194,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
     (("DISZ 5", "DISZ 5\n  SCBD 1 0 0 0 0 5 0 0"), "tilt/decenter"),
     (("DISZ 5", "DISZ 5\n  OBDC 0 1"), "decentred aperture"),
     (("DISZ 5", "DISZ 5\n  FOOB 1"), "unknown keyword 'FOOB'"),
-    (("GCAT SCHOTT", "GCAT SCHOTT\nMNUM 3 1"), "multi-configuration"),
+    (("GCAT SCHOTT", "GCAT SCHOTT\nMNUM 3 1\nPRAM 2 1 0 0 0 0 1 1 1 0 0 \"\" 0"), "multi-configuration operand PRAM"),
     (("GCAT SCHOTT", "GCAT SCHOTT\nVANN 0 10"), "vignetting angle"),
     (("GCAT SCHOTT", "GCAT SCHOTT\nPUPD 1 0.5"), "apodization"),
     (("FTYP 0 0 2 1", "FTYP 4 0 2 1"), "theodolite"),

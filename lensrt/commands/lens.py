@@ -94,7 +94,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 def cmd_convert(args: argparse.Namespace) -> int:
     from pathlib import Path
     from ..errors import LensrtError
-    from ..prescription.formats import read_lens
+    from ..prescription.formats import read_configurations
     from ..prescription.formats.native import write_native
     from ..io.paths import output_file
     from ..library import resolve_lens_path
@@ -102,10 +102,12 @@ def cmd_convert(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".toml":
         raise LensrtError(f"output {out} must be a .toml file (the native format)")
-    lens = read_lens(resolve_lens_path(args.input), **reader_options(args))  # a file or a library lens name
-    complete_lens(lens)  # fail on impossible geometry before writing anything
-    write_native(lens, output_file(out))
-    emit(f"wrote {out} ({lens.n_surfaces} surfaces)")
+    family = read_configurations(resolve_lens_path(args.input), **reader_options(args))  # file or library name
+    for lens in family.configurations():
+        complete_lens(lens)  # fail on impossible geometry before writing anything
+    write_native(family if family.count > 1 else family.base, output_file(out))
+    more = f", {family.count} configurations" if family.count > 1 else ""
+    emit(f"wrote {out} ({family.base.n_surfaces} surfaces{more})")
     return 0
 
 

@@ -23,6 +23,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..errors import PrescriptionError
+from .focusing import UNIT_FOCUS, FocusMechanism
 from .materials import AIR, Material
 
 __all__ = [
@@ -250,6 +251,8 @@ class Lens:
     notes: tuple[tuple[str, str], ...] = ()
     #: file the lens was read from (not part of equality)
     path: str | None = field(default=None, compare=False)
+    #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default
+    focus: FocusMechanism = UNIT_FOCUS
 
     def __post_init__(self) -> None:
         surfaces = tuple(self.surfaces)
@@ -279,6 +282,7 @@ class Lens:
             raise PrescriptionError("the aperture floats by stop size but the stop has no semi-diameter",
                                     surface=stops[0], hint="give the stop's semi-diameter")
         object.__setattr__(self, "notes", tuple((str(k), str(v)) for k, v in self.notes))
+        self.focus.check_against(len(surfaces))
 
     # ---- structure -------------------------------------------------------
     @property

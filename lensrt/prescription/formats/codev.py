@@ -12,6 +12,7 @@ starts a comment, ``&`` continues a line):
   (nm), ``REF``, ``WTW``, ``XAN``/``YAN``, ``XOB``/``YOB``, ``XIM``/``YIM``,
   ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
+* zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
   codes), ``PIM`` and other solves/pickups (the value on the S line is the
   solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end).
@@ -23,7 +24,7 @@ a catalog suffix (``NSK16_SCHOTT``); a number ``nnn.vvv`` is CODE V's
 fictitious glass code (n_d = 1.nnn, V_d = vv.v; ``517.642`` is 1.517/64.2).
 
 Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
-decentred apertures, special surface types, zooms and private catalogs are
+decentred apertures, special surface types and private catalogs are
 errors naming the file, the line and the command.
 """
 from __future__ import annotations
@@ -37,7 +38,9 @@ from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, deg_to_rad
 from ..materials import AIR, Material, ModelGlass, find_glass
 from ..model import Aperture, Fields, Lens, Surface, Wavelengths
+from ..configurations import MultiConfigLens
 from ._common import fmt_list, make_lens, parse_number, reject_other_format, substitution_note
+from .codev_zoom import ZoomReader
 
 __all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
 
@@ -67,7 +70,7 @@ UNSUPPORTED = {
     "RDX": "a toroidal radius", "REX": "a rectangular aperture", "REY": "a rectangular aperture",
     "ELX": "an elliptical aperture", "ELY": "an elliptical aperture", "CIG": "a general aperture",
     "REG": "a general aperture", "ELG": "a general aperture", "ADX": "a decentred aperture",
-    "ADY": "a decentred aperture", "ARO": "a rotated aperture", "ZOO": "zoom data", "POS": "zoom positions",
+    "ADY": "a decentred aperture", "ARO": "a rotated aperture",
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
     "NSO": "a non-sequential object", "PRV": "a private glass catalog", "PWL": "a private glass catalog",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
@@ -76,7 +79,7 @@ UNSUPPORTED = {
 _ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
 _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
-_KNOWN = set(IGNORED) | set(UNSUPPORTED) | {"RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM",
+_KNOWN = set(IGNORED) | set(UNSUPPORTED) | {"ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM",
                                             "PRE", "STO", "CIR", "ASP", "CON", "SLB", "RDY", "CUY", "THI", "GLA",
                                             "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM",
                                             "XRI", "YRI"}
@@ -143,6 +146,7 @@ class _Seq:
         self.title = ""
         self.notes: list[tuple[str, str]] = []
         self.subs: dict[str, str] = {}
+        self.zoom = ZoomReader(path)  # ZOO / POS data (codev_zoom)
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -247,6 +251,9 @@ class _Seq:
             else:
                 v = self.num(args[0], name, line)
                 row["curv"] = v if name == "CUY" else (0.0 if v == 0.0 else 1.0 / v)
+            return True
+        if name in ("ZOO", "POS"):
+            self.zoom.command(name, args, line)
             return True
         if name in UNSUPPORTED:
             raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
@@ -400,8 +407,9 @@ def _looks_number(tok: str) -> bool:
         return False
 
 
-def loads_seq(text: str, path: str | Path | None = None) -> Lens:
-    """Parse CODE V sequence text into a :class:`Lens`."""
+def loads_seq(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse CODE V sequence text into a :class:`Lens` (a :class:`MultiConfigLens` for zoom data,
+    :mod:`lensrt.prescription.formats.codev_zoom`)."""
     spath = str(path) if path is not None else None
     reject_other_format(text, "codev", spath)
     seq = _Seq(spath)
@@ -409,10 +417,10 @@ def loads_seq(text: str, path: str | Path | None = None) -> Lens:
         with located(spath, line):
             if not seq.command(line, toks):
                 break
-    return seq.build()
+    return seq.zoom.build(seq.build(), MM_PER_UNIT[seq.dim], seq.material)
 
 
-def read_seq(path: str | Path, text: str | None = None) -> Lens:
+def read_seq(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a CODE V ``.seq`` file into a :class:`Lens`."""
     if text is None:
         from . import read_text
