@@ -5,7 +5,7 @@ import argparse
 import math
 from typing import Any
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, emit, print_json, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer
 from ._psf_options import parse_count
 
@@ -159,7 +159,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     from ..loading import load_lens
     from ..paraxial.photographic import sensor_format
     from ..units import MM_PER_M
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, config=lens_config(args))
     focus = _focus(args, lens)
     iris = _iris(args, lens)
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)

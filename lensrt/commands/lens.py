@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
+from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options, lens_config
 
 __all__ = ["register"]
 
@@ -63,7 +63,7 @@ def lens_table(lens) -> tuple[list[list], list[str]]:
 def cmd_show(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    lens = load_lens(args.file, **reader_options(args))
+    lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
     rows, headers = lens_table(lens)
     if args.json:
         print_json({"name": lens.name, "source": lens.source, "path": lens.path,

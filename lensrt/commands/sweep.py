@@ -8,7 +8,7 @@ import io
 import math
 from typing import Any
 
-from ._common import add_lens_argument, emit
+from ._common import add_lens_argument, emit, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer, run_summary_line
 
 __all__ = ["register", "parse_values", "FULL_STOPS"]
@@ -126,7 +126,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise LensrtError(f"--coc-mm {args.coc_mm:g} must be a positive diameter in mm")
     fmt = ph.sensor_format(args.sensor)
     columns = _columns(args.quantity)
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, config=lens_config(args))
     if args.wavelength_nm is not None:
         lens.check_wavelengths(args.wavelength_nm)  # an ExtrapolationWarning where a glass is extrapolated
     focus = parse_values(args.focus_distance_mm, "--focus-distance-mm") if args.focus_distance_mm \

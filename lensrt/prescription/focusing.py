@@ -109,12 +109,11 @@ class FocusMechanism:
         return f"floating groups: gaps after surfaces {gaps} tabulated at {len(self.distances_mm)} distances"
 
     def check_against(self, n_surfaces: int) -> None:
-        """Raise when a gap is not a surface of a lens with ``n_surfaces`` surfaces (the last gap is the image's)."""
-        bad = [g + 1 for g in self.gaps if g >= n_surfaces - 1]
+        """Raise when a gap is not after one of the ``n_surfaces`` surfaces (the last one runs to the image)."""
+        bad = [g + 1 for g in self.gaps if g >= n_surfaces]
         if bad:
-            raise PrescriptionError(f"focus gap after surface {bad[0]} is not an air gap inside the lens "
-                                    f"(it has {n_surfaces} surfaces; the last thickness runs to the image)",
-                                    hint="name gaps between lens surfaces; unit focusing moves the image")
+            raise PrescriptionError(f"focus gap after surface {bad[0]} does not exist: the lens has {n_surfaces} "
+                                    "surfaces", hint="name gaps by the surface before them (1, 2, ...)")
 
 
 #: the default: the whole lens moves

@@ -1,0 +1,205 @@
+"""Focusing a lens with its own mechanism, solved with real rays, and its focus breathing.
+
+:func:`focus_at` moves the lens's :class:`~lensrt.prescription.focusing.FocusMechanism`
+(unit focusing, a focus group, floating groups) until the real best focus
+(:func:`lensrt.analysis.focus.best_focus`: the plane of minimum RMS spot radius of
+the axial point, a uniformly filled real pupil) of an object at the given distance
+lies on the image surface. The travel parameter t is the extension e (mm) for unit
+focusing, the group's travel (mm) for a focus group, and the object vergence 1/s
+(1/mm) that the floating table is read at for floating groups; the residual
+``best focus z - image z`` is driven to zero by the secant method.
+
+:func:`focus_breathing` measures the angle of view against focus distance with
+real rays: at each distance the lens is focused by :func:`focus_at` and the real
+chief ray that lands at the sensor's half diagonal is found; its object-space
+angle is the half angle of view. Beside it, the unit-focus formula of the Field
+Guide (p. 18), alpha = 2 atan(d / (2 b f)) with b = 1 + |m| / m_p.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.model import Lens
+
+__all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad",
+           "BreathingCurve", "focus_breathing"]
+
+
+@dataclass(frozen=True)
+class FocusSolution:
+    """A lens focused by its mechanism: ``lens`` has the object at ``distance_mm``."""
+
+    lens: Lens
+    distance_mm: float
+    travel: float
+    travel_unit: str
+    residual_mm: float
+    iterations: int
+    mechanism: str
+
+    def to_dict(self) -> dict:
+        return {"distance_mm": self.distance_mm, "travel": self.travel, "travel_unit": self.travel_unit,
+                "residual_mm": self.residual_mm, "iterations": self.iterations, "mechanism": self.mechanism,
+                "gaps_mm": {str(i + 1): s.thickness_mm for i, s in enumerate(self.lens.surfaces)
+                            if i in self.lens.focus.gaps or (self.lens.focus.is_unit and i == self.lens.n_surfaces - 1)}}
+
+
+def move_mechanism(lens: Lens, travel: float) -> Lens:
+    """``lens`` with its focus mechanism at ``travel`` (module docstring; 0 leaves a unit/group lens as it is)."""
+    mech = lens.focus
+    surfaces = list(lens.surfaces)
+    if mech.is_unit:
+        last = len(surfaces) - 1
+        return lens.replace_surface(last, thickness_mm=surfaces[last].thickness_mm + travel)
+    if mech.kind == "group":
+        new = {g: surfaces[g].thickness_mm + s * travel for g, s in zip(mech.gaps, mech.signs)}
+    else:
+        new = dict(zip(mech.gaps, (float(v) for v in mech.floating_thickness_mm(travel))))
+    for g, t in new.items():
+        if t < 0.0:
+            raise LensrtError(f"the focus mechanism would close the gap after surface {g + 1} ({t:.4g} mm)",
+                              hint="the focus distance is beyond the mechanism's range")
+        surfaces[g] = _with_thickness(surfaces[g], t)
+    return lens.replace(surfaces=tuple(surfaces))
+
+
+def _with_thickness(surface, t: float):
+    from dataclasses import replace
+    return replace(surface, thickness_mm=t)
+
+
+def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
+                      n_grid: int = 32) -> float:
+    """Real best focus minus the image surface's z (mm) for an axial object at ``distance_mm``."""
+    from .focus import best_focus
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    at = lens if distance_mm == lens.object_distance_mm else lens.replace(object_distance_mm=float(distance_mm))
+    return best_focus(at, [wl], [1.0], 0.0, n_grid).z_mm - lens.image_z_mm
+
+
+def _start(lens: Lens, distance_mm: float) -> tuple[float, float, str]:
+    """First two travels of the secant and the travel's unit."""
+    if lens.focus.is_unit:
+        return 0.0, 0.0, "mm (extension)"
+    if lens.focus.kind == "floating":
+        v = 0.0 if math.isinf(distance_mm) else 1.0 / distance_mm
+        span = float(np.ptp(lens.focus.vergences_per_mm)) or 1e-4
+        return v, v + 0.01 * span, "1/mm (object vergence of the floating table)"
+    return 0.0, 0.05, "mm (group travel)"
+
+
+def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None, tol_mm: float = 1e-9,
+             max_iter: int = 40, n_grid: int = 32) -> FocusSolution:
+    """Focus ``lens`` at ``distance_mm`` (in front of the first vertex; ``inf``) with its own mechanism.
+
+    Raises :class:`LensrtError` when the mechanism cannot bring the real best focus
+    onto the image surface within ``tol_mm`` in ``max_iter`` secant steps.
+    """
+    d = float(distance_mm)
+    if math.isnan(d) or d <= 0.0:
+        raise LensrtError(f"focus distance {distance_mm!r} mm must be positive (inf for infinity)")
+    t0, t1, unit = _start(lens, d)
+
+    def residual(t: float) -> float:
+        return focus_residual_mm(move_mechanism(lens, t), d, wavelength_nm, n_grid)
+
+    r0 = residual(t0)
+    if lens.focus.is_unit:  # the last gap does not change the rays: one step is exact
+        t, r, it = r0, 0.0, 1
+        r = residual(t)
+    else:
+        r1 = residual(t1)
+        t, r, it = t1, r1, 2
+        while abs(r) > tol_mm and it < max_iter:
+            if r1 == r0:
+                break
+            t2 = t1 - r1 * (t1 - t0) / (r1 - r0)
+            t0, r0, t1 = t1, r1, t2
+            r1 = residual(t1)
+            t, r, it = t1, r1, it + 1
+    if not abs(r) <= max(tol_mm, 1e-12 * abs(lens.image_z_mm)) * 10:
+        raise LensrtError(f"the focus mechanism could not focus at {d:g} mm (best focus {r:.3g} mm from the image "
+                          f"surface after {it} steps)", hint="the distance may be outside the mechanism's range")
+    moved = move_mechanism(lens, t).replace(object_distance_mm=d)
+    return FocusSolution(moved, d, float(t), unit, float(r), it, lens.focus.describe())
+
+
+def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
+                        tol_mm: float = 1e-7, max_iter: int = 40) -> float:
+    """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad)."""
+    from ..paraxial import first_order
+    from .rays import chief_batch, object_field_point, trace64
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    fo = first_order(lens, wl)
+    infinite = math.isinf(lens.object_distance_mm)
+
+    def trace(v: float) -> tuple[float, float]:
+        batch = chief_batch(lens, [object_field_point(lens, v)], wl)
+        res = trace64(lens, batch)
+        if not (bool(res.ok[0]) and bool(batch.aimed[0])):
+            raise LensrtError(f"the real chief ray at object field {v:.6g} does not pass the lens",
+                              hint="the sensor diagonal may exceed the lens's image circle")
+        return float(res.position_mm[0, 1]), math.atan2(float(batch.direction[0, 1]), float(batch.direction[0, 2]))
+
+    v0 = math.atan(image_height_mm / fo.efl_mm) if infinite else image_height_mm / abs(fo.magnification)
+    v1 = v0 * 1.001
+    y0, _ = trace(v0)
+    y1, a1 = trace(v1)
+    for _ in range(max_iter):
+        if abs(y1 - image_height_mm) < tol_mm or y1 == y0:
+            break
+        v2 = v1 - (y1 - image_height_mm) * (v1 - v0) / (y1 - y0)
+        v0, y0, v1 = v1, y1, v2
+        y1, a1 = trace(v1)
+    return abs(a1)
+
+
+@dataclass
+class BreathingCurve:
+    """Angle of view against focus distance: real (the lens's mechanism) and the unit-focus formula."""
+
+    distances_mm: np.ndarray
+    afov_real_deg: np.ndarray
+    afov_unit_formula_deg: np.ndarray
+    travel: np.ndarray
+    travel_unit: str
+    sensor_diagonal_mm: float
+    efl_mm: float
+    mechanism: str
+    residual_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def to_dict(self) -> dict:
+        return {"distance_mm": self.distances_mm, "afov_real_deg": self.afov_real_deg,
+                "afov_unit_focus_formula_deg": self.afov_unit_formula_deg, "travel": self.travel,
+                "travel_unit": self.travel_unit, "sensor_diagonal_mm": self.sensor_diagonal_mm,
+                "efl_at_infinity_mm": self.efl_mm, "mechanism": self.mechanism,
+                "focus_residual_mm": self.residual_mm,
+                "definition": "diagonal AFoV: twice the object-space angle of the real chief ray that lands at "
+                              "half the sensor diagonal, the lens focused by its own mechanism (real best focus "
+                              "on the sensor); formula: Field Guide p. 18, 2 atan(d / (2 b f)), b = 1 + |m|/mp"}
+
+
+def focus_breathing(lens: Lens, distances_mm: Sequence[float], sensor_diagonal_mm: float,
+                    wavelength_nm: float | None = None) -> BreathingCurve:
+    """Real AFoV against focus distance for the lens's own mechanism, beside the unit-focus formula."""
+    from ..paraxial import first_order
+    from ..paraxial.photographic import focus_breathing_afov_rad
+    fo = first_order(lens.replace(object_distance_mm=math.inf), wavelength_nm)
+    real, formula, travel, resid = [], [], [], []
+    unit = ""
+    for d in distances_mm:
+        sol = focus_at(lens, float(d), wavelength_nm)
+        real.append(2.0 * math.degrees(real_half_field_rad(sol.lens, 0.5 * sensor_diagonal_mm, wavelength_nm)))
+        formula.append(math.degrees(focus_breathing_afov_rad(float(d), fo.efl_mm, sensor_diagonal_mm,
+                                                             fo.pupil_magnification)))
+        travel.append(sol.travel)
+        resid.append(sol.residual_mm)
+        unit = sol.travel_unit
+    return BreathingCurve(np.asarray(distances_mm, dtype=np.float64), np.array(real), np.array(formula),
+                          np.array(travel), unit, float(sensor_diagonal_mm), fo.efl_mm, lens.focus.describe(),
+                          np.array(resid))
