@@ -27,7 +27,7 @@ def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
     ax.set_xscale("log")
     ax.set_xlabel("focus distance from the first vertex (m)")
     ax.set_ylabel(f"diagonal angle of view (deg), d = {curve['sensor_diagonal_mm']:.2f} mm")
-    ax.set_title(title or "focus breathing")
+    ax.set_title(title or "focus breathing", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     return save_figure(fig, path)
