@@ -130,12 +130,16 @@ def _focus(args: argparse.Namespace, lens: Any):
     if len(given) > 1:
         raise LensrtError("give one of --focus-m, --focus-mm, --extension-mm, --sensor-z-mm")
     if args.extension_mm is not None:
-        return focus_lens(lens, extension_mm=args.extension_mm)
+        return lens, focus_lens(lens, extension_mm=args.extension_mm)
     if args.sensor_z_mm is not None:
-        return focus_lens(lens, sensor_z_mm=args.sensor_z_mm)
-    if args.focus_mm is not None:
-        return focus_lens(lens, args.focus_mm)
-    return focus_lens(lens, (2.0 if args.focus_m is None else args.focus_m) * MM_PER_M)
+        return lens, focus_lens(lens, sensor_z_mm=args.sensor_z_mm)
+    d = args.focus_mm if args.focus_mm is not None else (2.0 if args.focus_m is None else args.focus_m) * MM_PER_M
+    if lens.focus.is_unit:
+        return lens, focus_lens(lens, d)
+    # a focus group / floating groups: move them (real best focus on the fixed sensor)
+    from ..analysis.focusing import focus_at
+    moved = focus_at(lens, d).lens
+    return moved, focus_lens(moved, sensor_z_mm=moved.image_z_mm)
 
 
 def _iris(args: argparse.Namespace, lens: Any):
@@ -160,7 +164,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     from ..paraxial.photographic import sensor_format
     from ..units import MM_PER_M
     lens = load_lens(args.file, config=lens_config(args))
-    focus = _focus(args, lens)
+    lens, focus = _focus(args, lens)
     iris = _iris(args, lens)
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
     rays = args.rays
