@@ -127,3 +127,21 @@ def test_cli_config_all_breathing_and_bad_config(tmp_path: Path, capsys) -> None
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert words in err and err.count("\n") == 1
+
+
+def test_report_config_all_tabulates_every_configuration(tmp_path: Path) -> None:
+    from lensrt.loading import load_configurations
+    from lensrt.report import ReportOptions, build_report, section_keys
+    family = load_configurations(SEQ)
+    report = build_report(family, tmp_path, ReportOptions(quality="draft"),
+                          skip=[k for k in section_keys() if k != "zoom"], quiet=True)
+    assert not report.failed
+    data = json.loads((tmp_path / "report.json").read_text())
+    zoom = next(s for s in data["sections"] if s["key"] == "zoom")
+    rows = zoom["data"]["configurations"]
+    assert [r["name"] for r in rows] == ["Z1", "Z2", "Z3"]
+    for r, lens in zip(rows, family.configurations()):
+        assert r["efl_mm"] == pytest.approx(first_order(lens).efl_mm, rel=1e-12)
+    assert (tmp_path / "zoom.png").exists() and (tmp_path / "breathing.png").exists()
+    page = (tmp_path / "index.html").read_text()
+    assert "zoom.png" in page and "breathing.png" in page
