@@ -145,3 +145,13 @@ def test_report_config_all_tabulates_every_configuration(tmp_path: Path) -> None
     assert (tmp_path / "zoom.png").exists() and (tmp_path / "breathing.png").exists()
     page = (tmp_path / "index.html").read_text()
     assert "zoom.png" in page and "breathing.png" in page
+
+
+def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
+    assert main(["sweep", str(SEQ), "--config", "all", "--focus-distance-mm", "inf", "--f-number", "2.8",
+                 "--quantity", "efl_mm", "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [r["configuration"] for r in doc["rows"]] == ["Z1", "Z2", "Z3"]
+    from lensrt.loading import load_configurations
+    for r, lens in zip(doc["rows"], load_configurations(SEQ).configurations()):
+        assert r["efl_mm"] == pytest.approx(first_order(lens).efl_mm, rel=1e-12)

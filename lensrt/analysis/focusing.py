@@ -27,7 +27,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 
 __all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad",
-           "BreathingCurve", "focus_breathing"]
+           "largest_field_value", "image_circle_radius_mm", "BreathingCurve", "focus_breathing"]
 
 
 @dataclass(frozen=True)
@@ -129,34 +129,77 @@ def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
     return FocusSolution(moved, d, float(t), unit, float(r), it, lens.focus.describe())
 
 
-def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
-                        tol_mm: float = 1e-7, max_iter: int = 40) -> float:
-    """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad)."""
-    from ..paraxial import first_order
+def _chief_tracer(lens: Lens, wavelength_nm: float | None):
+    """v -> (real chief-ray height on the image surface, its object-space angle), v an object field value."""
     from .rays import chief_batch, object_field_point, trace64
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    fo = first_order(lens, wl)
-    infinite = math.isinf(lens.object_distance_mm)
 
     def trace(v: float) -> tuple[float, float]:
         batch = chief_batch(lens, [object_field_point(lens, v)], wl)
         res = trace64(lens, batch)
         if not (bool(res.ok[0]) and bool(batch.aimed[0])):
-            raise LensrtError(f"the real chief ray at object field {v:.6g} does not pass the lens",
-                              hint="the sensor diagonal may exceed the lens's image circle")
+            return math.nan, math.nan
         return float(res.position_mm[0, 1]), math.atan2(float(batch.direction[0, 1]), float(batch.direction[0, 2]))
+    return trace
 
-    v0 = math.atan(image_height_mm / fo.efl_mm) if infinite else image_height_mm / abs(fo.magnification)
-    v1 = v0 * 1.001
-    y0, _ = trace(v0)
-    y1, a1 = trace(v1)
-    for _ in range(max_iter):
-        if abs(y1 - image_height_mm) < tol_mm or y1 == y0:
+
+def largest_field_value(lens: Lens) -> float:
+    """The lens's largest object field as an object-space value (rad at infinity, else mm in the object plane)."""
+    f = lens.fields
+    if math.isinf(lens.object_distance_mm):
+        return f.max_radial if f.kind == "angle" else math.radians(89.0)
+    if f.kind == "object_height":
+        return f.max_radial
+    angle = f.max_radial if f.kind == "angle" else math.radians(45.0)
+    return lens.object_distance_mm * math.tan(min(angle, math.radians(89.0)))
+
+
+def image_circle_radius_mm(lens: Lens, wavelength_nm: float | None = None) -> float:
+    """Real chief-ray height on the image surface at the lens's largest field (mm)."""
+    y, _ = _chief_tracer(lens, wavelength_nm)(largest_field_value(lens))
+    return abs(y)
+
+
+def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
+                        tol_mm: float = 1e-7, max_iter: int = 80) -> float:
+    """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad).
+
+    The object field is bracketed between the axis and the lens's largest field and found by
+    the Illinois (regula falsi) method; a height beyond the largest field's is an error.
+    """
+    trace = _chief_tracer(lens, wavelength_nm)
+    h = abs(float(image_height_mm))
+    lo, hi = 0.0, largest_field_value(lens)
+    y_hi = trace(hi)[0]
+    limit = math.radians(89.0) if math.isinf(lens.object_distance_mm) else 50.0 * hi
+    while abs(y_hi) < h and hi < limit:  # beyond the lens's nominal field, while real chief rays still pass
+        wider = min(1.2 * hi, limit)
+        y_wider = trace(wider)[0]
+        if math.isnan(y_wider):
             break
-        v2 = v1 - (y1 - image_height_mm) * (v1 - v0) / (y1 - y0)
-        v0, y0, v1 = v1, y1, v2
-        y1, a1 = trace(v1)
-    return abs(a1)
+        hi, y_hi = wider, y_wider
+    if not abs(y_hi) >= h:
+        raise LensrtError(f"no real chief ray reaches {h:.4g} mm on the image surface: the widest that passes "
+                          f"lands at {abs(y_hi):.4g} mm", hint="use a smaller sensor (the image circle is smaller)")
+    f_lo, f_hi, side = -h, abs(y_hi) - h, 0
+    v, a = hi, 0.0
+    for _ in range(max_iter):
+        v = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        y, a = trace(v)
+        if math.isnan(y):
+            v, (y, a) = 0.5 * (lo + hi), trace(0.5 * (lo + hi))
+        fv = abs(y) - h
+        if abs(fv) < tol_mm:
+            break
+        if fv > 0:
+            hi, f_hi = v, fv
+            f_lo = f_lo / 2 if side == -1 else f_lo
+            side = -1
+        else:
+            lo, f_lo = v, fv
+            f_hi = f_hi / 2 if side == 1 else f_hi
+            side = 1
+    return abs(a)
 
 
 @dataclass

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+from ..errors import LensrtError
 from ..io.table import Table
 from .model import ReportContext, Section
 
@@ -40,7 +41,7 @@ def _configurations(ctx: ReportContext, sec: Section) -> None:
 
 
 def _breathing(ctx: ReportContext, sec: Section) -> None:
-    from ..analysis.focusing import focus_breathing
+    from ..analysis.focusing import focus_breathing, image_circle_radius_mm
     from ..io.plots_zoom import plot_breathing
     from ..paraxial import first_order
     from ..paraxial import photographic as ph
@@ -49,13 +50,19 @@ def _breathing(ctx: ReportContext, sec: Section) -> None:
     fmt = ph.sensor_format(ctx.options.sensor or "full-frame")
     efl = abs(first_order(lens).efl_mm)
     dists = [d * 1000.0 for d in BREATHING_DISTANCES_M if d * 1000.0 >= 10.0 * efl]
-    curve = focus_breathing(lens, dists, fmt.diagonal_mm).to_dict()
+    where = fmt.name
+    try:
+        curve = focus_breathing(lens, dists, fmt.diagonal_mm).to_dict()
+    except LensrtError:  # no chief ray reaches the sensor corner: measure at 95 % of the lens's field
+        circle = 2.0 * image_circle_radius_mm(lens)
+        where = f"95 % of the image circle of the lens's largest field ({circle:.2f} mm; {fmt.name} is larger)"
+        curve = focus_breathing(lens, dists, 0.95 * circle).to_dict()
     sec.data["breathing"] = curve
-    path = plot_breathing(ctx.path("breathing.png"), curve, f"{lens.name}: focus breathing ({fmt.name})")
+    path = plot_breathing(ctx.path("breathing.png"), curve, f"{lens.name}: focus breathing")
     change = curve["afov_real_deg"][-1] - curve["afov_real_deg"][0]
     formula = curve["afov_unit_focus_formula_deg"][-1] - curve["afov_unit_focus_formula_deg"][0]
     sec.text(f"Focus breathing ({curve['mechanism']}): from infinity to {dists[-1] / 1000.0:g} m the diagonal angle "
-             f"of view on {fmt.name} changes by {change:+.2f} deg with real rays (the lens focused by its own "
+             f"of view on {where} changes by {change:+.2f} deg with real rays (the lens focused by its own "
              f"mechanism, real best focus on the sensor); the unit-focus formula of the Field Guide (p. 18) gives "
              f"{formula:+.2f} deg.")
     sec.figure(path, "Diagonal angle of view against focus distance: real chief rays to the sensor corner for the "
