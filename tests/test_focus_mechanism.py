@@ -155,3 +155,34 @@ def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
     from lensrt.loading import load_configurations
     for r, lens in zip(doc["rows"], load_configurations(SEQ).configurations()):
         assert r["efl_mm"] == pytest.approx(first_order(lens).efl_mm, rel=1e-12)
+
+
+def test_render_camera_moves_the_focus_group(lens) -> None:
+    """A scene's focus distance moves a declared focus group (the sensor stays), to the renderer's best focus."""
+    from lensrt.render.camera import best_focus_z_mm, setup_camera
+    from lensrt.render.scene import loads_scene
+    scene = loads_scene("""
+[scene]
+name = "focus"
+[camera]
+lens = "dgauss_50mm_f2"
+focus_distance = 1.0
+[sensor]
+format = "full-frame"
+pixels = 64
+[[plane]]
+name = "chart"
+center = [0.0, 0.0, -1.0]
+size = [0.1, 0.1]
+texture = "slanted_edge"
+emission = { spectrum = { line_nm = 550.0 }, radiance_scale = 1.0 }
+""")
+    g = _rear_group(lens)
+    cam = setup_camera(scene, g)
+    assert cam.sensor_z_mm == pytest.approx(g.image_z_mm, abs=1e-12)
+    moved = [b.thickness_mm - a.thickness_mm for a, b in zip(g.surfaces, cam.lens.surfaces)]
+    assert moved[g.stop_index] == pytest.approx(-moved[-1], abs=1e-12) and moved[g.stop_index] != 0.0
+    best = best_focus_z_mm(cam.lens, 1000.0, (550.0,), (1.0,))
+    assert best == pytest.approx(cam.sensor_z_mm, abs=1e-6)
+    unit = setup_camera(scene, lens)
+    assert unit.lens == lens and unit.sensor_z_mm != pytest.approx(lens.image_z_mm, abs=1e-3)

@@ -24,6 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import LensrtError
+from ..prescription.focus_travel import move_mechanism, solve_travel
 from ..prescription.model import Lens
 
 __all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad",
@@ -49,30 +50,6 @@ class FocusSolution:
                             if i in self.lens.focus.gaps or (self.lens.focus.is_unit and i == self.lens.n_surfaces - 1)}}
 
 
-def move_mechanism(lens: Lens, travel: float) -> Lens:
-    """``lens`` with its focus mechanism at ``travel`` (module docstring; 0 leaves a unit/group lens as it is)."""
-    mech = lens.focus
-    surfaces = list(lens.surfaces)
-    if mech.is_unit:
-        last = len(surfaces) - 1
-        return lens.replace_surface(last, thickness_mm=surfaces[last].thickness_mm + travel)
-    if mech.kind == "group":
-        new = {g: surfaces[g].thickness_mm + s * travel for g, s in zip(mech.gaps, mech.signs)}
-    else:
-        new = dict(zip(mech.gaps, (float(v) for v in mech.floating_thickness_mm(travel))))
-    for g, t in new.items():
-        if t < 0.0:
-            raise LensrtError(f"the focus mechanism would close the gap after surface {g + 1} ({t:.4g} mm)",
-                              hint="the focus distance is beyond the mechanism's range")
-        surfaces[g] = _with_thickness(surfaces[g], t)
-    return lens.replace(surfaces=tuple(surfaces))
-
-
-def _with_thickness(surface, t: float):
-    from dataclasses import replace
-    return replace(surface, thickness_mm=t)
-
-
 def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
                       n_grid: int = 32) -> float:
     """Real best focus minus the image surface's z (mm) for an axial object at ``distance_mm``."""
@@ -80,17 +57,6 @@ def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | Non
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     at = lens if distance_mm == lens.object_distance_mm else lens.replace(object_distance_mm=float(distance_mm))
     return best_focus(at, [wl], [1.0], 0.0, n_grid).z_mm - lens.image_z_mm
-
-
-def _start(lens: Lens, distance_mm: float) -> tuple[float, float, str]:
-    """First two travels of the secant and the travel's unit."""
-    if lens.focus.is_unit:
-        return 0.0, 0.0, "mm (extension)"
-    if lens.focus.kind == "floating":
-        v = 0.0 if math.isinf(distance_mm) else 1.0 / distance_mm
-        span = float(np.ptp(lens.focus.vergences_per_mm)) or 1e-4
-        return v, v + 0.01 * span, "1/mm (object vergence of the floating table)"
-    return 0.0, 0.05, "mm (group travel)"
 
 
 def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None, tol_mm: float = 1e-9,
@@ -103,28 +69,8 @@ def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
     d = float(distance_mm)
     if math.isnan(d) or d <= 0.0:
         raise LensrtError(f"focus distance {distance_mm!r} mm must be positive (inf for infinity)")
-    t0, t1, unit = _start(lens, d)
-
-    def residual(t: float) -> float:
-        return focus_residual_mm(move_mechanism(lens, t), d, wavelength_nm, n_grid)
-
-    r0 = residual(t0)
-    if lens.focus.is_unit:  # the last gap does not change the rays: one step is exact
-        t, r, it = r0, 0.0, 1
-        r = residual(t)
-    else:
-        r1 = residual(t1)
-        t, r, it = t1, r1, 2
-        while abs(r) > tol_mm and it < max_iter:
-            if r1 == r0:
-                break
-            t2 = t1 - r1 * (t1 - t0) / (r1 - r0)
-            t0, r0, t1 = t1, r1, t2
-            r1 = residual(t1)
-            t, r, it = t1, r1, it + 1
-    if not abs(r) <= max(tol_mm, 1e-12 * abs(lens.image_z_mm)) * 10:
-        raise LensrtError(f"the focus mechanism could not focus at {d:g} mm (best focus {r:.3g} mm from the image "
-                          f"surface after {it} steps)", hint="the distance may be outside the mechanism's range")
+    t, r, it, unit = solve_travel(lens, d, lambda moved: focus_residual_mm(moved, d, wavelength_nm, n_grid),
+                                  tol_mm, max_iter)
     moved = move_mechanism(lens, t).replace(object_distance_mm=d)
     return FocusSolution(moved, d, float(t), unit, float(r), it, lens.focus.describe())
 
