@@ -13,6 +13,7 @@ exporters show); no public multi-configuration .zmx or zoom .seq was found.
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import pytest
@@ -37,7 +38,7 @@ def test_zemax_configurations_apply_exactly_the_operands() -> None:
     mid = fam.configuration("mid")
     assert mid.surfaces[1].thickness_mm == 5.5 and mid.object_distance_mm == 5000.0
     assert mid.aperture.value == 9.0 and mid.fields.y[2] == pytest.approx(math.radians(19.0), rel=1e-15)
-    assert mid.wavelengths.nm[1] == 587.6
+    assert mid.wavelengths.nm[0] == 486.1327 and mid.wavelengths.nm[1] == 587.5618
     assert fam.configuration(1) == fam.configuration("near-gap") == base.replace(notes=mid.notes[:-1] + (
         ("configuration", "1 of 3: near-gap"),))
     # nothing else changes
@@ -81,6 +82,28 @@ def test_codev_zoom_efl_matches_rayoptics_per_position(tmp_path: Path) -> None:
         fo = first_order(fam.configuration(k))
         assert fo.efl_mm == pytest.approx(efl_ro, rel=1e-9)
         assert fo.entrance_pupil_diameter_mm == pytest.approx(float(epd), rel=1e-12)
+
+
+def test_zemax_configurations_efl_match_rayoptics(tmp_path: Path) -> None:
+    """Each configuration written as a plain .zmx (its gap in the lens data, the multi-configuration
+    rows dropped) and read by rayoptics gives lensrt's EFL (model glasses: both use the file's n_d at
+    the primary d line)."""
+    pytest.importorskip("rayoptics")
+    from rayoptics.environment import open_model
+    fam = read_configurations(ZMX)
+    text = ZMX.read_text()
+    plain = text[:text.index("MNUM")]
+    for k, gap in enumerate(["6.00755", "5.5", "6.5"], start=1):
+        one = plain.replace("DISZ 6.0075500000000002E+00", f"DISZ {gap}")
+        p = tmp_path / f"conf{k}.zmx"
+        p.write_text(one)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            opm = open_model(str(p))
+        efl_ro = opm["analysis_results"]["parax_data"].fod.efl
+        lens = fam.configuration(k)
+        assert lens.surfaces[1].thickness_mm == float(gap)
+        assert first_order(lens).efl_mm == pytest.approx(efl_ro, rel=1e-9)
 
 
 def test_native_round_trip_and_library_zoom_written_by_convert(tmp_path: Path) -> None:
