@@ -76,6 +76,10 @@ def cmd_show(args: argparse.Namespace) -> int:
                     "surfaces": [dict(zip(headers, r)) for r in rows]})
         return 0
     emit(f"{lens.name or lens.path}")
+    if "configuration" in lens.meta:
+        emit(f"configuration {lens.meta['configuration']} (--config picks another; lensrt info --config all)")
+    if not lens.focus.is_unit:
+        emit(f"focus: {lens.focus.describe()}")
     if lens.source:
         emit(f"source: {lens.source}")
     obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
