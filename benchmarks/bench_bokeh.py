@@ -13,7 +13,7 @@ by unit focusing; point sources (D65, isotropic) on a grid across a 36 x 24 mm
 sensor at each depth (1, 5 and 20 m), placed by the real chief ray; per source
 its real pupil box (float64, batched), then Monte Carlo rays (Owen-scrambled
 Sobol', float32) binned in CIE XYZ into a window of the frame; the windows
-summed into one image (:func:`lensrt.analysis.bokeh.bokeh_map`). A warm-up map
+summed into one image (:func:`lensrt.analysis.bokeh.entry.bokeh_map`). A warm-up map
 runs first (kernel compilation and loading excluded). Rays/s count every ray
 launched by the stream kernel (vignetted ones included); "total" includes the
 placement, the pupil boxes and the host work.
@@ -45,7 +45,7 @@ def _pair(text: str) -> tuple[int, int]:
 
 
 def run_map(lens, focus, device: str, grid, depths_m, pixels, rays: float, seed: int = 0):
-    from lensrt.analysis.bokeh import bokeh_map
+    from lensrt.analysis.bokeh.entry import bokeh_map
     from lensrt.parallel import LocalExecutor
     return bokeh_map(lens, focus, grid=tuple(grid), depths_mm=[d * 1000.0 for d in depths_m], pixels=tuple(pixels),
                      rays=int(rays), seed=seed, executor=LocalExecutor(device))
@@ -68,7 +68,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     import math
-    from lensrt.analysis.bokeh import focus_lens
+    from lensrt.analysis.bokeh.entry import focus_lens
     from lensrt.loading import load_lens
     from lensrt.prescription.model import Iris
     dev = resolve_device(args.device)
@@ -111,7 +111,7 @@ def main(argv=None) -> int:
         "noise_rel_stderr_median": img.noise["rel_stderr_median"],
     }
     if args.png:
-        from lensrt.io.bokeh_files import xyz_to_srgb8
+        from lensrt.views.bokeh_files import xyz_to_srgb8
         from lensrt.io.png import write_png
         write_png(args.png, xyz_to_srgb8(img.picture())[0])
         rec["png"] = args.png

@@ -12,7 +12,7 @@ full-frame sensor:
 
 1. **map job** -- exactly what ``lensrt psf --grid 9x9`` runs on one device: the
    field mapping through the real chief ray done once before (timed on its own),
-   then one work item holding every field (:mod:`lensrt.analysis.psf_group`):
+   then one work item holding every field (:mod:`lensrt.analysis.psf.groups`):
    batched set-up (real pupil boxes, chief rays, pilot rays for the grids), one
    stream launch of all fields (float32, Sobol', 32 batches with per-batch
    128 x 128 histograms, each field its own layer and bin size), and the host
@@ -66,8 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     wp = warp()
     wp.config.log_level = wp.LOG_WARNING
     from lensrt.analysis.fields import sensor_grid_fields
-    from lensrt.analysis.psf_map import run_psf_map
-    from lensrt.analysis.psf_setup import make_setup
+    from lensrt.analysis.psf.map import run_psf_map
+    from lensrt.analysis.psf.setup import make_setup
     from lensrt.loading import load_lens
     from lensrt.parallel.local import LocalExecutor
     from lensrt.trace.stream import Grid, StreamSource, stream
@@ -116,14 +116,14 @@ def main(argv: list[str] | None = None) -> int:
     per_field = timed(len(fields)) if not args.skip_per_field else None
     pmap = best["pmap"]
     if per_field is not None:
-        from lensrt.analysis.psf_map import map_arrays
+        from lensrt.analysis.psf.map import map_arrays
         a, b = map_arrays(pmap.results), map_arrays(per_field["pmap"].results)
         same = all(np.array_equal(a[k], b[k]) for k in a)
     else:
         same = None
 
     # stream only: all fields as sources of one stream call (kernel time of the whole map's rays)
-    from lensrt.analysis.raypsf import prepare_fields
+    from lensrt.analysis.psf.geometric import prepare_fields
     geoms = prepare_fields(setup, fields, dev)
     sources = [StreamSource(gm.fp, gm.box, setup.plane_z_mm, gm.reference_mm, k, "lambertian",
                             pixel_mm=r.grid.pitch_mm) for k, (gm, r) in enumerate(zip(geoms, pmap.results))]

@@ -74,9 +74,9 @@ def main(argv: list[str] | None = None) -> int:
     warp.config.log_level = warp.LOG_WARNING
     from lensrt.device import describe_device, resolve_device
     from lensrt.io.table import format_table
-    from lensrt.render.integrator import RenderOptions
-    from lensrt.render.scene import load_scene
-    from lensrt.render.scene_model import SpectralSettings
+    from lensrt.render.setup import RenderOptions
+    from lensrt.render.scene.load import load_scene
+    from lensrt.render.scene.model import SpectralSettings
 
     dev = resolve_device(args.device)
     gpu = dev.startswith("cuda")

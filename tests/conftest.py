@@ -1,6 +1,11 @@
-"""Shared fixtures: the Warp device matrix and the reference data folder."""
+"""Shared fixtures: the Warp device matrix, the reference data folder, and the oracles on the import path.
+
+The tests mirror the package: ``tests/<stage>/test_*.py`` (``tests/analysis/psf/`` for ``lensrt/analysis/psf/``),
+``tests/stability/`` for the extreme cases, ``tests/cli/`` for the command line, and ``tests/oracles/`` for the
+reference code and published listings the tests compare against."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -8,6 +13,9 @@ import pytest
 DATA = Path(__file__).parent / "data"
 ROOT = Path(__file__).resolve().parent.parent
 LIBRARY = ROOT / "lens_prescriptions"
+
+# the oracles (reference tracers, listings, shared cases) are imported by name from every test folder
+sys.path.insert(0, str(Path(__file__).resolve().parent / "oracles"))
 
 
 def _devices() -> list[str]:

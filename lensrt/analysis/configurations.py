@@ -29,7 +29,7 @@ def configuration_rows(family: MultiConfigLens, wavelength_nm: float | None = No
     :mod:`lensrt.analysis.distortion`), NaN where the chief ray fails.
     """
     from ..paraxial import first_order
-    from .distortion import distortion_curve
+    from .compare.distortion import distortion_curve
     rows = []
     for i, lens in enumerate(family.configurations()):
         fo = first_order(lens, wavelength_nm)

@@ -53,7 +53,7 @@ class FocusSolution:
 def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
                       n_grid: int = 32) -> float:
     """Real best focus minus the image surface's z (mm) for an axial object at ``distance_mm``."""
-    from .focus import best_focus
+    from .compare.focus import best_focus
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     at = lens if distance_mm == lens.object_distance_mm else lens.replace(object_distance_mm=float(distance_mm))
     return best_focus(at, [wl], [1.0], 0.0, n_grid).z_mm - lens.image_z_mm
@@ -77,7 +77,7 @@ def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
 
 def _chief_tracer(lens: Lens, wavelength_nm: float | None):
     """v -> (real chief-ray height on the image surface, its object-space angle), v an object field value."""
-    from .rays import chief_batch, object_field_point, trace64
+    from .raysets import chief_batch, object_field_point, trace64
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
 
     def trace(v: float) -> tuple[float, float]:

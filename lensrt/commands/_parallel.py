@@ -65,10 +65,10 @@ def executor_from_args(args: argparse.Namespace, uses_device: bool = True) -> An
 
 def progress_printer(args: argparse.Namespace | None = None, label: str = "items") -> Callable[[int, int], None] | None:
     """A progress callback that draws a ``done/total`` bar on stderr when stderr is a terminal (else None);
-    see :mod:`lensrt.commands._progress`."""
+    see :mod:`lensrt.views.progress`."""
     if not sys.stderr.isatty():
         return None
-    from ._progress import ProgressBar
+    from ..views.progress import ProgressBar
     return ProgressBar(label)
 
 

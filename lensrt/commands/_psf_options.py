@@ -131,10 +131,10 @@ def fields_from_args(args: argparse.Namespace, lens, plane_z_mm: float, device: 
 
 
 def setup_from_args(args: argparse.Namespace, lens, device: str | None, **overrides: Any):
-    """The :class:`~lensrt.analysis.psf_setup.PsfSetup` the options describe."""
-    from ..analysis.mtf import reference_frequencies_cpmm
-    from ..analysis.psf_setup import make_setup
-    from ..analysis.spectrum import parse_band, parse_spectrum
+    """The :class:`~lensrt.analysis.psf.setup.PsfSetup` the options describe."""
+    from ..analysis.psf.otf import reference_frequencies_cpmm
+    from ..analysis.psf.setup import make_setup
+    from ..analysis.psf.spectrum import parse_band, parse_spectrum
     from ..paraxial.photographic import sensor_format
     spec = parse_spectrum(lens, parse_list(args.wavelength_nm, "wavelength"), args.spectrum, parse_band(args.band),
                           args.lines)

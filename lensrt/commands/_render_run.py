@@ -16,7 +16,7 @@ __all__ = ["run", "options_from_args", "progress_bar"]
 
 
 def options_from_args(args) -> Any:
-    from ..render.integrator import RenderOptions
+    from ..render.setup import RenderOptions
     window = None
     if getattr(args, "window", None):
         try:
@@ -62,7 +62,7 @@ def progress_bar(stream=None):
 
 def run(args, scene, lens) -> int:
     from ..render.integrator import render
-    from ..render.output import write_outputs
+    from ..pipeline import write_outputs
     from contextlib import nullcontext
     options = options_from_args(args)
     context: Any = nullcontext(None)

@@ -13,7 +13,7 @@ __all__ = ["register", "parse_pair", "parse_list"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ..analysis.bokeh_spectrum import SPECTRUM_HELP
+    from ..analysis.bokeh.light import SPECTRUM_HELP
     p = sub.add_parser("bokeh", help="bokeh of point sources out of focus: one spot, or a map across the frame",
                        description="Traces Monte Carlo rays from point sources over the real (vignetted) entrance "
                                    "pupil and a spectrum onto the sensor of a lens focused by unit focusing, and "
@@ -123,7 +123,7 @@ def _grid(text: str, what: str) -> tuple[int, int]:
 
 
 def _focus(args: argparse.Namespace, lens: Any):
-    from ..analysis.bokeh import focus_lens
+    from ..analysis.bokeh.entry import focus_lens
     from ..errors import LensrtError
     from ..units import MM_PER_M
     given = [k for k in ("focus_m", "focus_mm", "extension_mm", "sensor_z_mm") if getattr(args, k) is not None]
@@ -158,7 +158,7 @@ def _iris(args: argparse.Namespace, lens: Any):
 
 
 def cmd_bokeh(args: argparse.Namespace) -> int:
-    from ..analysis.bokeh import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
+    from ..analysis.bokeh.entry import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
     from ..errors import LensrtError
     from ..loading import load_lens
     from ..paraxial.photographic import sensor_format
@@ -216,7 +216,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     summary = img.to_dict()
     summary.update(extra)
     if not args.no_files:
-        from ..io.bokeh_files import write_bokeh_files
+        from ..views.bokeh_files import write_bokeh_files
         try:
             paths = write_bokeh_files(img, args.out, name, args.exposure)
         except OSError as err:

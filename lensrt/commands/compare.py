@@ -38,8 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def compare_report(lens, fields_in_lens_unit=(), wavelengths_nm=(), rays: int = 1 << 16, spot_rays: int = 1 << 14,
                    seed: int = 0, device: str | None = None):
-    """Check the options and run :func:`lensrt.analysis.compare.compare_lens`."""
-    from ..analysis.compare import compare_lens
+    """Check the options and run :func:`lensrt.analysis.compare.comparison.compare_lens`."""
+    from ..analysis.compare.comparison import compare_lens
     from ..errors import LensrtError
     extra = []
     for f in fields_in_lens_unit:
@@ -63,14 +63,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     c = compare_report(lens, args.field, args.wavelength_nm, args.rays, args.spot_rays, args.seed, args.device)
     written = []
     if args.plot:
-        from ..io.plots_analysis import write_compare_plots
+        from ..views.plots.analysis import write_compare_plots
         written = write_compare_plots(c, args.plot)
     if args.json:
         d = c.to_dict()
         d["figures"] = [str(p) for p in written]
         print_json(d)
         return 0
-    from ..io.compare_text import comparison_text
+    from ..views.compare import comparison_text
     emit(comparison_text(c))
     for p in written:
         emit(f"wrote {p}")

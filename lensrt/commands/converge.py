@@ -100,15 +100,15 @@ def _ints(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def build_quantity(args: argparse.Namespace):
-    """The :class:`lensrt.analysis.convergence.Quantity` the options describe."""
-    from ..analysis import convergence_quantities as CQ
+    """The :class:`lensrt.studies.convergence.study.Quantity` the options describe."""
+    from ..studies.convergence import quantities as CQ
     from ..errors import LensrtError
     from ..loading import load_lens
     from ..units import MM_PER_M
     dev = args.device
     if args.quantity == "render":
-        from ..render.convergence import RenderRegion
-        from ..render.scene import load_scene
+        from ..studies.convergence.render import RenderRegion
+        from ..render.scene.load import load_scene
         scene = load_scene(args.scene)
         lens = load_lens(args.file, config=lens_config(args)) if args.file else None
         window = tuple(int(v) for v in _ints(args.window, 4, "--window")) if args.window else None
@@ -117,7 +117,7 @@ def build_quantity(args: argparse.Namespace):
         return RenderRegion(scene, lens, args.width, window, dev)
     lens = load_lens(args.file, config=lens_config(args))
     if args.quantity == "bokeh":
-        from ..analysis.bokeh import focus_lens, spot_source
+        from ..analysis.bokeh.entry import focus_lens, spot_source
         if not (args.source_m > 0 and args.focus_m > 0 and 0 < args.region <= 1):
             raise LensrtError("--source-m and --focus-m must be positive and --region within (0, 1]")
         focus = focus_lens(lens, args.focus_m * MM_PER_M)
@@ -135,8 +135,8 @@ def build_quantity(args: argparse.Namespace):
             wl = parse_list(args.wavelength_nm, "wavelength")[0]
         return CQ.RelIllum(lens, hy, wl, args.batches, dev)
     from ..analysis.fields import normalised_fields
-    from ..analysis.psf_setup import make_setup
-    from ..analysis.spectrum import parse_spectrum
+    from ..analysis.psf.setup import make_setup
+    from ..analysis.psf.spectrum import parse_spectrum
     from ._psf_options import parse_list
     spec = parse_spectrum(lens, parse_list(args.wavelength_nm, "wavelength"), None, None, 7)
     hy = 0.7 if args.field is None else args.field
@@ -153,7 +153,7 @@ def build_quantity(args: argparse.Namespace):
 
 
 def converge_table(data: dict) -> str:
-    """The terminal report of a :func:`lensrt.analysis.convergence.converge` result."""
+    """The terminal report of a :func:`lensrt.studies.convergence.study.converge` result."""
     from ..io.table import format_table
     sc, u = data["display_scale"], data["display_unit"]
     unit = f" ({u})" if u else ""
@@ -193,7 +193,7 @@ def converge_table(data: dict) -> str:
 
 
 def cmd_converge(args: argparse.Namespace) -> int:
-    from ..analysis.convergence import converge, default_counts
+    from ..studies.convergence.study import converge, default_counts
     from ..errors import LensrtError
     from ..io.table import dumps_json
     q = build_quantity(args)
@@ -221,7 +221,7 @@ def cmd_converge(args: argparse.Namespace) -> int:
     data["command"] = "lensrt converge " + " ".join(_argv_of(args))
     if args.out:
         from ..io.paths import output_dir
-        from ..io.plots_convergence import plot_error_vs_time
+        from ..views.plots.convergence import plot_error_vs_time
         d = output_dir(args.out)
         plot_error_vs_time(d / "converge.png", data)
         data["files"] = [str(d / "converge.json"), str(d / "converge.png")]

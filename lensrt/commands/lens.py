@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options, lens_config
+from ..views.lens import describe_aperture, describe_fields, lens_table
+from ._common import add_lens_argument, add_reader_options, emit, lens_config, print_json, reader_options
 
 __all__ = ["register"]
 
@@ -31,35 +32,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     l_.set_defaults(func=cmd_list)
 
 
-def _describe_aperture(lens) -> str:
-    ap = lens.aperture
-    return {"epd": f"entrance pupil diameter {ap.value:g} mm", "image_fno": f"image-space f/{ap.value:g}",
-            "object_na": f"object NA {ap.value:g}", "float_by_stop": "float by stop size"}[ap.kind]
-
-
-def _describe_fields(lens) -> str:
-    f = lens.fields
-    if f.kind == "angle":
-        vals = ", ".join(f"{math.degrees(v):g}" for v in f.y)
-        return f"angles {vals} deg"
-    return f"{f.kind.replace('_', ' ')}s {', '.join(f'{v:g}' for v in f.y)} mm"
-
-
-def lens_table(lens) -> tuple[list[list], list[str]]:
-    """Rows and headers of the surface table at the primary wavelength."""
-    wl = lens.wavelengths.primary_nm
-    n = lens.indices(wl)
-    rows = []
-    for i, s in enumerate(lens.surfaces):
-        sd = s.semi_diameter_mm
-        sd_text = "-" if sd is None else (f"{sd:.4f}" + ("*" if s.semi_diameter_auto else ""))
-        kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
-        rows.append(["STO" if s.is_stop else str(i + 1), s.radius_mm, s.thickness_mm,
-                     s.material.describe() if not s.material.is_air else "air", float(n[i + 1]), sd_text,
-                     s.conic, kind])
-    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type"]
-
-
 def cmd_show(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
@@ -83,7 +55,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if lens.source:
         emit(f"source: {lens.source}")
     obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
-    emit(f"aperture: {_describe_aperture(lens)}; object at {obj}; fields: {_describe_fields(lens)}")
+    emit(f"aperture: {describe_aperture(lens)}; object at {obj}; fields: {describe_fields(lens)}")
     emit("wavelengths: " + ", ".join(f"{w:g}" + ("*" if i == lens.wavelengths.primary else "")
                                      for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
     if lens.iris.blades:

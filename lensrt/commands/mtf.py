@@ -60,8 +60,8 @@ def _through_focus_arg(text: str) -> np.ndarray:
 
 
 def cmd_mtf(args: argparse.Namespace) -> int:
-    from ..analysis.mtf_report import Detector, mtf_against_field, mtf_curves, through_focus
-    from ..analysis.psf_map import run_psf_map
+    from ..analysis.psf.mtf_curves import Detector, mtf_against_field, mtf_curves, through_focus
+    from ..analysis.psf.map import run_psf_map
     from ..errors import LensrtError
     from ..loading import load_lens
     from ._common import reader_options
@@ -112,7 +112,7 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
     emit(f"{lens.name or lens.path}: MTF at {', '.join(f'{v:.3g}' for v in fr)} cycles/mm "
          f"(10/20/40 lp/mm scaled to the sensor), spectrum {setup.spectrum.name}, focus {setup.focus['focus']}; "
          f"sensor Nyquist {detector.nyquist_cpmm:.4g} cycles/mm ({detector.pixel_pitch_um:g} um pixels)")
-    from ..analysis.mtf_report import reference_table
+    from ..analysis.psf.mtf_curves import reference_table
     rows, heads = reference_table(fields, pmap.results, fr)
     emit(format_table(rows, heads, digits=3))
     if focus:
@@ -124,8 +124,8 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
 
 def _write(args, pmap, out: dict, curves, vs_field, focus) -> dict:
     from ..io.paths import output_dir
-    from ..io.plots_psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf, plot_through_focus
-    from ..io.psf_files import write_psf_map_exr
+    from ..views.plots.psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf, plot_through_focus
+    from ..views.psf_files import write_psf_map_exr
     from ..io.table import dumps_json
     d = output_dir(args.out)
     lens = pmap.setup.lens.name or "lens"

@@ -30,7 +30,7 @@ def cmd_psf(args: argparse.Namespace) -> int:
     from ..loading import load_lens
     from ._common import reader_options
     from ._parallel import executor_from_args, progress_printer, run_summary_line
-    from ..analysis.psf_map import run_psf_map
+    from ..analysis.psf.map import run_psf_map
     if args.device and not args.devices:
         args.devices = args.device
     lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
@@ -46,7 +46,7 @@ def cmd_psf(args: argparse.Namespace) -> int:
                            args.sensor if args.grid else None)
     files = {}
     if args.out:
-        from ..io.psf_files import write_psf_outputs
+        from ..views.psf_files import write_psf_outputs
         files = write_psf_outputs(args.out, pmap, "psf", log=args.log)
     if args.json:
         d = pmap.to_dict()
@@ -72,14 +72,14 @@ class _Summary:
 
 
 def _converge(args: argparse.Namespace, setup, f, dev) -> int:
-    from ..analysis.convergence import converge_psf
+    from ..studies.convergence.quantities import converge_psf
     from ..io.table import dumps_json, format_table
     data = converge_psf(setup, f, seed=args.seed, device=dev)
     data["lens"] = setup.lens.name
     data["device"] = dev or "auto"
     if args.out:
         from ..io.paths import output_dir
-        from ..io.plots_psf import plot_convergence
+        from ..views.plots.psf import plot_convergence
         d = output_dir(args.out)
         (d / "converge.json").write_text(dumps_json(data) + "\n")
         plot_convergence(d / "converge.png", data,

@@ -55,7 +55,7 @@ def _load_lens_or_note(scene, override: str | None):
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from ..render.scene import builtin_scenes, load_scene
+    from ..render.scene.load import builtin_scenes, load_scene
     if args.list:
         rows = []
         for path in builtin_scenes():

@@ -175,7 +175,7 @@ def cmd_characterize(args: argparse.Namespace) -> int:
                                     shape=_size(args.size), channel="RGB".index(args.channel), n_stack=args.stack)
     files = []
     if args.plot:
-        from ..io.sensor_plots import plot_emva
+        from ..views.plots.sensor import plot_emva
         files = [str(f) for f in plot_emva(result, args.plot)]
     if args.json:
         out = result.to_dict()
@@ -388,7 +388,7 @@ def _write_outputs(args, sensor, raw, result) -> list[str]:
         from ..io.exr import write_image_exr
         files.append(str(write_image_exr(args.linear, result.linear, metadata={**meta, "lensrt:colourspace": "linear sRGB (D65)"})))
     if args.hist:
-        from ..io.sensor_plots import plot_histograms
+        from ..views.plots.sensor import plot_histograms
         from ..isp import output_histograms, raw_histograms
         files.append(str(plot_histograms(raw_histograms(raw), output_histograms(result.to_uint8()), args.hist)))
     return files

@@ -78,7 +78,7 @@ def _default_f_numbers(lens: Any, wavelength_nm: float | None) -> list[float]:
 
 def _columns(spec: str | None) -> list[str]:
     from ..errors import LensrtError
-    from ..sweep import DEFAULT_QUANTITIES, QUANTITIES
+    from ..studies.sweep import DEFAULT_QUANTITIES, QUANTITIES
     if spec is None:
         names = list(DEFAULT_QUANTITIES)
     elif spec.strip() == "all":
@@ -113,7 +113,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from ..errors import LensrtError
     from ..io.table import dumps_json, format_table
     from ..paraxial import photographic as ph
-    from ..sweep import QUANTITIES, SweepSetup, sweep_job
+    from ..studies.sweep import QUANTITIES, SweepSetup, sweep_job
 
     if args.list_quantities:
         emit(format_table([(k, u or "-", d) for k, (u, d) in QUANTITIES.items()], ["quantity", "unit", "meaning"]))

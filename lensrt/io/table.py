@@ -46,7 +46,7 @@ def format_table(rows: Sequence[Sequence[Any]], headers: Sequence[str], digits: 
 @dataclass
 class Table:
     """A table before it is laid out: as text (:meth:`text`, :func:`format_table`) or as HTML
-    (:func:`lensrt.io.report.html_table`)."""
+    (:func:`lensrt.report.html.html_table`)."""
 
     rows: Sequence[Sequence[Any]]
     headers: Sequence[str]

@@ -5,8 +5,7 @@ from typing import Any, Sequence
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from . import cluster
-from .context import drop_context, store_context
+from .context import assign_worker_device, drop_context, store_context
 
 __all__ = ["ContextPlugin", "DevicePlugin"]
 
@@ -44,4 +43,4 @@ class DevicePlugin(WorkerPlugin):
             k = int(worker.name)
         except (TypeError, ValueError):
             k = 0
-        cluster._ASSIGNED_DEVICE = self.devices[k % len(self.devices)]
+        assign_worker_device(self.devices[k % len(self.devices)])

@@ -35,7 +35,7 @@ import uuid
 from typing import Any, Sequence
 
 from ..errors import LensrtError
-from .context import content_hash, execute_item, stored_context
+from .context import assigned_worker_device, content_hash, execute_item, stored_context
 from .local import Progress, device_scope, resolve_devices
 from .work import ItemOutcome, Job, JobResult, OrderedFold, WorkItem, finish_result
 
@@ -43,7 +43,6 @@ __all__ = ["DaskExecutor", "distributed_available", "worker_device"]
 
 #: the Dask resource name lensrt requests per GPU task
 GPU_RESOURCE = "GPU"
-_ASSIGNED_DEVICE: str | None = None
 #: contexts (lenses, scenes) an executor keeps on its workers for later jobs
 MAX_SHIPPED_CONTEXTS = 4
 
@@ -68,8 +67,9 @@ def _import_distributed() -> Any:
 
 def worker_device(spec: str | None) -> str:
     """The Warp device a task uses in this worker process (see the module docstring)."""
-    if _ASSIGNED_DEVICE is not None:
-        return _ASSIGNED_DEVICE
+    assigned = assigned_worker_device()
+    if assigned is not None:
+        return assigned
     env = os.environ.get("LENSRT_DEVICE")
     if env:
         return resolve_devices(env)[0]

@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 from .work import ItemOutcome, WorkItem
 
-__all__ = ["content_hash", "prepared_context", "execute_item", "cache_stats", "clear_cache", "CACHE_SIZE",
+__all__ = ["assign_worker_device", "assigned_worker_device", "content_hash", "prepared_context", "execute_item", "cache_stats", "clear_cache", "CACHE_SIZE",
            "store_context", "stored_context", "drop_context"]
 
 #: prepared contexts kept per process (the oldest is dropped first)
@@ -136,3 +136,18 @@ def execute_item(run: Callable[[WorkItem, Any, str], Any], prepare: Callable[[An
     with _LOCK:
         _STATS["items"] += 1
     return ItemOutcome(item.index, result, seconds, device, _worker_name())
+
+
+#: the device a Dask worker plugin assigned to this worker process (None: not assigned)
+_assigned_device: str | None = None
+
+
+def assign_worker_device(device: str | None) -> None:
+    """Record the device this worker process uses (set by the Dask device plugin at worker start)."""
+    global _assigned_device
+    _assigned_device = device
+
+
+def assigned_worker_device() -> str | None:
+    """The device assigned to this worker process, or None."""
+    return _assigned_device

@@ -26,10 +26,10 @@ WorkloadFactory = Callable[[str, int], Job]
 
 #: name -> "module:attribute" (or the factory itself)
 WORKLOADS: dict[str, str | WorkloadFactory] = {
-    "sweep": "lensrt.sweep:sweep_workload",
-    "psf-map": "lensrt.analysis.psf_map:psf_map_workload",
+    "sweep": "lensrt.studies.sweep:sweep_workload",
+    "psf-map": "lensrt.analysis.psf.map:psf_map_workload",
     "render": "lensrt.render.jobs:render_workload",
-    "bokeh-map": "lensrt.analysis.bokeh_job:bokeh_map_workload",
+    "bokeh-map": "lensrt.analysis.bokeh.job:bokeh_map_workload",
 }
 
 

@@ -4,7 +4,7 @@ One Warp module, ``lensrt_render`` (float32), compiled on first use and cached o
 It calls the tracer's own ``@wp.func`` surface code (:func:`lensrt.trace.surfaces.surface_funcs`,
 ``trace_ray`` with the forward tracer's signature) on the lens mirrored by
 :func:`lensrt.trace.reverse.reversed_lens`, and the scene stage's ``scene_radiance``
-(:mod:`lensrt.render.scene_kernels`). Plan switches (spectral or one wavelength, meshes,
+(:mod:`lensrt.render.scene.kernels`). Plan switches (spectral or one wavelength, meshes,
 shadow rays) are run-time values the kernel reads (the packed scene has no BVH when it has no
 meshes, no lights to sample when nothing is lit by them), so every plan uses this one compiled
 module.
@@ -43,7 +43,7 @@ def get_render_kernels() -> SimpleNamespace:
     from ..device import warp
     from ..trace.status import OK
     from ..trace.surfaces import surface_funcs
-    from . import scene_kernels as sk
+    from .scene import kernels as sk
     wp = warp()
     real = wp.float32
     wp.set_module_options({"enable_backward": False}, module=MODULE)

@@ -220,8 +220,8 @@ def render_workload(size: str, seed: int):
     or ``scene=...,width=...,spp_per_pass=...,passes=...,tiles=...``). The set-up (focus, exit-pupil table) runs
     here, on the first device Warp sees."""
     from ..parallel.workloads import parse_size
-    from .integrator import RenderOptions, prepare_render
-    from .scene import load_scene
+    from .setup import RenderOptions, prepare_render
+    from .scene.load import load_scene
     p = parse_size(size, WORKLOAD_SIZES)
     scene = load_scene(p["scene"])
     opts = RenderOptions(width=int(p["width"]), spp_per_pass=int(p["spp_per_pass"]),

@@ -103,7 +103,7 @@ def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
     from ..trace.pack import pack_lens
     from ..trace.reverse import reversed_lens
     from .integrator_kernels import get_render_kernels
-    from .scene_pack import pack_scene
+    from .scene.pack import pack_scene
     from .spectra import cie_xyz_cmfs
     wp = warp()
     cam = setup.camera

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene_model import Scene
+from .scene.model import Scene
 from .spectra import WavelengthGrid, cie_xyz_cmfs, integrate
 
 __all__ = ["KernelVariant", "Plan", "plan_render", "wavelength_weight"]
@@ -192,15 +192,8 @@ def _lens_facts(lens: Any, scene: Scene) -> dict[str, Any]:
     return facts
 
 
-def plan_render(scene: Scene, lens: Any = None) -> Plan:
-    """Decide how to render ``scene`` (optionally knowing the loaded :class:`~lensrt.prescription.model.Lens`)."""
-    r: dict[str, str] = {}
-    runs: list[str] = ["load lens", "camera set-up (focus, aperture, exit-pupil bounds)"]
-    skipped: list[tuple[str, str]] = []
-    g = scene.grid
-    lf = _lens_facts(lens, scene)
-
-    # spectral or monochromatic
+def _plan_spectrum(scene: Scene, g, lf: dict, r: dict, runs: list, skipped: list):
+    """Spectral or monochromatic, the wavelength sampling, and whether the lens is traced per wavelength."""
     line = scene.line_nm
     if line is not None:
         spectral, lam, unit = False, line, "W/m^2"
@@ -235,6 +228,41 @@ def plan_render(scene: Scene, lens: Any = None) -> Plan:
     else:
         per_wl = spectral
         r["lens"] = "per wavelength (dispersive glass: colour fringes)" if spectral else "one wavelength"
+    return spectral, lam, unit, sampling, per_wl
+
+
+def _plan_diffraction(scene: Scene, lf: dict, lam: float | None, pitch: float, r: dict, skipped: list) -> bool:
+    """Whether the render applies diffraction, and why."""
+    asked = scene.render.diffraction
+    if asked != "auto":
+        diffraction = asked == "on"
+        r["diffraction"] = f"{asked}, as [render] diffraction asks"
+    elif lf["working_f_number"] is None and scene.camera.f_number is None:
+        diffraction = False
+        r["diffraction"] = "off (auto: f-number unknown until the lens is loaded)"
+        skipped.append(("diffraction", "auto, and the f-number is unknown without the lens"))
+    else:
+        nw = lf["working_f_number"] or scene.camera.f_number
+        wl = lam if lam is not None else _DIFFRACTION_TEST_NM
+        airy_um = 2.44 * wl * 1e-3 * nw
+        diffraction = airy_um >= pitch
+        r["diffraction"] = (f"{'on' if diffraction else 'off'} (auto: Airy disc {airy_um:.3g} um "
+                            f"{'>=' if diffraction else '<'} pixel {pitch:.3g} um at N_w = {nw:.3g})")
+    if not diffraction and not any(stage == "diffraction" for stage, _ in skipped):
+        skipped.append(("diffraction", "the Airy disc is smaller than a pixel" if asked == "auto"
+                        else "switched off"))
+    return diffraction
+
+
+def plan_render(scene: Scene, lens: Any = None) -> Plan:
+    """Decide how to render ``scene`` (optionally knowing the loaded :class:`~lensrt.prescription.model.Lens`)."""
+    r: dict[str, str] = {}
+    runs: list[str] = ["load lens", "camera set-up (focus, aperture, exit-pupil bounds)"]
+    skipped: list[tuple[str, str]] = []
+    g = scene.grid
+    lf = _lens_facts(lens, scene)
+
+    spectral, lam, unit, sampling, per_wl = _plan_spectrum(scene, g, lf, r, runs, skipped)
 
     # light splat or camera paths
     only_points = (not scene.planes and not scene.meshes and scene.background is None
@@ -276,26 +304,8 @@ def plan_render(scene: Scene, lens: Any = None) -> Plan:
     if not shadowed:
         skipped.append(("shadow rays", "no reflective surface lit by a sampled light"))
 
-    # diffraction
     pitch = scene.sensor.pixel_pitch_um
-    asked = scene.render.diffraction
-    if asked != "auto":
-        diffraction = asked == "on"
-        r["diffraction"] = f"{asked}, as [render] diffraction asks"
-    elif lf["working_f_number"] is None and scene.camera.f_number is None:
-        diffraction = False
-        r["diffraction"] = "off (auto: f-number unknown until the lens is loaded)"
-        skipped.append(("diffraction", "auto, and the f-number is unknown without the lens"))
-    else:
-        nw = lf["working_f_number"] or scene.camera.f_number
-        wl = lam if lam is not None else _DIFFRACTION_TEST_NM
-        airy_um = 2.44 * wl * 1e-3 * nw
-        diffraction = airy_um >= pitch
-        r["diffraction"] = (f"{'on' if diffraction else 'off'} (auto: Airy disc {airy_um:.3g} um "
-                            f"{'>=' if diffraction else '<'} pixel {pitch:.3g} um at N_w = {nw:.3g})")
-    if not diffraction and not any(stage == "diffraction" for stage, _ in skipped):
-        skipped.append(("diffraction", "the Airy disc is smaller than a pixel" if asked == "auto"
-                        else "switched off"))
+    diffraction = _plan_diffraction(scene, lf, lam, pitch, r, skipped)
 
     runs.append("trace: light splat" if only_points else "trace: camera paths" + (" + shadow rays" if shadowed else ""))
     if diffraction:

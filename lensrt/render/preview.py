@@ -18,7 +18,7 @@ import numpy as np
 from ..device import resolve_device, warp
 from ..stats import Estimate
 from ..units import LUMINOUS_EFFICACY_LM_PER_W
-from .scene_model import Scene
+from .scene.model import Scene
 from .spectra import cie_xyz_cmfs
 
 __all__ = ["preview_pinhole"]
@@ -32,7 +32,7 @@ def _kernel() -> Any:
     global _KERNEL
     if _KERNEL is None:
         wp = warp()
-        from . import scene_kernels as sk
+        from .scene import kernels as sk
 
         # n_wl is a runtime argument on purpose: a loop over a compile-time constant is unrolled by
         # Warp (up to 16 trips), which inlined scene_radiance 16 times and made the CUDA compile of
@@ -78,7 +78,7 @@ def preview_pinhole(scene: Scene, width_px: int = 360, focal_length_mm: float = 
     if width_px < 1 or samples_per_pixel < 2 or not focal_length_mm > 0:
         raise ValueError("width_px >= 1, samples_per_pixel >= 2 and a positive focal length are needed")
     wp = warp()
-    from .scene_pack import pack_scene
+    from .scene.pack import pack_scene
     dev = resolve_device(device)
     t0 = time.perf_counter()
     packed = pack_scene(scene, dev)

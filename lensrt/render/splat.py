@@ -144,33 +144,10 @@ def _channels(plan, grid, band0: float, bw: float, nb: int):
     return Channels(np.array(rows), float(grid.min_nm), step)
 
 
-def render_splat(scene, lens, plan, options, progress=None):
-    """Render a point/sphere-light scene from the light side (module docstring); a RenderResult."""
-    from ..device import resolve_device
-    from ..trace.aiming import FieldPoint
+def _splat_lights(scene, lens, cam, plan, dev) -> list[dict]:
+    """Every light that reaches the lens: its shared pupil box, distance, spectrum and disc points."""
     from ..trace.sampling import spectrum_continuous, spectrum_discrete
-    from ..trace.stream import Grid, StreamSource, stream
-    from .camera import setup_camera
-    from .integrator import RenderResult, _bands, _history_row, _regions, band_note, _stop_rule, relative_error
-    from .passes import PassSum, pass_seed
-    t_start = time.perf_counter()
-    dev = resolve_device(options.device)
-    cam = setup_camera(scene, lens, options.focus)
-    lens = cam.lens  # a declared focus group / floating groups moved to focus (render.camera)
-    sen = cam.sensor
-    rows, cols = sen.shape
-    n_px = rows * cols
-    g = scene.grid
-    band0, bw, nb = _bands(plan, options.band_width_nm)
-    chans = _channels(plan, g, band0, bw, nb)
-    grid = Grid(cols, rows, sen.pitch_x_mm, sen.pitch_y_mm)
-    # histogram bin (iy, ix) -> stored image pixel, through the camera's one map
-    iy, ix = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
-    xb = -0.5 * cols * sen.pitch_x_mm + (ix + 0.5) * sen.pitch_x_mm
-    yb = -0.5 * rows * sen.pitch_y_mm + (iy + 0.5) * sen.pitch_y_mm
-    pr, pc = sen.pixel_of(xb, yb)
-    order = (np.rint(pr).astype(np.int64) * cols + np.rint(pc).astype(np.int64)).ravel()
-    gather = np.argsort(order, kind="stable")     # stored pixel p <- histogram bin gather[p]
+    g, sen = scene.grid, cam.sensor
     wls = [float(plan.wavelength_nm)] if not plan.spectral else [g.min_nm, 0.5 * (g.min_nm + g.max_nm), g.max_nm]
     all_lights = _light_list(scene)
     lights = []
@@ -194,6 +171,37 @@ def render_splat(scene, lens, plan, options, progress=None):
         lights.append({"light": li, "box": box, "dist": dist, "spec": spec, "total": total, "k": k})
     if not lights:
         raise LensrtError("no light of the scene gets through the lens")
+    return lights
+
+
+def render_splat(scene, lens, plan, options, progress=None):
+    """Render a point/sphere-light scene from the light side (module docstring); a RenderResult."""
+    from ..device import resolve_device
+    from ..trace.aiming import FieldPoint
+    from ..trace.stream import Grid, StreamSource, stream
+    from .camera import setup_camera
+    from .progressive import history_row, regions, relative_error, stop_rule
+    from .setup import RenderResult, band_note, bands
+    from .passes import PassSum, pass_seed
+    t_start = time.perf_counter()
+    dev = resolve_device(options.device)
+    cam = setup_camera(scene, lens, options.focus)
+    lens = cam.lens  # a declared focus group / floating groups moved to focus (render.camera)
+    sen = cam.sensor
+    rows, cols = sen.shape
+    n_px = rows * cols
+    g = scene.grid
+    band0, bw, nb = bands(plan, options.band_width_nm)
+    chans = _channels(plan, g, band0, bw, nb)
+    grid = Grid(cols, rows, sen.pitch_x_mm, sen.pitch_y_mm)
+    # histogram bin (iy, ix) -> stored image pixel, through the camera's one map
+    iy, ix = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    xb = -0.5 * cols * sen.pitch_x_mm + (ix + 0.5) * sen.pitch_x_mm
+    yb = -0.5 * rows * sen.pitch_y_mm + (iy + 0.5) * sen.pitch_y_mm
+    pr, pc = sen.pixel_of(xb, yb)
+    order = (np.rint(pr).astype(np.int64) * cols + np.rint(pc).astype(np.int64)).ravel()
+    gather = np.argsort(order, kind="stable")     # stored pixel p <- histogram bin gather[p]
+    lights = _splat_lights(scene, lens, cam, plan, dev)
     # one stream launch per pass for every light (one per spectrum kind: lines and tabulated spectra);
     # each light's rays carry its scale (total x box area / (points x distance^2)) relative to the
     # largest, so that one fixed-point histogram holds them all
@@ -201,7 +209,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     for L in lights:
         L["scale"] = L["total"] * L["box"].area_mm2 / (L["k"] * L["dist"] ** 2)
     n_sources = sum(L["k"] for L in lights)
-    rule = _stop_rule(scene, options, n_px)
+    rule = stop_rule(scene, options, n_px)
     spp = rule.max_samples // n_px
     spp_pass = options.spp_per_pass or max(1, spp // 8)
     planned = max(1, math.ceil(spp / spp_pass))
@@ -248,7 +256,7 @@ def render_splat(scene, lens, plan, options, progress=None):
         pass_times.append(time.perf_counter() - t0)
         elapsed = time.perf_counter() - t_loop
         err = relative_error(acc)
-        history.append(_history_row(acc, n_px, elapsed, err))
+        history.append(history_row(acc, n_px, elapsed, err))
         stop = rule.reason(acc.passes * rays_pass, elapsed, err, acc.passes)
         if progress is not None:
             per = float(np.mean(pass_times[1:][-8:] or pass_times))
@@ -266,7 +274,7 @@ def render_splat(scene, lens, plan, options, progress=None):
         notes.append("the plan asks for diffraction; the integrator does not apply it (geometric optics only)")
     res = RenderResult(irr, centres, bw, plan.output_unit, acc.xyz_mean(), acc.xyz_stderr(), rays_done,
                        acc.passes * spp_pass, acc.passes, seconds, stop or "samples", "light_splat", dev, cam, plan,
-                       _regions(acc, rays_done, seconds), history, float("nan"),
+                       regions(acc, rays_done, seconds), history, float("nan"),
                        {"total_before_passes": t_loop - t_start}, notes, None)
     res.cpu_seconds = time.process_time() - cpu0
     res.kernel_seconds = kernel_s

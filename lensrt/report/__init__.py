@@ -4,7 +4,7 @@ files behind it.
 :func:`build_report` runs the sections -- prescription and layout, first-order data beside real
 rays, paraxial against real, spots/fans/relative illumination, PSF map, MTF, bokeh, depth of
 field -- each on its own (a failing section says why and the others run on), then writes
-``index.html`` (:mod:`lensrt.io.report`) and ``report.json`` into the output folder.
+``index.html`` (:mod:`lensrt.report.html`) and ``report.json`` into the output folder.
 """
 from __future__ import annotations
 

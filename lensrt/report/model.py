@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from ..io.table import Table
+from .options import ReportOptions
 
-__all__ = ["Figure", "MonteCarlo", "Section", "ReportContext"]
+__all__ = ["Figure", "MonteCarlo", "Report", "ReportContext", "Section"]
 
 
 @dataclass
@@ -124,9 +125,9 @@ class ReportContext:
         return math.isinf(self.lens.object_distance_mm)
 
     def comparison(self):
-        """:func:`lensrt.analysis.compare.compare_lens` of the lens, computed once (its error re-raised)."""
+        """:func:`lensrt.analysis.compare.comparison.compare_lens` of the lens, computed once (its error re-raised)."""
         if self._comparison is None and self._comparison_error is None:
-            from ..analysis.compare import compare_lens
+            from ..analysis.compare.comparison import compare_lens
             q = self.options.preset
             try:
                 self._comparison = compare_lens(self.lens, device=self.device, rays=q.compare_rays,
@@ -141,3 +142,43 @@ class ReportContext:
 
     def path(self, name: str) -> Path:
         return self.out_dir / name
+
+
+@dataclass
+class Report:
+    """A finished report: its sections, where its files are, and how it was made."""
+
+    lens_name: str
+    options: ReportOptions
+    sections: list[Section]
+    out_dir: Path
+    device: str
+    device_name: str
+    seconds: float
+    environment: dict[str, Any]
+    lens_notes: list[str] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+    key_numbers: list[dict[str, Any]] = field(default_factory=list)
+    html_path: Path | None = None
+    json_path: Path | None = None
+
+    @property
+    def failed(self) -> list[Section]:
+        return [s for s in self.sections if not s.ok]
+
+    @property
+    def monte_carlo(self) -> list[dict]:
+        return [dict(section=s.title, **m.to_dict()) for s in self.sections for m in s.monte_carlo]
+
+    def referenced_files(self) -> list[str]:
+        out = [f for s in self.sections for f in s.referenced_files()]
+        return list(dict.fromkeys(out))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers,
+                "options": self.options.to_dict(),
+                "lens_changes": self.lens_notes, "device": self.device, "device_name": self.device_name,
+                "seconds": self.seconds, "environment": self.environment,
+                "ok": not self.failed, "failed_sections": [s.key for s in self.failed],
+                "monte_carlo": self.monte_carlo, "files": self.referenced_files() + ["index.html"],
+                "sections": [s.to_dict() for s in self.sections]}

@@ -175,7 +175,7 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
             and d != lens.object_distance_mm:
         if not lens.focus.is_unit:
             return _focus_by_mechanism(lens, float(d), notes)
-        from ..analysis.bokeh_focus import focus_lens
+        from ..analysis.bokeh.focus import focus_lens
         f = focus_lens(lens, d)
         last = lens.n_surfaces - 1
         shift = f.sensor_z_mm - lens.image_z_mm

@@ -8,14 +8,13 @@ import sys
 import time
 import traceback
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ..errors import LensrtError
 from ..io.paths import output_dir
 from ..prescription.configurations import MultiConfigLens
-from .model import ReportContext, Section
+from .model import Report, ReportContext, Section
 from .options import ReportOptions, prepare_lens
 
 __all__ = ["SECTIONS", "Report", "build_report", "section_keys"]
@@ -49,49 +48,14 @@ def _function(spec: str) -> Callable[[ReportContext, Section], None]:
     return getattr(import_module(f"{__package__}.{module}"), name)
 
 
-@dataclass
-class Report:
-    """A finished report: its sections, where its files are, and how it was made."""
-
-    lens_name: str
-    options: ReportOptions
-    sections: list[Section]
-    out_dir: Path
-    device: str
-    device_name: str
-    seconds: float
-    environment: dict[str, Any]
-    lens_notes: list[str] = field(default_factory=list)
-    summary: dict[str, Any] = field(default_factory=dict)
-    key_numbers: list[dict[str, Any]] = field(default_factory=list)
-    html_path: Path | None = None
-    json_path: Path | None = None
-
-    @property
-    def failed(self) -> list[Section]:
-        return [s for s in self.sections if not s.ok]
-
-    @property
-    def monte_carlo(self) -> list[dict]:
-        return [dict(section=s.title, **m.to_dict()) for s in self.sections for m in s.monte_carlo]
-
-    def referenced_files(self) -> list[str]:
-        out = [f for s in self.sections for f in s.referenced_files()]
-        return list(dict.fromkeys(out))
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"lens": self.lens_name, "summary": self.summary, "key_numbers": self.key_numbers,
-                "options": self.options.to_dict(),
-                "lens_changes": self.lens_notes, "device": self.device, "device_name": self.device_name,
-                "seconds": self.seconds, "environment": self.environment,
-                "ok": not self.failed, "failed_sections": [s.key for s in self.failed],
-                "monte_carlo": self.monte_carlo, "files": self.referenced_files() + ["index.html"],
-                "sections": [s.to_dict() for s in self.sections]}
-
 
 def _environment(command_line: str) -> dict[str, Any]:
-    from .. import __version__
-    env: dict[str, Any] = {"lensrt": __version__, "python": platform.python_version(),
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        lensrt_version = version("lensrt")
+    except PackageNotFoundError:  # running from a source tree that was never installed
+        lensrt_version = None
+    env: dict[str, Any] = {"lensrt": lensrt_version, "python": platform.python_version(),
                            "platform": platform.platform(), "machine": platform.machine(),
                            "command_line": command_line,
                            "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")}
@@ -139,9 +103,9 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     the others run on. Bad options or a lens that cannot be prepared raise :class:`LensrtError`
     before anything is written. Progress goes to ``stream`` (stderr) unless ``quiet``.
     """
-    from ..commands._progress import StepProgress
+    from ..views.progress import StepProgress
     from ..device import describe_device, resolve_device
-    from ..io.report import write_html
+    from .html import write_html
     from ..io.table import dumps_json
     options = options or ReportOptions()
     unknown = [k for k in skip if k not in section_keys()]

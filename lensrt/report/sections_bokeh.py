@@ -31,8 +31,8 @@ def focus_distance_mm(ctx: ReportContext) -> tuple[float, str]:
 
 def bokeh_section(ctx: ReportContext, sec: Section) -> None:
     """``bokeh_near_far``: sources on a grid over the sensor, a near and a far one in each cell."""
-    from ..analysis.bokeh import bokeh_near_far, near_far_depths_mm
-    from ..io.bokeh_files import write_bokeh_files
+    from ..analysis.bokeh.entry import bokeh_near_far, near_far_depths_mm
+    from ..views.bokeh_files import write_bokeh_files
     from ..parallel.local import LocalExecutor
     from ..paraxial.photographic import sensor_format
     o, q = ctx.options, ctx.options.preset
@@ -77,7 +77,7 @@ def bokeh_section(ctx: ReportContext, sec: Section) -> None:
 
 def dof_section(ctx: ReportContext, sec: Section) -> None:
     """Angle of view, depth of field against focus distance, hyperfocal distance against f-number."""
-    from ..commands.info import info_data
+    from ..views.first_order import info_data
     from ..paraxial import first_order
     from ..paraxial import photographic as ph
     o = ctx.options

@@ -1,4 +1,4 @@
-"""Report sections 3-4 from :func:`lensrt.analysis.compare.compare_lens`: paraxial against real
+"""Report sections 3-4 from :func:`lensrt.analysis.compare.comparison.compare_lens`: paraxial against real
 (distortion, focus, spherical aberration, field curvature, colour), and spots, ray fans, pupils and
 relative illumination against cos^4."""
 from __future__ import annotations
@@ -28,8 +28,8 @@ def estimates_record(figure: str, quantity: str, estimates: list, unit: str = ""
 
 def aberrations_section(ctx: ReportContext, sec: Section) -> None:
     """Distortion, focus, spherical aberration, field curvature and colour: tables and figures."""
-    from ..io.compare_text import comparison_header, comparison_tables
-    from ..io.plots_analysis import plot_field_curvature_distortion, plot_grid_distortion, plot_longitudinal
+    from ..views.compare import comparison_header, comparison_tables
+    from ..views.plots.analysis import plot_field_curvature_distortion, plot_grid_distortion, plot_longitudinal
     c = ctx.comparison()
     tables = comparison_tables(c)
     sec.text(comparison_header(c)[1] + f". Real rays traced in float64 on {c.device} in {c.seconds:.1f} s "
@@ -59,8 +59,8 @@ def aberrations_section(ctx: ReportContext, sec: Section) -> None:
 
 def image_quality_section(ctx: ReportContext, sec: Section) -> None:
     """Spot diagrams, ray and OPD fans, real pupils and relative illumination against cos^4."""
-    from ..io.compare_text import comparison_tables
-    from ..io.plots_analysis import (plot_opd_fans, plot_pupils, plot_ray_fans, plot_relative_illumination,
+    from ..views.compare import comparison_tables
+    from ..views.plots.analysis import (plot_opd_fans, plot_pupils, plot_ray_fans, plot_relative_illumination,
                                      plot_spots)
     from ..paraxial import first_order
     from ..units import NM_PER_MM, UM_PER_MM

@@ -14,14 +14,14 @@ __all__ = ["lens_section", "first_order_section"]
 
 def lens_section(ctx: ReportContext, sec: Section) -> None:
     """Prescription table (``lensrt lens show``) and the cross-section with ray bundles."""
-    from ..commands.lens import _describe_aperture, _describe_fields, lens_table
-    from ..io.plots_layout import plot_layout
-    from ..analysis.rays import lens_fields
+    from ..views.lens import describe_aperture, describe_fields, lens_table
+    from ..views.plots.layout import plot_layout
+    from ..analysis.raysets import lens_fields
     lens = ctx.lens
     obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
     wl = ", ".join(f"{w:g}" + (" (primary)" if i == lens.wavelengths.primary else "")
                    for i, w in enumerate(lens.wavelengths.nm))
-    facts = [f"Aperture: {_describe_aperture(lens)}; object at {obj}; fields: {_describe_fields(lens)}.",
+    facts = [f"Aperture: {describe_aperture(lens)}; object at {obj}; fields: {describe_fields(lens)}.",
              f"Wavelengths: {wl} nm."]
     if lens.source:
         facts.insert(0, f"Source: {lens.source.rstrip('.')}.")
@@ -53,7 +53,7 @@ def _last_finite(a) -> float:
 
 def first_order_section(ctx: ReportContext, sec: Section) -> None:
     """``lensrt info`` data, and the same quantities from real rays where they have a real counterpart."""
-    from ..commands.info import first_order_rows, info_data, seidel_rows
+    from ..views.first_order import first_order_rows, info_data, seidel_rows
     lens = ctx.lens
     d = info_data(lens)
     sec.data["first_order"] = d

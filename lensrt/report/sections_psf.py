@@ -20,7 +20,7 @@ def psf_focus(ctx: ReportContext) -> dict:
     """The observation plane of the PSFs and MTFs: best focus (least axial RMS spot, primary
     wavelength), searched once and shared by both sections."""
     if "psf_focus" not in ctx.cache:
-        from ..analysis.psf_focus import focus_plane
+        from ..analysis.psf.focus import focus_plane
         ctx.cache["psf_focus"] = focus_plane(ctx.lens, "best", ctx.device)
     return ctx.cache["psf_focus"]
 
@@ -48,10 +48,10 @@ def _budget(ctx: ReportContext, share: float, n_fields: int) -> dict:
 def psf_section(ctx: ReportContext, sec: Section) -> None:
     """Geometric PSFs on a grid over the sensor (``lensrt psf --grid``): PNG mosaic, EXR, JSON."""
     from ..analysis.fields import sensor_grid_fields
-    from ..analysis.mtf import reference_frequencies_cpmm
-    from ..analysis.psf_map import run_psf_map
-    from ..analysis.psf_setup import make_setup
-    from ..io.psf_files import write_psf_outputs
+    from ..analysis.psf.otf import reference_frequencies_cpmm
+    from ..analysis.psf.map import run_psf_map
+    from ..analysis.psf.setup import make_setup
+    from ..views.psf_files import write_psf_outputs
     from ..paraxial.photographic import sensor_format
     from ..units import UM_PER_MM
     o, q = ctx.options, ctx.options.preset
@@ -101,7 +101,7 @@ def psf_section(ctx: ReportContext, sec: Section) -> None:
                 [("table", Table(rows, ["field", "chief ray x, y (mm)", "rays", "seconds", "RMS radius",
                                         "EE50 radius", "EE80 radius"], digits=3))])
     sec.files([(files["exr"], "every PSF as a layer of one multi-layer EXR (1/mm^2, with per-pixel standard "
-                              "errors; read with lensrt.io.psf_files.read_psf_map_exr)"),
+                              "errors; read with lensrt.views.psf_files.read_psf_map_exr)"),
                (files["json"], "the same without pixels: fields, estimates, run")])
     sec.data["psf_map"] = {"grid": list(rows_cols), "sensor": fmt.name, "grid_sensor": grid_sensor,
                            "rays_total": pmap.rays,
@@ -133,12 +133,12 @@ def _pm(r, key: str) -> str:
 def mtf_section(ctx: ReportContext, sec: Section) -> None:
     """MTF curves at real image heights from the centre to the corner of the sensor, against field at
     10/20/40 lp/mm (scaled to the format), and the system MTF with the sensor's pixels."""
-    from ..analysis.mtf import reference_frequencies_cpmm
-    from ..analysis.mtf_report import Detector, mtf_against_field, mtf_curves, reference_table
-    from ..analysis.psf_map import run_psf_map
-    from ..analysis.psf_setup import make_setup
+    from ..analysis.psf.otf import reference_frequencies_cpmm
+    from ..analysis.psf.mtf_curves import Detector, mtf_against_field, mtf_curves, reference_table
+    from ..analysis.psf.map import run_psf_map
+    from ..analysis.psf.setup import make_setup
     from ..analysis.fields import image_height_fields
-    from ..io.plots_psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf
+    from ..views.plots.psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf
     from ..io.table import dumps_json
     from ..paraxial.photographic import sensor_format
     o, q = ctx.options, ctx.options.preset

@@ -22,7 +22,7 @@ BREATHING_DISTANCES_M = (math.inf, 10.0, 5.0, 3.0, 2.0, 1.5, 1.0, 0.7, 0.5)
 
 def _configurations(ctx: ReportContext, sec: Section) -> None:
     from ..analysis.configurations import CONFIG_COLUMNS, configuration_rows, zoom_ratio
-    from ..io.plots_zoom import plot_zoom_curve
+    from ..views.plots.zoom import plot_zoom_curve
     family = ctx.cache["configurations"]
     rows = configuration_rows(family)
     sec.data["configurations"] = rows
@@ -42,7 +42,7 @@ def _configurations(ctx: ReportContext, sec: Section) -> None:
 
 def _breathing(ctx: ReportContext, sec: Section) -> None:
     from ..analysis.focusing import focus_breathing, image_circle_radius_mm
-    from ..io.plots_zoom import plot_breathing
+    from ..views.plots.zoom import plot_breathing
     from ..paraxial import first_order
     from ..paraxial import photographic as ph
     lens = ctx.file_lens if "configurations" not in ctx.cache else ctx.cache["configurations"].configuration()

@@ -16,8 +16,8 @@ from __future__ import annotations
 from .cfa import BAYER_PHASES, CFA, XTRANS_PATTERN, parse_cfa
 from .detector import (RawFrame, Switches, average_frames, dark_frame, electrons_to_raw, expose,
                        fixed_pattern_maps, mean_photoelectrons, subtract_dark)
-from .model import Sensor, sensor_from_spec
-from .presets import PRESETS, get_preset
+from .model import Sensor
+from .presets import PRESETS, get_preset, sensor_from_spec
 from .spectral import SpectralResponse, camera_response, load_response
 
 __all__ = ["BAYER_PHASES", "CFA", "XTRANS_PATTERN", "parse_cfa", "RawFrame", "Switches", "average_frames",

@@ -15,17 +15,17 @@ formulas (Field Guide to Photographic Science, pages as cited):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 
 from ..errors import LensrtError
 from ..units import LIGHT_SPEED_M_S, M2_PER_UM2, M_PER_NM, PLANCK_J_S
-from .cfa import CFA, parse_cfa
-from .spectral import SpectralResponse, camera_response, integration_weights_nm, ir_cut_transmission
+from .cfa import CFA
+from .spectral import SpectralResponse, integration_weights_nm, ir_cut_transmission
 
-__all__ = ["Sensor", "sensor_from_spec"]
+__all__ = ["Sensor"]
 
 
 @dataclass(frozen=True)
@@ -234,43 +234,3 @@ class Sensor:
         }
         return out
 
-
-_SPEC_KEYS = {f.name for f in fields(Sensor)} - {"sources"}
-
-
-def sensor_from_spec(spec: dict[str, Any] | None = None, *, path: str | None = None) -> Sensor:
-    """A sensor from a preset name plus overrides, as a scene file's ``[sensor]`` table gives it.
-
-    Parameters
-    ----------
-    spec : dict
-        ``{"preset": "fullframe_24mp", ...overrides}``; keys are :class:`Sensor` field names.
-        ``cfa`` is a pattern string, ``response`` a camera dataset name
-        (``nikon_d5100``) or a CSV/JSON path, ``peak_qe`` a list of three numbers. ``iso`` is
-        not a sensor property and is refused here (it belongs to the exposure).
-    path : str, optional
-        File the spec came from, for error messages.
-    """
-    from .presets import get_preset
-    spec = dict(spec or {})
-    base = get_preset(spec.pop("preset", "fullframe_24mp"))
-    unknown = set(spec) - _SPEC_KEYS
-    if unknown:
-        raise LensrtError(f"unknown sensor key(s) {sorted(unknown)}", path=path,
-                          hint=f"known keys: preset, {', '.join(sorted(_SPEC_KEYS))}")
-    if "cfa" in spec and not isinstance(spec["cfa"], CFA):
-        spec["cfa"] = parse_cfa(str(spec["cfa"]))
-    if "response" in spec and not isinstance(spec["response"], SpectralResponse):
-        from pathlib import Path
-        from .spectral import CAMERA_DATASETS, load_response
-        r = str(spec["response"])
-        spec["response"] = camera_response(r) if r in CAMERA_DATASETS else load_response(
-            Path(path).parent / r if path and not Path(r).is_absolute() else r)
-    if "peak_qe" in spec:
-        pq = spec["peak_qe"]
-        spec["peak_qe"] = tuple(float(v) for v in (pq if isinstance(pq, (list, tuple)) else [pq] * 3))
-    try:
-        return replace(base, **spec, sources={**base.sources, **{k: "user" for k in spec}})
-    except TypeError as err:
-        raise LensrtError(f"bad sensor value: {err}", path=path,
-                          hint="numeric keys take numbers, e.g. full_well_e=45000") from None

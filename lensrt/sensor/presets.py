@@ -16,14 +16,17 @@ modelling choices rather than measurements and are said so:
 """
 from __future__ import annotations
 
+from dataclasses import fields, replace
 from functools import lru_cache
+from pathlib import Path
+from typing import Any
 
 from ..errors import LensrtError
-from .cfa import parse_cfa
+from .cfa import CFA, parse_cfa
 from .model import Sensor
-from .spectral import camera_response
+from .spectral import CAMERA_DATASETS, SpectralResponse, camera_response, load_response
 
-__all__ = ["PRESETS", "get_preset", "preset_names"]
+__all__ = ["PRESETS", "get_preset", "preset_names", "sensor_from_spec"]
 
 _COMMON_SOURCES = {
     "response": "colour-science MSDS_CAMERA_SENSITIVITIES['Nikon 5100 (NPL)'] (relative, includes the IR-cut "
@@ -116,3 +119,41 @@ def get_preset(name: str) -> Sensor:
     if key not in _FACTORIES:
         raise LensrtError(f"unknown sensor preset {name!r}", hint=f"use one of {', '.join(PRESETS)}")
     return _FACTORIES[key]()
+
+
+_SPEC_KEYS = {f.name for f in fields(Sensor)} - {"sources"}
+
+
+def sensor_from_spec(spec: dict[str, Any] | None = None, *, path: str | None = None) -> Sensor:
+    """A sensor from a preset name plus overrides, as a scene file's ``[sensor]`` table gives it.
+
+    Parameters
+    ----------
+    spec : dict
+        ``{"preset": "fullframe_24mp", ...overrides}``; keys are :class:`Sensor` field names.
+        ``cfa`` is a pattern string, ``response`` a camera dataset name
+        (``nikon_d5100``) or a CSV/JSON path, ``peak_qe`` a list of three numbers. ``iso`` is
+        not a sensor property and is refused here (it belongs to the exposure).
+    path : str, optional
+        File the spec came from, for error messages.
+    """
+    spec = dict(spec or {})
+    base = get_preset(spec.pop("preset", "fullframe_24mp"))
+    unknown = set(spec) - _SPEC_KEYS
+    if unknown:
+        raise LensrtError(f"unknown sensor key(s) {sorted(unknown)}", path=path,
+                          hint=f"known keys: preset, {', '.join(sorted(_SPEC_KEYS))}")
+    if "cfa" in spec and not isinstance(spec["cfa"], CFA):
+        spec["cfa"] = parse_cfa(str(spec["cfa"]))
+    if "response" in spec and not isinstance(spec["response"], SpectralResponse):
+        r = str(spec["response"])
+        spec["response"] = camera_response(r) if r in CAMERA_DATASETS else load_response(
+            Path(path).parent / r if path and not Path(r).is_absolute() else r)
+    if "peak_qe" in spec:
+        pq = spec["peak_qe"]
+        spec["peak_qe"] = tuple(float(v) for v in (pq if isinstance(pq, (list, tuple)) else [pq] * 3))
+    try:
+        return replace(base, **spec, sources={**base.sources, **{k: "user" for k in spec}})
+    except TypeError as err:
+        raise LensrtError(f"bad sensor value: {err}", path=path,
+                          hint="numeric keys take numbers, e.g. full_well_e=45000") from None

@@ -202,7 +202,7 @@ class StreamResult:
 
     def moment_sums(self, source: int = 0) -> np.ndarray:
         """Per-batch weighted moment sums (B, 6): w, wx, wy, wxx, wxy, wyy, positions relative to the
-        source's ``centre_mm`` (the order of ``lensrt.analysis.psf.MOMENT_KEYS``)."""
+        source's ``centre_mm`` (the order of ``lensrt.analysis.psf.result.MOMENT_KEYS``)."""
         s = self.batch_stats[source]
         return np.stack([s[:, 1], s[:, 2], s[:, 3], s[:, 4], s[:, 6], s[:, 5]], axis=1)
 
@@ -221,11 +221,11 @@ class StreamResult:
                 "centre_mm": tuple(float(v) for v in self.centre_mm[source])}
 
     def psf_inputs(self, source: int = 0, channel: int = 0) -> dict:
-        """Keyword arguments for ``lensrt.analysis.psf.geometric_psf`` -- all but its ``grid``.
+        """Keyword arguments for ``lensrt.analysis.psf.result.geometric_psf`` -- all but its ``grid``.
 
         The grid is the analysis stage's ``ImageGrid.centred(b["shape"], 1000 * b["pixel_mm"],
         b["centre_mm"])`` with ``b = self.bins(source)`` (square bins; the trace stage does not
-        import the analysis stage): ``lensrt.analysis.raypsf.psf_from_stream`` does both.
+        import the analysis stage): ``lensrt.analysis.psf.geometric.psf_from_stream`` does both.
         Needs ``batch_histograms=True`` and one source per layer; rows run top-down (+y up)
         as the analysis grids do.
         """

@@ -1,0 +1,342 @@
+"""Entrance and exit pupils: paraxial against real, and the real pupil's outline seen from a field point.
+
+Paraxial pupils are the Gaussian images of the stop (Field Guide p. 9-10,
+:func:`lensrt.paraxial.first_order`). The real ones, per field point:
+
+* position: where the real chief ray (through the centre of the real stop)
+  crosses the axis in object space (entrance pupil, CODE V's ``EP DIST``) and in
+  image space (exit pupil). On axis the chief ray is the axis itself; the limit
+  of those crossings there is the paraxial pupil, which is reported.
+* size: the real marginal rays aimed at the rim of the real stop (Px, Py =
+  (0, +-1), (+-1, 0)) traced without the other apertures: in object space their
+  spacing across the beam (tangential, sagittal), in image space their spacing
+  on the plane z of the real exit pupil.
+* outline (:func:`pupil_outline`): the boundary of the rays of a field point that
+  pass *every* aperture (the vignetted pupil, cat's eyes included), found by
+  bisection along 360 azimuths from the chief ray in the plane through the
+  paraxial entrance-pupil centre perpendicular to the beam (the stream kernel's
+  sampling plane). Its area is the beam's transmitted cross-section (mm^2); for a
+  finite object the projected solid angle integral_cos(theta_obj) d(omega) the
+  stream kernel estimates with Lambertian weights. The boundary rays meet the
+  plane of the real exit pupil (z where the real chief ray crosses the axis in
+  image space); seen from the chief ray's image point those points enclose the
+  projected solid angle of the real exit pupil (sr: the area their direction
+  cosines enclose), which sets the image irradiance of a Lambertian object.
+
+The outline assumes the passing region is star-shaped about the chief ray
+(true for intersections of the near-elliptical images of circular apertures);
+a central obstruction is not resolved.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ...errors import LensrtError
+from ...prescription.model import Iris, Lens
+from ...trace import RayBatch, trace
+from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
+from ..raysets import aim_batch, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
+
+__all__ = ["PupilOutline", "pupil_outline", "RealPupils", "real_pupils", "stop_only_lens", "pupil_frame"]
+
+
+def stop_only_lens(lens: Lens) -> Lens:
+    """A copy of ``lens`` with no clear aperture but the stop's (the unvignetted pupil)."""
+    from dataclasses import replace
+    surfaces = tuple(s if i == lens.stop_index else replace(s, semi_diameter_mm=None)
+                     for i, s in enumerate(lens.surfaces))
+    return lens.replace(surfaces=surfaces)
+
+
+def pupil_frame(lens: Lens, fp: FieldPoint) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(C, w, e1, e2): the paraxial EP centre, the beam axis and the basis of the plane perpendicular to it."""
+    geom = pupil_geometry(lens)
+    c = np.array([0.0, 0.0, geom.ep_z_mm])
+    if fp.infinite:
+        w = np.asarray(fp.direction, dtype=np.float64)
+    else:
+        v = c - np.asarray(fp.point_mm, dtype=np.float64)
+        w = v / np.linalg.norm(v)
+    e1, e2 = beam_basis(w)
+    return c, w, e1, e2
+
+
+@dataclass
+class PupilOutline:
+    """The real (vignetted) pupil of one field point (module docstring). Lengths mm, angles rad."""
+
+    object_value: float
+    wavelength_nm: float
+    clip: bool
+    tracer: str
+    azimuth_rad: np.ndarray
+    radius_mm: np.ndarray  # boundary distance from the centre along each azimuth
+    centre_ab_mm: tuple[float, float]  # interior point (the chief ray) in (e1, e2) coordinates about C
+    a_mm: np.ndarray  # boundary, e1 coordinate about C
+    b_mm: np.ndarray  # boundary, e2 coordinate about C
+    area_mm2: float  # cross-section of the passing beam in the plane
+    projected_solid_angle_sr: float | None  # finite object: integral of cos(theta_obj) d(omega); None at infinity
+    exit_direction: np.ndarray  # (n, 3) image-space directions of the boundary rays
+    exit_projected_solid_angle_sr: float  # the real exit pupil's, seen from the chief ray's image point
+    rays: int = 0
+    frame: tuple = field(default=(), repr=False)
+    infinite: bool = True
+
+    def to_dict(self, points: int = 72) -> dict:
+        step = max(1, len(self.a_mm) // points)
+        key, val = ("field_deg", math.degrees(self.object_value)) if self.infinite else \
+            ("object_height_mm", self.object_value)
+        return {key: val, "wavelength_nm": self.wavelength_nm, "clip": self.clip,
+                "area_mm2": self.area_mm2, "projected_solid_angle_sr": self.projected_solid_angle_sr,
+                "exit_projected_solid_angle_sr": self.exit_projected_solid_angle_sr,
+                "centre_ab_mm": self.centre_ab_mm, "outline_a_mm": self.a_mm[::step],
+                "outline_b_mm": self.b_mm[::step], "rays": self.rays, "tracer": self.tracer}
+
+
+def _passes_kernel(lens: Lens, clip: bool, iris: Iris | None, device: str | None):
+    def passes(o: np.ndarray, d: np.ndarray, wl: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        r = trace(lens, RayBatch(o, d, wl), "float64", device, clip=clip, iris=iris)
+        return r.ok, r.direction, r.position_mm
+    return passes
+
+
+def _passes_reference(lens: Lens, clip: bool, iris: Iris | None):
+    from ...trace.reference import trace_reference
+    from ...trace.status import OK
+
+    def passes(o: np.ndarray, d: np.ndarray, wl: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        ok = np.zeros(len(o), dtype=bool)
+        out, pos = np.zeros((len(o), 3)), np.zeros((len(o), 3))
+        for i in range(len(o)):
+            r = trace_reference(lens, o[i], d[i], wl, clip=clip, iris=iris)
+            ok[i] = r.status == OK
+            out[i] = (r.L, r.M, r.N)
+            pos[i] = (r.x_mm, r.y_mm, r.z_mm)
+        return ok, out, pos
+    return passes
+
+
+def _interior_point(lens: Lens, fp: FieldPoint, wl: float, c: np.ndarray, e1: np.ndarray, e2: np.ndarray, shoot,
+                    device: str | None) -> tuple[float, float]:
+    """A point inside the passing region when the chief ray is vignetted: the centre of the passing grid rays."""
+    from ...trace.stream import pupil_box
+    box = pupil_box(lens, fp, [wl], device=device, coarse=64, fine=32)
+    if box.area_mm2 > 0:
+        n = 24
+        a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
+        b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
+        A, B = (g.ravel() for g in np.meshgrid(a, b, indexing="ij"))
+        # the box's frame is the same plane through C (the stream kernel's), so (a, b) carry over
+        ok = shoot(A, B)[0]
+        if ok.any():
+            a0, b0 = float(A[ok].mean()), float(B[ok].mean())
+            if shoot(np.array([a0]), np.array([b0]))[0][0]:
+                return a0, b0
+            k = int(np.argmin((A[ok] - a0) ** 2 + (B[ok] - b0) ** 2))
+            return float(A[ok][k]), float(B[ok][k])
+    raise LensrtError("no ray of this field point passes the lens: no pupil outline")
+
+
+def _azimuth_integral(per_azimuth: np.ndarray) -> float:
+    """Integral over the azimuth of equally spaced samples (trapezoidal rule, periodic).
+
+    The pupil boundary has corners (where aperture images meet), so the rule errs
+    as O(dphi^2); Richardson extrapolation with every other sample removes that term.
+    """
+    n = len(per_azimuth)
+    dphi = 2.0 * np.pi / n
+    fine = float(np.sum(per_azimuth)) * dphi
+    if n % 2 or n < 16:
+        return fine
+    coarse = float(np.sum(per_azimuth[::2])) * 2.0 * dphi
+    return (4.0 * fine - coarse) / 3.0
+
+
+def _shoelace(x: np.ndarray, y: np.ndarray) -> float:
+    """Area of the polygon (x, y); Richardson with every other vertex for a curve sampled evenly in azimuth."""
+    def area(a: np.ndarray, b: np.ndarray) -> float:
+        return 0.5 * abs(float(np.dot(a, np.roll(b, -1)) - np.dot(b, np.roll(a, -1))))
+    fine = area(x, y)
+    if len(x) % 2 or len(x) < 16:
+        return fine
+    return (4.0 * fine - area(x[::2], y[::2])) / 3.0
+
+
+def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None = None, *, n_azimuth: int = 360,
+                  iterations: int = 40, clip: bool = True, tracer: str = "kernel", iris: Iris | None = None,
+                  device: str | None = None, radial_nodes: int = 16) -> PupilOutline:
+    """The real pupil's outline and area for the field point at ``object_value`` (module docstring).
+
+    ``tracer`` "kernel" (float64 store kernel) or "reference" (the float64 NumPy
+    reference tracer, one ray at a time: the independent check).
+    """
+    if tracer not in ("kernel", "reference"):
+        raise LensrtError(f"unknown tracer {tracer!r}", hint="use 'kernel' or 'reference'")
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    fp = object_field_point(lens, object_value)
+    c, w, e1, e2 = pupil_frame(lens, fp)
+    passes = _passes_kernel(lens, clip, iris, device) if tracer == "kernel" else _passes_reference(lens, clip, iris)
+    rays = 0
+
+    def shoot(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        nonlocal rays
+        o, d = ray_through_point(fp, c + a[:, None] * e1 + b[:, None] * e2)
+        rays += len(a)
+        return passes(o, d, wl)
+
+    # the interior point: the real chief ray's crossing of the plane
+    ch = aim_batch(lens, fp, 0.0, 0.0, wl, "real", device)
+    t = float((c - ch.origin_mm[0]) @ w / (ch.direction[0] @ w))
+    q = ch.origin_mm[0] + t * ch.direction[0] - c
+    a0, b0 = float(q @ e1), float(q @ e2)
+    if not shoot(np.array([a0]), np.array([b0]))[0][0]:
+        a0, b0 = _interior_point(lens, fp, wl, c, e1, e2, shoot, device)
+    geom = pupil_geometry(lens)
+    s1 = lens.surfaces[0]
+    sd1 = s1.semi_diameter_mm if s1.semi_diameter_mm is not None else 10.0 * geom.ep_radius_mm
+    hi0 = 2.0 * (sd1 + abs(geom.ep_z_mm) + math.hypot(a0, b0)) + 4.0 * geom.ep_radius_mm
+    if not fp.infinite:
+        dist = float((c - np.asarray(fp.point_mm)) @ w)
+        hi0 *= max(1.0, dist / max(dist - abs(geom.ep_z_mm), 1e-9))
+    phi = np.linspace(0.0, 2.0 * np.pi, n_azimuth, endpoint=False)
+    cos, sin = np.cos(phi), np.sin(phi)
+    hi = np.full(n_azimuth, hi0)
+    for _ in range(6):  # make sure every azimuth starts outside the pupil
+        ok = shoot(a0 + hi * cos, b0 + hi * sin)[0]
+        if not ok.any():
+            break
+        hi = np.where(ok, 4.0 * hi, hi)
+    else:
+        raise LensrtError("rays pass the lens far outside its entrance pupil: no pupil outline",
+                          hint="give the lens clear apertures")
+    lo = np.zeros(n_azimuth)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        ok = shoot(a0 + mid * cos, b0 + mid * sin)[0]
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    ok, dirs, pos = shoot(a0 + lo * cos, b0 + lo * sin)
+    rho = lo
+    area = _azimuth_integral(0.5 * rho * rho)
+    solid = None
+    if not fp.infinite:
+        # integral of the stream kernel's Lambertian weight: cos(beam angle) (D/r)^2 cos(theta_obj) / D^2
+        x, wq = np.polynomial.legendre.leggauss(radial_nodes)
+        s = 0.5 * (x + 1.0)
+        o = np.asarray(fp.point_mm, dtype=np.float64)
+        per = np.zeros(n_azimuth)
+        for k in range(n_azimuth):
+            r = s * rho[k]
+            p = c + (a0 + r * cos[k])[:, None] * e1 + (b0 + r * sin[k])[:, None] * e2
+            v = p - o
+            dist = np.linalg.norm(v, axis=1)
+            u = v / dist[:, None]
+            g = (u @ w) * u[:, 2] / dist ** 2
+            per[k] = float(np.sum(0.5 * rho[k] * wq * g * r))
+        solid = _azimuth_integral(per)
+    # the real exit pupil seen from the chief ray's image point C: the boundary rays meet the plane of the
+    # real exit pupil (where the chief ray crosses the axis) at X; directions C -> X span the pupil
+    ch_img = trace64(lens, ch, device)
+    ex_solid = math.nan
+    if ok.all() and ch_img.ok[0]:
+        cpt, cdir = ch_img.position_mm[0], ch_img.direction[0]
+        z_xp = exit_pupil_point_z_mm(lens, cpt, cdir, wl)
+        if math.isfinite(z_xp):
+            x = pos + ((z_xp - pos[:, 2]) / dirs[:, 2])[:, None] * dirs
+            u = x - cpt
+            u /= np.linalg.norm(u, axis=1)[:, None]
+        else:  # exit pupil at infinity: the rays' own directions
+            u = dirs
+        ex_solid = _shoelace(u[:, 0], u[:, 1])
+    return PupilOutline(float(object_value), wl, clip, tracer, phi, rho, (a0, b0), a0 + rho * cos, b0 + rho * sin,
+                        area, solid, dirs, ex_solid, rays, (c, w, e1, e2), fp.infinite)
+
+
+@dataclass
+class RealPupils:
+    """Paraxial and real pupils against field at one wavelength (module docstring). Positions z from the first
+    vertex, sizes full widths (mm)."""
+
+    wavelength_nm: float
+    paraxial: dict
+    object_value: np.ndarray
+    labels: list[str]
+    entrance_pupil_z_mm: np.ndarray
+    exit_pupil_z_mm: np.ndarray
+    entrance_tangential_mm: np.ndarray
+    entrance_sagittal_mm: np.ndarray
+    exit_tangential_mm: np.ndarray
+    exit_sagittal_mm: np.ndarray
+    real_working_f_number: float  # 1 / (2 n' sin U') of the real axial marginal ray
+    outlines: list[PupilOutline] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"wavelength_nm": self.wavelength_nm, "paraxial": self.paraxial, "fields": self.labels,
+                "entrance_pupil_z_mm": self.entrance_pupil_z_mm, "exit_pupil_z_mm": self.exit_pupil_z_mm,
+                "entrance_pupil_tangential_mm": self.entrance_tangential_mm,
+                "entrance_pupil_sagittal_mm": self.entrance_sagittal_mm,
+                "exit_pupil_tangential_mm": self.exit_tangential_mm, "exit_pupil_sagittal_mm": self.exit_sagittal_mm,
+                "real_working_f_number": self.real_working_f_number,
+                "vignetted_outlines": [o.to_dict() for o in self.outlines]}
+
+
+def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = None, *, outlines: bool = True,
+                n_azimuth: int = 180, device: str | None = None) -> RealPupils:
+    """Paraxial against real pupils at normalised fields ``hy`` (module docstring)."""
+    from ...paraxial import first_order
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    fo = first_order(lens, wl)
+    par = {"entrance_pupil_z_mm": fo.entrance_pupil_z_mm, "entrance_pupil_diameter_mm": fo.entrance_pupil_diameter_mm,
+           "exit_pupil_z_mm": fo.exit_pupil_z_mm, "exit_pupil_diameter_mm": fo.exit_pupil_diameter_mm,
+           "f_number": fo.f_number, "working_f_number": fo.working_f_number}
+    specs = [field_spec(lens, h) for h in hy]
+    n = len(specs)
+    ep_z, xp_z = np.full(n, np.nan), np.full(n, np.nan)
+    ent_t, ent_s, ex_t, ex_s = (np.full(n, np.nan) for _ in range(4))
+    pup = np.array([[0.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
+    outs = []
+    for k, spec in enumerate(specs):
+        fp = object_field_point(lens, spec.object_value)
+        rays = aim_batch(lens, fp, pup[:, 0], pup[:, 1], wl, "real", device)
+        r = trace64(lens, rays, device)
+        good = r.ok & rays.aimed
+        o, d = rays.origin_mm, rays.direction
+        p, v = r.position_mm, r.direction
+        if good[0]:  # the chief ray: pupil positions
+            if abs(spec.object_value) < 1e-12:
+                ep_z[k], xp_z[k] = fo.entrance_pupil_z_mm, fo.exit_pupil_z_mm
+            else:
+                ep_z[k] = float(o[0, 2] - o[0, 1] * d[0, 2] / d[0, 1])
+                xp_z[k] = float(p[0, 2] - p[0, 1] * v[0, 2] / v[0, 1]) if abs(v[0, 1]) > 1e-12 else math.inf
+        # sizes from each pair of stop-rim rays that exists (a fast wide angle's lower rim ray may miss a
+        # surface's sphere off axis: that size stays NaN, the others are still reported)
+        c, w, e1, e2 = pupil_frame(lens, fp)
+        t = ((c - o) @ w) / (d @ w)
+        q = o + t[:, None] * d - c
+        tan_ok, sag_ok = bool(good[1] and good[2]), bool(good[3] and good[4])
+        if tan_ok:
+            ent_t[k] = abs(float((q[1] - q[2]) @ e2))
+        if sag_ok:
+            ent_s[k] = abs(float((q[3] - q[4]) @ e1))
+        if math.isfinite(xp_z[k]):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = p + ((xp_z[k] - p[:, 2]) / v[:, 2])[:, None] * v
+            if tan_ok:
+                ex_t[k] = abs(float(x[1, 1] - x[2, 1]))
+            if sag_ok:
+                ex_s[k] = abs(float(x[3, 0] - x[4, 0]))
+        if outlines:
+            try:
+                outs.append(pupil_outline(lens, spec.object_value, wl, n_azimuth=n_azimuth, device=device))
+            except LensrtError:
+                pass
+    # the real working f-number from the real axial marginal ray
+    fp0 = object_field_point(lens, 0.0)
+    m = trace64(lens, aim_batch(lens, fp0, 0.0, 1.0, wl, "real", device), device)
+    n_img = float(lens.indices(wl)[-1])
+    nw = 1.0 / (2.0 * n_img * abs(float(m.direction[0, 1]))) if m.ok[0] and m.direction[0, 1] != 0 else math.nan
+    return RealPupils(wl, par, np.array([s.object_value for s in specs]), [s.label for s in specs], ep_z, xp_z,
+                      ent_t, ent_s, ex_t, ex_s, nw, outs)

@@ -1,0 +1,255 @@
+"""Diffraction PSFs on real rays, and the choice between FFT, Huygens and geometric.
+
+For one field point (:func:`diffraction_psf_at`): trace the wavefront at each
+wavelength of the spectrum (:func:`lensrt.analysis.wave.wavefront.trace_wavefronts`,
+float64 store kernel), grid it into a pupil function, and transform:
+
+* **FFT** (``diffraction-fft``): one wavelength -- the zero-padded FFT
+  (padding Q, pitch lambda N_w / Q), cropped to the central ``pixels`` square;
+* **MFT** (``diffraction-mft``): several wavelengths -- each evaluated by the
+  matrix Fourier transform on one common grid (pitch lambda_min N_w / Q, so
+  every wavelength is at or above Nyquist) and summed with the spectral weights;
+* **Huygens** (``diffraction-huygens``): direct summation of spherical wavelets
+  from the reference sphere (exact distances), each wavelength on the common
+  grid -- used where the Debye (Fourier) picture fails.
+
+Sampling is adapted before anything is transformed: the pupil grid starts at
+``setup.pupil_samples`` cells and doubles (up to ``max_pupil_samples``) until
+the OPD changes by at most half a wave between neighbouring cells; the ray
+grid starts at ``setup.ray_grid`` rays per side and grows (x1.5, up to
+``max_ray_grid``) until the linear interpolation error estimate
+(max |second difference of the OPD| / 8) is below 0.02 waves.
+
+Which method when (``method="auto"``, reported as ``metadata["method"]`` with
+``metadata["method_reason"]``):
+
+1. **geometric** when the OPD peak-to-valley exceeds ``pv_max_waves`` (20 waves)
+   or the pupil cannot be sampled at half a wave per cell with
+   ``max_pupil_samples`` cells: aberrations dominate diffraction and the ray
+   histogram is the right PSF (and far cheaper);
+2. **Huygens** when the Fresnel number a^2 / (lambda R) = NA^2 R / lambda of the
+   reference sphere is below ``fresnel_min`` (20): the Debye approximation behind
+   the Fourier methods needs N_F >> 1 (Li & Wolf 1981);
+3. **FFT** (one wavelength) or **MFT** (several) otherwise.
+
+``method="diffraction"`` skips rule 1 (the sampling limits are then reported,
+not acted on).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ...errors import LensrtError
+from ...units import NM_PER_MM, UM_PER_MM
+from ..wave.propagation import psf_fft, psf_huygens, psf_mft, sampling_report
+from ..fields import FieldSpec
+from ..grid import ImageGrid
+from .result import PsfResult, diffraction_result
+from .setup import PsfSetup
+from .geometric import FieldGeometry, add_mtf_estimates, prepare_field
+from ..pupil_rays import field_xy_of
+from ..wave.wavefront import pupil_function_from_wavefront, trace_wavefronts
+
+__all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet"]
+
+#: ray-grid interpolation error goal (waves) and pupil phase-step limit (waves per cell)
+_INTERP_GOAL_WAVES = 0.02
+_PHASE_STEP_MAX = 0.5
+
+
+class WavefrontSet:
+    """Traced wavefronts of one field point with the ray grid adapted to the interpolation goal."""
+
+    def __init__(self, setup: PsfSetup, geom: FieldGeometry, device: str | None = None) -> None:
+        spec = setup.spectrum
+        m = int(setup.ray_grid)
+        while True:
+            wfs = trace_wavefronts(setup.lens, geom.fp, geom.box, spec.lines_nm, setup.plane_z_mm, m,
+                                   spec.primary_nm, device)
+            err = max(w.interp_error_waves for w in wfs)
+            if err <= _INTERP_GOAL_WAVES or m >= setup.max_ray_grid:
+                break
+            m = min(int(setup.max_ray_grid), int(round(m * 1.5)))
+        self.wavefronts = wfs
+        self.ray_grid = m
+        self.interp_error_waves = err
+        self.pv_waves = max(w.opd_pv_waves for w in wfs)
+        self.rms_waves = max(w.opd_rms_waves for w in wfs)
+        sph = wfs[0].sphere
+        self.sphere = sph
+        r = abs(sph.radius_mm)
+        self.fresnel_number = min(w.na_real ** 2 * r / (w.wavelength_nm / NM_PER_MM) for w in wfs) \
+            if math.isfinite(r) else math.inf
+        self.rays = sum(w.rays for w in wfs) * 2
+        self.spot_half_mm = max(w.spot_half_mm for w in wfs)
+
+    def pupils(self, n: int):
+        out = [pupil_function_from_wavefront(w, n) for w in self.wavefronts]
+        return [p for p, _ in out], [i for _, i in out]
+
+
+def choose_method(setup: PsfSetup, wset: WavefrontSet) -> tuple[str, str]:
+    """(method, reason) for ``setup.method`` and a traced wavefront (module docstring)."""
+    if setup.method == "geometric":
+        return "geometric", "asked for"
+    if setup.method == "auto" and wset.pv_waves > setup.pv_max_waves:
+        return "geometric", (f"OPD peak-to-valley {wset.pv_waves:.3g} waves > {setup.pv_max_waves:g}: "
+                             "aberrations dominate diffraction")
+    if setup.method == "auto" and setup.pitch_um is None:
+        lam_n = min(w.wavelength_nm / NM_PER_MM * 0.5 / w.na for w in wset.wavefronts)
+        if not window_pitch_um(setup, wset, lam_n)[1]:
+            return "geometric", (f"the geometric spot (half-width {wset.spot_half_mm * UM_PER_MM:.3g} um) does "
+                                 f"not fit {setup.pixels} pixels at the Nyquist pitch: aberrations dominate")
+    if wset.fresnel_number < setup.fresnel_min:
+        return "huygens", f"Fresnel number {wset.fresnel_number:.3g} < {setup.fresnel_min:g}: Debye fails"
+    if len(wset.wavefronts) == 1:
+        return "fft", (f"OPD peak-to-valley {wset.pv_waves:.3g} waves, Fresnel number "
+                       f"{wset.fresnel_number:.3g}: Fourier (Debye) optics, one wavelength")
+    return "mft", (f"OPD peak-to-valley {wset.pv_waves:.3g} waves, Fresnel number {wset.fresnel_number:.3g}: "
+                   "Fourier (Debye) optics, wavelengths summed on a common grid")
+
+
+def window_pitch_um(setup: PsfSetup, wset: WavefrontSet, lam_n_mm: float) -> tuple[float, bool]:
+    """(pitch um, fits): lambda_min N_w / Q unless the grid of ``setup.pixels`` must be coarser to hold the
+    geometric spot (1.15 x its half-width plus 3 lambda N of diffraction margin on each side); ``fits`` is
+    False when even the Nyquist pitch lambda N / 2 cannot hold it (the PSF is then undersampled)."""
+    if setup.pitch_um is not None:
+        return float(setup.pitch_um), True
+    need_mm = 2.0 * (1.15 * wset.spot_half_mm + 3.0 * lam_n_mm)
+    pitch_mm = lam_n_mm / setup.padding
+    if setup.pixels * pitch_mm >= need_mm:
+        return pitch_mm * UM_PER_MM, True
+    return need_mm / setup.pixels * UM_PER_MM, need_mm / setup.pixels <= 0.5 * lam_n_mm * (1 + 1e-9)
+
+
+def sampled_pupils(setup: PsfSetup, wset: WavefrontSet):
+    n = int(setup.pupil_samples)
+    while True:
+        pupils, infos = wset.pupils(n)
+        step = max(sampling_report(p)["max_phase_step_waves"] for p in pupils)
+        if step <= _PHASE_STEP_MAX or n >= setup.max_pupil_samples:
+            return pupils, infos, n, step
+        n = min(int(setup.max_pupil_samples), 2 * n)
+
+
+def diffraction_psf_at(setup: PsfSetup, f: FieldSpec, device: str | None = None,
+                       geom: FieldGeometry | None = None, wset: WavefrontSet | None = None,
+                       method: str | None = None, reason: str = "") -> PsfResult:
+    """The diffraction PSF of field ``f`` by FFT, MFT or Huygens (module docstring).
+
+    ``method`` ("fft", "mft", "huygens") overrides the choice; by default
+    :func:`choose_method` decides (and may answer "geometric": then call
+    :func:`lensrt.analysis.psf.geometric.geometric_psf_at` instead).
+    """
+    t0 = time.perf_counter()
+    geom = prepare_field(setup, f, device) if geom is None else geom
+    wset = WavefrontSet(setup, geom, device) if wset is None else wset
+    if method is None:
+        method, reason = choose_method(setup, wset)
+        if method == "geometric":
+            raise LensrtError(f"field {f.label}: {reason}; this is a case for the geometric PSF")
+    pupils, infos, n, step = sampled_pupils(setup, wset)
+    spec = setup.spectrum
+    weights = np.asarray(spec.line_weights)
+    q = setup.padding
+    ref = (float(wset.sphere.centre_mm[0]), float(wset.sphere.centre_mm[1]))
+    lam_n_min = min(p.wavelength_mm * p.working_f_number for p in pupils)
+    pixels = int(setup.pixels)
+    pitch_um, fits = window_pitch_um(setup, wset, lam_n_min)
+    sampling = []
+    if method == "fft" and not math.isclose(pitch_um, lam_n_min * UM_PER_MM / q, rel_tol=1e-12):
+        method = "mft"  # a pitch other than lambda N / Q: evaluate on that grid instead
+    if method == "fft":
+        psf, fgrid, rep = psf_fft(pupils[0], q, ref)
+        sampling.append(rep)
+        m = fgrid.shape[0]
+        if pixels < m:  # crop the central pixels x pixels; Q stays on the same (zero-frequency) pixel
+            r0 = (m - 1 - m // 2) - (pixels - 1 - pixels // 2)
+            c0 = m // 2 - pixels // 2
+            psf = psf[r0:r0 + pixels, c0:c0 + pixels]
+            grid = ImageGrid.fft(pixels, fgrid.pitch_um, ref)
+        else:
+            grid = fgrid
+        kind = "diffraction-fft"
+    else:
+        grid = ImageGrid.fft(pixels, pitch_um, ref)
+        psf = np.zeros(grid.shape)
+        for p, w in zip(pupils, weights / weights.sum()):
+            if w <= 0:
+                continue
+            sampling.append(sampling_report(p, grid=grid))
+            if method == "huygens":
+                psf += w * psf_huygens(p, grid, abs(wset.sphere.radius_mm), ref)
+            else:
+                psf += w * psf_mft(p, grid, ref)
+        kind = "diffraction-huygens" if method == "huygens" else "diffraction-mft"
+    seconds = time.perf_counter() - t0
+    na_eq = float(infos[0]["equivalent_na"])
+    meta = {"method": kind.replace("diffraction-", ""), "method_reason": reason, "focus": setup.focus,
+            "spectrum": spec.to_dict(), "field": f.to_dict(), "reference_sphere": wset.sphere.to_dict(),
+            "fresnel_number": wset.fresnel_number if math.isfinite(wset.fresnel_number) else None,
+            "opd_pv_waves": wset.pv_waves, "opd_rms_waves": wset.rms_waves, "ray_grid": wset.ray_grid,
+            "ray_interp_error_waves": wset.interp_error_waves, "pupil_samples": n,
+            "max_phase_step_waves": step, "pupil_sampling_ok": step <= _PHASE_STEP_MAX,
+            "padding": q, "window_holds_spot": fits, "working_f_number": 0.5 / na_eq if na_eq > 0 else None,
+            "working_f_number_definition": "1 / (2 NA) of the circle with the clear pupil's area in "
+                                           "direction-cosine space (first wavelength)",
+            "grid_working_f_number": pupils[0].working_f_number,
+            "sampling": sampling, "gridding": [{k: v for k, v in i.items() if k != "zernike_mm"} for i in infos],
+            "precision": "float64", "device": device or "auto"}
+    result = diffraction_result(psf, grid, kind, wavelengths_nm=spec.lines_nm, weights=spec.line_weights,
+                                reference_mm=ref, field_xy=field_xy_of(setup.lens, f.hx, f.hy),
+                                field_kind=setup.lens.fields.kind, samples=wset.rays, seconds=seconds,
+                                ee_fractions=setup.ee_fractions, metadata=meta)
+    if method == "huygens":  # no Fourier shortcut: the MTF of the sampled window
+        add_mtf_estimates(result, None, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm)
+    else:
+        result.metadata["mtf_from"] = "weighted sum of each wavelength's OTF (pupil autocorrelation)"
+        add_mtf_estimates(result, None, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm,
+                          pupil_mtf_function(pupils, weights, q, ref))
+    return replace(result, seconds=time.perf_counter() - t0)
+
+
+def pupil_otf(pupil) -> tuple[np.ndarray, float]:
+    """The OTF of a pupil function on its shift grid: (C (2n, 2n) complex, cycles/mm per cell).
+
+    OTF(nu) = sum_p P(p) P*(p + nu lambda / NA) / sum |P|^2 (the PSF's Fourier transform about the
+    reference point), by FFT autocorrelation with 2x padding (no wrap-around); index [n + ky, n + kx]
+    holds the shift (kx, ky) cells, +y up. One cell is 2 NA / (n lambda) cycles/mm.
+    """
+    n = pupil.n
+    pm = np.zeros((2 * n, 2 * n), dtype=np.complex128)
+    pm[:n, :n] = np.flipud(pupil.field())  # math orientation: row index grows with +py
+    f = np.fft.fft2(pm)
+    acf = np.fft.ifft2(np.abs(f) ** 2)  # acf[d] = sum_p P*(p) P(p + d) = conj(C(d)) = C(-d)
+    c = np.fft.fftshift(acf[::-1, ::-1])  # C(d) = acf[-d]; after the shift, index n is d = 0
+    c = np.roll(c, 1, axis=(0, 1))
+    return c / c[n, n].real, 2.0 * pupil.na / (n * pupil.wavelength_mm)
+
+
+def pupil_mtf_function(pupils, weights, padding: float, reference_mm: tuple[float, float]):
+    """``fn(freqs_cpmm, angle_rad) -> MTF``: |sum_i w_i OTF_i(nu)| from each wavelength's pupil
+    autocorrelation (exact for the sampled pupil: no PSF window, no wrap-around), cubic interpolation
+    between shift cells."""
+    from scipy.ndimage import map_coordinates
+    otfs = [pupil_otf(p) for p in pupils]
+    w = np.asarray(weights, dtype=np.float64) / np.sum(weights)
+
+    def fn(freqs: np.ndarray, angle: float) -> np.ndarray:
+        f = np.asarray(freqs, dtype=np.float64)
+        total = np.zeros(f.size, dtype=np.complex128)
+        for wi, (c, cell), p in zip(w, otfs, pupils):
+            if wi <= 0:
+                continue
+            n = p.n
+            kx, ky = f * math.cos(angle) / cell + n, f * math.sin(angle) / cell + n
+            coords = np.vstack([ky, kx])
+            v = (map_coordinates(c.real, coords, order=3, mode="constant")
+                 + 1j * map_coordinates(c.imag, coords, order=3, mode="constant"))
+            total += wi * v
+        return np.clip(np.abs(total), 0.0, None)
+    return fn

@@ -1,0 +1,244 @@
+"""Rays for the paraxial-against-real analyses, built on the public pieces of :mod:`lensrt.trace`.
+
+Field points here are named by their *object-space* value: a field angle
+theta (rad, object at infinity) or an object height h (mm, finite object),
+along an azimuth (default +y, the meridional plane y-z). A positive angle is
+a beam rising toward +y (the object at -y) and images at +y; a positive object
+height is at +y and images at -y through a positive lens (as in
+:mod:`lensrt.trace.aiming`). Angles may pass 90 degrees (fisheyes).
+
+Close (differential) rays sit beside a chief ray: offset by +-delta across a
+collimated beam, or turned by +-epsilon about a finite object point, in the
+tangential (meridional) and sagittal directions. Their foci converge to the
+Coddington foci as delta -> 0 with an O(delta^2) error (the symmetric pair
+cancels the O(delta) term), see :mod:`lensrt.analysis.compare.focus`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..paraxial import FirstOrder, first_order, paraxial_system, trace_ynu
+from ..prescription.model import Lens
+from ..trace import RayBatch, RayResult, kernel_to_stop, trace
+from ..trace.aiming import FieldPoint, aim_rays, beam_basis, field_point, pupil_geometry
+
+__all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "chief_batch",
+           "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
+           "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
+           "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
+
+#: close rays sit this fraction of the entrance-pupil radius beside the chief ray
+CLOSE_RAY_FRACTION = 1e-4
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """One radial field point of a lens.
+
+    Attributes
+    ----------
+    hy : float
+        Normalised (polar) field, ``value / lens.fields.max_radial``.
+    value : float
+        In the lens's field unit: rad for angle fields, mm for heights.
+    object_value : float
+        Object space: angle (rad) for an object at infinity, height (mm) otherwise.
+    infinite : bool
+        Object at infinity.
+    label : str
+        E.g. "14.00 deg" or "12.500 mm".
+    """
+
+    hy: float
+    value: float
+    object_value: float
+    infinite: bool
+    label: str
+
+
+def field_unit(lens: Lens) -> str:
+    """'deg' for angle fields, else 'mm'."""
+    return "deg" if lens.fields.kind == "angle" else "mm"
+
+
+#: JSON key / column name of a field value in the lens's own field unit, by field kind
+FIELD_KEYS = {"angle": "field_deg", "object_height": "object_height_mm",
+              "paraxial_image_height": "paraxial_image_height_mm", "real_image_height": "real_image_height_mm"}
+
+
+def field_key(lens: Lens) -> str:
+    """Name of the lens's field values with their unit (``field_deg``, ``object_height_mm``, ...)."""
+    return FIELD_KEYS[lens.fields.kind]
+
+
+def field_display(lens: Lens, spec: "FieldSpec") -> float:
+    """A field value in the lens's field unit at the edge: degrees for angles, mm for heights."""
+    return math.degrees(spec.value) if lens.fields.kind == "angle" else spec.value
+
+
+def _label(lens: Lens, value: float) -> str:
+    return f"{math.degrees(value):.2f} deg" if lens.fields.kind == "angle" else f"{value:.3f} mm"
+
+
+def field_spec(lens: Lens, hy: float, value: float | None = None) -> FieldSpec:
+    """The field point at normalised field ``hy`` (along +y); ``value`` (lens field unit) if known exactly."""
+    fp = field_point(lens, 0.0, float(hy))
+    value = float(hy) * lens.fields.max_radial if value is None else float(value)
+    if fp.infinite and lens.fields.kind == "angle":
+        obj = value
+    elif fp.infinite:
+        dx, dy, dz = fp.direction
+        obj = math.atan2(math.hypot(dx, dy), dz)
+    else:
+        obj = math.hypot(fp.point_mm[0], fp.point_mm[1])
+    return FieldSpec(float(hy), value, float(obj), fp.infinite, _label(lens, value))
+
+
+def lens_fields(lens: Lens, extra: Sequence[float] | None = None) -> list[FieldSpec]:
+    """The lens's radial field points (sorted, duplicates dropped) plus ``extra`` (lens field units)."""
+    fmax = lens.fields.max_radial
+    values = {round(math.hypot(x, y), 12) for x, y in zip(lens.fields.x, lens.fields.y)}
+    for v in extra or ():
+        if not math.isfinite(v) or v < 0:
+            raise LensrtError(f"field value {v!r} must be a non-negative number in the lens's field unit")
+        values.add(round(float(v), 12))
+    if fmax <= 0.0:
+        return [field_spec(lens, 0.0)]
+    return [field_spec(lens, v / fmax, v) for v in sorted(values)]
+
+
+def object_field_point(lens: Lens, object_value: float, azimuth_rad: float = math.pi / 2) -> FieldPoint:
+    """Field point at object-space value (angle rad or height mm) along ``azimuth_rad`` (from +x)."""
+    ca, sa = math.cos(azimuth_rad), math.sin(azimuth_rad)
+    if abs(ca) < 1e-15:
+        ca = 0.0
+    if math.isinf(lens.object_distance_mm):
+        s, c = math.sin(object_value), math.cos(object_value)
+        return FieldPoint(True, (s * ca, s * sa, c), None)
+    return FieldPoint(False, None, (object_value * ca, object_value * sa, -lens.object_distance_mm))
+
+
+def aim_batch(lens: Lens, fp: FieldPoint, px, py, wavelength_nm: float, aim: str = "real",
+              device: str | None = None) -> RayBatch:
+    """Rays of field point ``fp`` at pupil coordinates (px, py) (see :mod:`lensrt.trace.aiming`)."""
+    to_stop = None if aim == "paraxial" else kernel_to_stop(lens, device)
+    o, d, ok = aim_rays(lens, fp, np.atleast_1d(px), np.atleast_1d(py), float(wavelength_nm), aim, to_stop)
+    return RayBatch(o, d, float(wavelength_nm), ok)
+
+
+def chief_batch(lens: Lens, fps: Sequence[FieldPoint], wavelength_nm: float,
+                device: str | None = None) -> RayBatch:
+    """Real chief rays (through the centre of the real stop) of several field points."""
+    parts = [aim_batch(lens, fp, 0.0, 0.0, wavelength_nm, "real", device) for fp in fps]
+    return RayBatch(np.concatenate([p.origin_mm for p in parts]), np.concatenate([p.direction for p in parts]),
+                    float(wavelength_nm), np.concatenate([p.aimed for p in parts]))
+
+
+def trace64(lens: Lens, rays: RayBatch, device: str | None = None, *, clip: bool = False,
+            plane_z_mm: float | None = None) -> RayResult:
+    """Store-kernel trace in float64 (the analyses' precision)."""
+    return trace(lens, rays, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
+
+
+def close_ray_batch(lens: Lens, chief: RayBatch, fps: Sequence[FieldPoint],
+                    fraction: float = CLOSE_RAY_FRACTION) -> RayBatch:
+    """Three close rays per chief ray: tangential +delta, tangential -delta, sagittal +delta.
+
+    Rows 3k, 3k+1, 3k+2 belong to chief ray k. For a collimated beam the ray is
+    moved by delta = ``fraction`` x r_EP across the beam; from a finite object
+    point it is turned by delta / (distance to the entrance pupil) about that point.
+    """
+    geom = pupil_geometry(lens)
+    delta = fraction * geom.ep_radius_mm
+    o, d = [], []
+    for k, fp in enumerate(fps):
+        d0 = chief.direction[k]
+        e1, e2 = beam_basis(d0)
+        if fp.infinite:
+            o0 = chief.origin_mm[k]
+            o += [o0 + delta * e2, o0 - delta * e2, o0 + delta * e1]
+            d += [d0, d0, d0]
+        else:
+            p = np.asarray(fp.point_mm, dtype=np.float64)
+            eps = delta / max(abs(geom.ep_z_mm - p[2]), 1e-9)
+            for v in (d0 + eps * e2, d0 - eps * e2, d0 + eps * e1):
+                o.append(p)
+                d.append(v / np.linalg.norm(v))
+    return RayBatch(np.array(o), np.array(d), float(chief.wavelength_nm[0]))
+
+
+def meridional_intersection_z(p1: np.ndarray, v1: np.ndarray, p2: np.ndarray, v2: np.ndarray) -> np.ndarray:
+    """z where two rays' projections on the y-z plane cross (rows of (n, 3) arrays)."""
+    det = v1[:, 1] * (-v2[:, 2]) - (-v2[:, 1]) * v1[:, 2]
+    by, bz = p2[:, 1] - p1[:, 1], p2[:, 2] - p1[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (by * (-v2[:, 2]) - (-v2[:, 1]) * bz) / det
+    return p1[:, 2] + s * v1[:, 2]
+
+
+def plane_crossing_z(p: np.ndarray, v: np.ndarray, axis: int) -> np.ndarray:
+    """z where rays (n, 3) cross the plane {coordinate ``axis`` = 0} (0: x = 0, 1: y = 0)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return p[:, 2] - p[:, axis] * v[:, 2] / v[:, axis]
+
+
+def axis_crossing_z(p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """z where meridional rays (x = 0) cross the axis (y = 0)."""
+    return plane_crossing_z(p, v, 1)
+
+
+def paraxial_chief(lens: Lens, fo: FirstOrder, object_value: float) -> tuple[float, float]:
+    """Paraxial chief ray of an object-space field value: (height at the paraxial image plane (mm), image slope).
+
+    Through the centre of the paraxial entrance pupil; an angle uses u0 = tan(theta)
+    (NaN at and beyond 90 degrees, where a paraxial image height does not exist).
+    """
+    sysm = paraxial_system(lens, fo.wavelength_nm)
+    z_ep = fo.entrance_pupil_z_mm
+    if fo.object_distance_mm is None:
+        if abs(object_value) >= 0.5 * math.pi:
+            return math.nan, math.nan
+        u0 = math.tan(object_value)
+        y1 = -u0 * z_ep
+    else:
+        dist = fo.object_distance_mm
+        u0 = -object_value / (z_ep + dist)
+        y1 = object_value + u0 * dist
+    ray = trace_ynu(sysm, y1, u0)
+    return ray.height_at(fo.image_distance_mm), float(ray.u[-1])
+
+
+def first_orders(lens: Lens, wavelengths_nm: Sequence[float]) -> dict[float, FirstOrder]:
+    """:func:`lensrt.paraxial.first_order` at each wavelength (nm)."""
+    return {float(w): first_order(lens, float(w)) for w in wavelengths_nm}
+
+
+def exit_pupil_point_z_mm(lens: Lens, p: np.ndarray, v: np.ndarray, wavelength_nm: float) -> float:
+    """z where a chief ray (image-space point ``p``, direction ``v``) crosses the axis; paraxial XP on axis."""
+    from ..paraxial import first_order
+    vr = math.hypot(v[0], v[1])
+    if math.hypot(p[0], p[1]) < 1e-9:
+        return first_order(lens, wavelength_nm).exit_pupil_z_mm
+    if vr < 1e-12:
+        return math.inf  # image-space telecentric
+    s = -(p[0] * v[0] + p[1] * v[1]) / (vr * vr)
+    return float(p[2] + s * v[2])
+
+
+def pupil_grid_rays(lens: Lens, fp: FieldPoint, wavelength_nm: float, n: int, device: str | None = None) -> RayBatch:
+    """A square n x n grid of rays over the box of the real pupil of ``fp`` (vignetted rays fail when traced)."""
+    from ..trace.aiming import ray_through_point
+    from ..trace.stream import pupil_box
+    box = pupil_box(lens, fp, [wavelength_nm], device=device, coarse=64, fine=32)
+    if box.area_mm2 <= 0:
+        raise LensrtError("no ray of this field point passes the lens")
+    a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
+    b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
+    A, B = np.meshgrid(a, b, indexing="ij")
+    o, d = ray_through_point(fp, box.points(A.ravel(), B.ravel()))
+    return RayBatch(o, d, wavelength_nm)

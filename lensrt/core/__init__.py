@@ -1,0 +1,6 @@
+"""The bottom floor: small pieces every stage uses and that import nothing else of lensrt.
+
+Files:
+
+- ``lazy``  lazy package faces: a package's public names imported on first use
+"""

@@ -1,0 +1,36 @@
+"""What a person reads about a lens prescription: the surface table and one-line aperture/field descriptions
+(shared by ``lensrt lens show`` and the report)."""
+from __future__ import annotations
+
+import math
+
+__all__ = ["describe_aperture", "describe_fields", "lens_table"]
+
+
+def describe_aperture(lens) -> str:
+    ap = lens.aperture
+    return {"epd": f"entrance pupil diameter {ap.value:g} mm", "image_fno": f"image-space f/{ap.value:g}",
+            "object_na": f"object NA {ap.value:g}", "float_by_stop": "float by stop size"}[ap.kind]
+
+
+def describe_fields(lens) -> str:
+    f = lens.fields
+    if f.kind == "angle":
+        vals = ", ".join(f"{math.degrees(v):g}" for v in f.y)
+        return f"angles {vals} deg"
+    return f"{f.kind.replace('_', ' ')}s {', '.join(f'{v:g}' for v in f.y)} mm"
+
+
+def lens_table(lens) -> tuple[list[list], list[str]]:
+    """Rows and headers of the surface table at the primary wavelength."""
+    wl = lens.wavelengths.primary_nm
+    n = lens.indices(wl)
+    rows = []
+    for i, s in enumerate(lens.surfaces):
+        sd = s.semi_diameter_mm
+        sd_text = "-" if sd is None else (f"{sd:.4f}" + ("*" if s.semi_diameter_auto else ""))
+        kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
+        rows.append(["STO" if s.is_stop else str(i + 1), s.radius_mm, s.thickness_mm,
+                     s.material.describe() if not s.material.is_air else "air", float(n[i + 1]), sd_text,
+                     s.conic, kind])
+    return rows, ["surf", "radius_mm", "thickness_mm", "material", f"n@{wl:g}nm", "semi_diam_mm", "conic", "type"]

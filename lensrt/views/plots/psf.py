@@ -1,0 +1,177 @@
+"""Figures for PSFs and MTFs (PNG via matplotlib's Agg canvas; no pyplot global state).
+
+matplotlib is imported inside each function, so importing this module is cheap.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+from ...units import UM_PER_MM
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ...analysis.psf.result import PsfResult
+
+from .figure import new_figure, save_figure
+
+__all__ = ["plot_mtf_curves", "plot_mtf_vs_field", "plot_through_focus", "plot_psf", "plot_psf_mosaic",
+           "nice_length", "plot_system_mtf", "plot_convergence"]
+
+
+def nice_length(span: float) -> float:
+    """A 1-2-5 round number near a quarter of ``span`` (for scale bars)."""
+    target = max(span / 4.0, 1e-12)
+    e = 10.0 ** math.floor(math.log10(target))
+    return max(m * e for m in (1.0, 2.0, 5.0) if m * e <= target)
+
+
+def plot_mtf_curves(path: str | Path, freqs_cpmm: np.ndarray, curves: Sequence[tuple[str, np.ndarray, np.ndarray]],
+                    diffraction: np.ndarray | None = None, nyquist_cpmm: float | None = None,
+                    title: str = "") -> Path:
+    """Sagittal (solid) and tangential (dashed) MTF against frequency, one colour per curve pair.
+
+    ``curves`` holds (label, sagittal, tangential); ``diffraction`` is the
+    diffraction limit on the same frequencies (drawn in grey); the sensor
+    Nyquist frequency is a vertical line.
+    """
+    fig = new_figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    if diffraction is not None:
+        ax.plot(freqs_cpmm, diffraction, color="0.55", lw=2.5, alpha=0.6, label="diffraction limit")
+    for i, (label, sag, tan) in enumerate(curves):
+        c = f"C{i % 10}"
+        ax.plot(freqs_cpmm, sag, color=c, lw=1.5, label=f"{label} S")
+        ax.plot(freqs_cpmm, tan, color=c, lw=1.5, ls="--", label=f"{label} T")
+    if nyquist_cpmm is not None:
+        ax.axvline(nyquist_cpmm, color="k", lw=1, ls=":")
+        ax.annotate(f"Nyquist {nyquist_cpmm:.0f}", (nyquist_cpmm, 0.98), rotation=90, ha="right", va="top",
+                    fontsize=8)
+    ax.set(xlim=(0, float(np.max(freqs_cpmm))), ylim=(0, 1.02), xlabel="spatial frequency (cycles/mm)",
+           ylabel="MTF", title=title or "MTF (S solid, T dashed)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return save_figure(fig, path)
+
+
+def plot_mtf_vs_field(path: str | Path, data: dict, title: str = "") -> Path:
+    """MTF against image height at fixed frequencies (``lensrt.analysis.psf.otf.mtf_vs_field`` output)."""
+    fig = new_figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    h = data["image_height_mm"]
+    for j, f in enumerate(data["freqs_cpmm"]):
+        c = f"C{j % 10}"
+        ax.plot(h, data["sagittal"][:, j], color=c, marker="o", ms=3, label=f"{f:.3g} c/mm S")
+        ax.plot(h, data["tangential"][:, j], color=c, ls="--", marker="s", ms=3, label=f"{f:.3g} c/mm T")
+    ax.set(xlim=(0, float(np.max(h)) if np.max(h) > 0 else 1.0), ylim=(0, 1.02), xlabel="image height (mm)",
+           ylabel="MTF", title=title or "MTF against field (S solid, T dashed)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return save_figure(fig, path)
+
+
+def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
+    """Through-focus MTF (``lensrt.analysis.psf.otf.through_focus_mtf`` output), focus shift in um."""
+    fig = new_figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    z_um = np.asarray(data["focus_mm"]) * UM_PER_MM
+    for j, f in enumerate(data["freqs_cpmm"]):
+        c = f"C{j % 10}"
+        ax.plot(z_um, data["sagittal"][:, j], color=c, label=f"{f:.3g} c/mm S")
+        ax.plot(z_um, data["tangential"][:, j], color=c, ls="--", label=f"{f:.3g} c/mm T")
+    ax.set(ylim=(0, 1.02), xlabel="focus shift (um)", ylabel="MTF", title=title or "Through-focus MTF")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return save_figure(fig, path)
+
+
+def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> None:
+    g = result.grid
+    l, r, b, t = g.extent_mm
+    cx, cy = result.reference_mm
+    ext_um = [(l - cx) * UM_PER_MM, (r - cx) * UM_PER_MM, (b - cy) * UM_PER_MM, (t - cy) * UM_PER_MM]
+    img = np.asarray(result.psf, dtype=np.float64)
+    img = img / img.max() if img.max() > 0 else img
+    if log:
+        img = np.log10(np.clip(img, 1e-6, None))
+    ax.imshow(img, extent=ext_um, origin="upper", cmap="inferno", vmin=-6 if log else 0, vmax=0 if log else 1,
+              interpolation="nearest")
+    span = ext_um[1] - ext_um[0]
+    bar = nice_length(span)
+    x0, y0 = ext_um[0] + 0.06 * span, ext_um[2] + 0.06 * (ext_um[3] - ext_um[2])
+    ax.plot([x0, x0 + bar], [y0, y0], color="w", lw=3, solid_capstyle="butt")
+    ax.text(x0 + bar / 2, y0 + 0.03 * span, f"{bar:g} um", color="w", ha="center", va="bottom", fontsize=8)
+    if show_axes:
+        ax.set(xlabel="x - x_ref (um)", ylabel="y - y_ref (um)")
+    else:
+        ax.set_xticks([])
+        ax.set_yticks([])
+
+
+def plot_psf(path: str | Path, result: "PsfResult", log: bool = False, title: str = "") -> Path:
+    """One PSF image (peak-normalised; ``log``: log10 down to 1e-6) with a um scale bar."""
+    fig = new_figure(5.0, 4.4)
+    ax = fig.add_subplot()
+    _psf_axes(ax, result, log)
+    rms = result.estimates.get("rms_radius_mm")
+    wl = ", ".join(f"{w:g}" for w in result.wavelengths_nm)
+    sub = f"{result.kind}, {wl} nm, pitch {result.grid.pitch_um:g} um"
+    if rms is not None:
+        err = f" +- {rms.stderr * UM_PER_MM:.2g}" if rms.stderr else ""
+        sub += f"\nRMS radius {rms.value * UM_PER_MM:.3g}{err} um"
+    ax.set_title((title + "\n" if title else "") + sub, fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int | None = None,
+                    log: bool = False, title: str = "") -> Path:
+    """PSF map: one tile per field point (each peak-normalised), labelled with its image position."""
+    n = len(results)
+    if n == 0:
+        raise ValueError("no PSFs to draw")
+    ncols = ncols or int(math.ceil(math.sqrt(n)))
+    nrows = int(math.ceil(n / ncols))
+    fig = new_figure(1.6 * ncols + 0.4, 1.6 * nrows + 0.6)
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    for ax, res in zip(axes.ravel(), results):
+        _psf_axes(ax, res, log, show_axes=False)
+        x, y = res.reference_mm
+        ax.set_title(f"({x:.1f}, {y:.1f}) mm", fontsize=7)
+    fig.suptitle(title or f"PSF map ({results[0].kind}, tiles peak-normalised)", fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
+    """Lens, OLPF, detector and system MTF of one field point (``lensrt.analysis.psf.mtf_curves.mtf_curves``
+    output with a detector), sagittal solid, tangential dashed, the diffraction limit and Nyquist marked."""
+    fig = new_figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    f = np.asarray(curves["freqs_cpmm"])
+    ax.plot(f, curves["diffraction_limit"], color="0.55", lw=2.5, alpha=0.6,
+            label=f"diffraction limit f/{curves['diffraction_f_number']:.3g}")
+    parts = [("lens", "C0"), ("olpf", "C2"), ("detector", "C1"), ("system", "k")]
+    for name, c in parts:
+        if f"{name}_sagittal" not in curves:
+            continue
+        ax.plot(f, curves[f"{name}_sagittal"], color=c, lw=1.5, label=f"{name} S")
+        ax.plot(f, curves[f"{name}_tangential"], color=c, lw=1.5, ls="--", label=f"{name} T")
+    if "nyquist_cpmm" in curves:
+        nq = curves["nyquist_cpmm"]
+        ax.axvline(nq, color="k", lw=1, ls=":")
+        ax.annotate(f"Nyquist {nq:.0f}", (nq, 0.98), rotation=90, ha="right", va="top", fontsize=8)
+    ax.set(xlim=(0, float(f.max())), ylim=(0, 1.02), xlabel="spatial frequency (cycles/mm)", ylabel="MTF",
+           title=title or "System MTF = lens x OLPF x detector (S solid, T dashed)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return save_figure(fig, path)
+
+
+def plot_convergence(path: str | Path, data: dict, title: str = "") -> Path:
+    """Error against run time of ``lensrt.studies.convergence.study.converge_psf`` (or ``converge``) output:
+    :func:`lensrt.views.plots.convergence.plot_error_vs_time`."""
+    from .convergence import plot_error_vs_time
+    return plot_error_vs_time(path, data, title)

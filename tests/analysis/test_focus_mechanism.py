@@ -1,0 +1,188 @@
+"""Focusing with the lens's own mechanism (unit, focus group, floating groups), solved with real
+rays, focus breathing, and the ``--config`` / ``info --config all`` / ``info --breathing`` CLI.
+
+Oracles: the real best focus (analysis.focus.best_focus, an independent closed-form
+minimum over a ray grid) of the focused lens lies on its image surface; a floating
+table built from two solved focus-group positions is solved back to the tabulated
+distance (the object distance in focus within 1e-6 relative); the unit-focus
+formula column equals the Field Guide formula; gaps move by exactly sign x travel.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from lensrt.analysis.compare.focus import best_focus
+from lensrt.analysis.focusing import focus_at, focus_breathing, move_mechanism
+from lensrt.cli import main
+from lensrt.errors import PrescriptionError
+from lensrt.loading import load_lens
+from lensrt.paraxial import first_order
+from lensrt.paraxial.photographic import focus_breathing_afov_rad
+from lensrt.prescription.focusing import FocusMechanism
+from lensrt.prescription.formats.native import dumps_native, loads_native
+
+SEQ = Path(__file__).resolve().parents[1] / "data" / "ag_dblgauss_zoom.seq"
+
+
+@pytest.fixture(scope="module")
+def lens():
+    return load_lens()
+
+
+def _rear_group(lens):
+    """The default double Gauss focused by its rear group (the gap after the stop and the image gap)."""
+    return lens.replace(focus=FocusMechanism("group", (lens.stop_index, lens.n_surfaces - 1), (1.0, -1.0)))
+
+
+def _on_sensor(sol) -> float:
+    return best_focus(sol.lens, [sol.lens.wavelengths.primary_nm], [1.0], 0.0, 32).z_mm - sol.lens.image_z_mm
+
+
+def test_unit_focus_puts_the_real_best_focus_on_the_sensor(lens) -> None:
+    sol = focus_at(lens, 1000.0)
+    assert abs(_on_sensor(sol)) < 1e-9
+    inf = focus_at(lens, math.inf)
+    # the extra extension for 1 m against the paraxial unit-focus extension (p. 12): the real best-focus offset
+    # from the paraxial focus barely changes with distance
+    e_par = first_order(lens, None, 1000.0).unit_focus_extension_mm - first_order(lens).unit_focus_extension_mm
+    assert sol.travel - inf.travel == pytest.approx(e_par, rel=0.02)
+
+
+def test_focus_group_moves_only_its_gaps(lens) -> None:
+    g = _rear_group(lens)
+    sol = focus_at(g, 1000.0)
+    efl = first_order(lens).efl_mm
+    assert abs(_on_sensor(sol)) < 1e-6 * efl
+    k, last = lens.stop_index, lens.n_surfaces - 1
+    for i, (a, b) in enumerate(zip(g.surfaces, sol.lens.surfaces)):
+        if i == k:
+            assert b.thickness_mm == pytest.approx(a.thickness_mm + sol.travel, abs=1e-12)
+        elif i == last:
+            assert b.thickness_mm == pytest.approx(a.thickness_mm - sol.travel, abs=1e-12)
+        else:
+            assert b.thickness_mm == a.thickness_mm
+    assert sol.lens.image_z_mm == pytest.approx(g.image_z_mm, abs=1e-12)  # the sensor stays
+
+
+def test_floating_table_solves_back_to_its_distance(lens) -> None:
+    g = _rear_group(lens)
+    far, near = focus_at(g, math.inf), focus_at(g, 1000.0)
+    gaps = g.focus.gaps
+    table = tuple(tuple(s.lens.surfaces[i].thickness_mm for i in gaps) for s in (far, near))
+    fl = lens.replace(focus=FocusMechanism("floating", gaps, distances_mm=(math.inf, 1000.0), thickness_mm=table))
+    sol = focus_at(fl, 1000.0)
+    assert 1.0 / sol.travel == pytest.approx(1000.0, rel=1e-6)
+    assert abs(_on_sensor(sol)) < 1e-9
+
+
+def test_mechanism_errors_are_clear(lens) -> None:
+    with pytest.raises(PrescriptionError, match="does not exist"):
+        lens.replace(focus=FocusMechanism("group", (40,), (1.0,)))
+    with pytest.raises(PrescriptionError, match="one non-zero sign per gap"):
+        FocusMechanism("group", (3, 5), (1.0,))
+    with pytest.raises(PrescriptionError, match="from far to near"):
+        FocusMechanism("floating", (3,), distances_mm=(1000.0, math.inf), thickness_mm=((1.0,), (2.0,)))
+    from lensrt.errors import LensrtError
+    with pytest.raises(LensrtError, match="close the gap"):
+        move_mechanism(_rear_group(lens), -10.0)
+
+
+def test_native_focus_table_round_trip(lens) -> None:
+    g = _rear_group(lens)
+    again = loads_native(dumps_native(g))
+    assert again.focus == g.focus
+
+
+def test_breathing_real_beside_the_formula(lens) -> None:
+    d = [math.inf, 2000.0, 1000.0]
+    unit = focus_breathing(lens, d, 43.27)
+    fo = first_order(lens)
+    for s, a in zip(d, unit.afov_unit_formula_deg):
+        assert a == pytest.approx(math.degrees(focus_breathing_afov_rad(s, fo.efl_mm, 43.27, fo.pupil_magnification)))
+    real_change = unit.afov_real_deg[-1] - unit.afov_real_deg[0]
+    formula_change = unit.afov_unit_formula_deg[-1] - unit.afov_unit_formula_deg[0]
+    assert real_change < 0 and real_change == pytest.approx(formula_change, rel=0.1)
+    group = focus_breathing(_rear_group(lens), d, 43.27)
+    assert abs(group.afov_real_deg[-1] - group.afov_real_deg[0]) < abs(real_change)  # this group breathes less
+
+
+def test_cli_config_all_breathing_and_bad_config(tmp_path: Path, capsys) -> None:
+    assert main(["info", str(SEQ), "--config", "all", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert [r["name"] for r in data["configurations"]] == ["Z1", "Z2", "Z3"] and data["current"] == "Z2"
+    assert data["configurations"][1]["entrance_pupil_diameter_mm"] == pytest.approx(45.0, rel=1e-12)
+    assert main(["info", str(SEQ), "--config", "Z3", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["entrance_pupil_diameter_mm"] == pytest.approx(50.0)
+    assert main(["info", "--breathing", "--distances-m", "inf,1", "--out", str(tmp_path), "--json"]) == 0
+    capsys.readouterr()
+    assert (tmp_path / "breathing.png").exists()
+    assert len(json.loads((tmp_path / "breathing.json").read_text())["afov_real_deg"]) == 2
+    for argv, words in ((["info", str(SEQ), "--config", "7"], "configuration 7 does not exist"),
+                        (["ray", str(SEQ), "--config", "all"], "--config all is not available"),
+                        (["info", "--config", "2"], "configuration 2 does not exist")):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1
+
+
+def test_report_config_all_tabulates_every_configuration(tmp_path: Path) -> None:
+    from lensrt.loading import load_configurations
+    from lensrt.report import ReportOptions, build_report, section_keys
+    family = load_configurations(SEQ)
+    report = build_report(family, tmp_path, ReportOptions(quality="draft"),
+                          skip=[k for k in section_keys() if k != "zoom"], quiet=True)
+    assert not report.failed
+    data = json.loads((tmp_path / "report.json").read_text())
+    zoom = next(s for s in data["sections"] if s["key"] == "zoom")
+    rows = zoom["data"]["configurations"]
+    assert [r["name"] for r in rows] == ["Z1", "Z2", "Z3"]
+    for r, lens in zip(rows, family.configurations()):
+        assert r["efl_mm"] == pytest.approx(first_order(lens).efl_mm, rel=1e-12)
+    assert (tmp_path / "zoom.png").exists() and (tmp_path / "breathing.png").exists()
+    page = (tmp_path / "index.html").read_text()
+    assert "zoom.png" in page and "breathing.png" in page
+
+
+def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
+    assert main(["sweep", str(SEQ), "--config", "all", "--focus-distance-mm", "inf", "--f-number", "2.8",
+                 "--quantity", "efl_mm", "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [r["configuration"] for r in doc["rows"]] == ["Z1", "Z2", "Z3"]
+    from lensrt.loading import load_configurations
+    for r, lens in zip(doc["rows"], load_configurations(SEQ).configurations()):
+        assert r["efl_mm"] == pytest.approx(first_order(lens).efl_mm, rel=1e-12)
+
+
+def test_render_camera_moves_the_focus_group(lens) -> None:
+    """A scene's focus distance moves a declared focus group (the sensor stays), to the renderer's best focus."""
+    from lensrt.render.camera import best_focus_z_mm, setup_camera
+    from lensrt.render.scene import loads_scene
+    scene = loads_scene("""
+[scene]
+name = "focus"
+[camera]
+lens = "dgauss_50mm_f2"
+focus_distance = 1.0
+[sensor]
+format = "full-frame"
+pixels = 64
+[[plane]]
+name = "chart"
+center = [0.0, 0.0, -1.0]
+size = [0.1, 0.1]
+texture = "slanted_edge"
+emission = { spectrum = { line_nm = 550.0 }, radiance_scale = 1.0 }
+""")
+    g = _rear_group(lens)
+    cam = setup_camera(scene, g)
+    assert cam.sensor_z_mm == pytest.approx(g.image_z_mm, abs=1e-12)
+    moved = [b.thickness_mm - a.thickness_mm for a, b in zip(g.surfaces, cam.lens.surfaces)]
+    assert moved[g.stop_index] == pytest.approx(-moved[-1], abs=1e-12) and moved[g.stop_index] != 0.0
+    best = best_focus_z_mm(cam.lens, 1000.0, (550.0,), (1.0,))
+    assert best == pytest.approx(cam.sensor_z_mm, abs=1e-6)
+    unit = setup_camera(scene, lens)
+    assert unit.lens == lens and unit.sensor_z_mm != pytest.approx(lens.image_z_mm, abs=1e-3)
