@@ -160,7 +160,7 @@ def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
 def test_render_camera_moves_the_focus_group(lens) -> None:
     """A scene's focus distance moves a declared focus group (the sensor stays), to the renderer's best focus."""
     from lensrt.render.camera import best_focus_z_mm, setup_camera
-    from lensrt.render.scene import loads_scene
+    from lensrt.render.scene.load import loads_scene
     scene = loads_scene("""
 [scene]
 name = "focus"

@@ -66,8 +66,9 @@ def _position_seq(text: str, values: dict[str, str]) -> str:
     return text
 
 
-def test_codev_zoom_efl_matches_rayoptics_per_position(tmp_path: Path) -> None:
+def test_codev_zoom_efl_matches_rayoptics_per_position(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     pytest.importorskip("rayoptics")
+    monkeypatch.chdir(tmp_path)  # rayoptics writes its reader log into the working folder
     from rayoptics.environment import open_model
     fam = read_configurations(SEQ)
     text = SEQ.read_text()
@@ -84,11 +85,12 @@ def test_codev_zoom_efl_matches_rayoptics_per_position(tmp_path: Path) -> None:
         assert fo.entrance_pupil_diameter_mm == pytest.approx(float(epd), rel=1e-12)
 
 
-def test_zemax_configurations_efl_match_rayoptics(tmp_path: Path) -> None:
+def test_zemax_configurations_efl_match_rayoptics(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Each configuration written as a plain .zmx (its gap in the lens data, the multi-configuration
     rows dropped) and read by rayoptics gives lensrt's EFL (model glasses: both use the file's n_d at
     the primary d line)."""
     pytest.importorskip("rayoptics")
+    monkeypatch.chdir(tmp_path)  # rayoptics writes its reader log into the working folder
     from rayoptics.environment import open_model
     fam = read_configurations(ZMX)
     text = ZMX.read_text()
