@@ -106,6 +106,15 @@ def image_circle_radius_mm(lens: Lens, wavelength_nm: float | None = None) -> fl
     return abs(y)
 
 
+def _field_guess(lens: Lens, image_height_mm: float, wavelength_nm: float | None) -> float:
+    """Paraxial object field value (rad at infinity, else mm) imaged at ``image_height_mm``."""
+    from ..paraxial import first_order
+    fo = first_order(lens, wavelength_nm)
+    if math.isinf(lens.object_distance_mm):
+        return min(math.atan(image_height_mm / abs(fo.efl_mm)), math.radians(89.0))
+    return image_height_mm / max(abs(fo.magnification), 1e-12)
+
+
 def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
                         tol_mm: float = 1e-7, max_iter: int = 80) -> float:
     """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad).
@@ -115,8 +124,13 @@ def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float
     """
     trace = _chief_tracer(lens, wavelength_nm)
     h = abs(float(image_height_mm))
-    lo, hi = 0.0, largest_field_value(lens)
+    lo, hi = 0.0, _field_guess(lens, 1.3 * h, wavelength_nm)
     y_hi = trace(hi)[0]
+    for _ in range(40):  # shrink until the chief ray passes
+        if not math.isnan(y_hi):
+            break
+        hi *= 0.8
+        y_hi = trace(hi)[0]
     limit = math.radians(89.0) if math.isinf(lens.object_distance_mm) else 50.0 * hi
     while abs(y_hi) < h and hi < limit:  # beyond the lens's nominal field, while real chief rays still pass
         wider = min(1.2 * hi, limit)

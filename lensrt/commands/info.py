@@ -96,7 +96,7 @@ def _info_all(args: argparse.Namespace) -> int:
                     "current": family.names[family.current],
                     "varying": [op.label for op in family.varying()]})
         return 0
-    emit(f"{family.name or family.path}: {family.count} configuration(s), zoom ratio {zoom_ratio(rows):.3f}; "
+    emit(f"{family.name or family.path}: {family.count} configuration(s), EFL ratio {zoom_ratio(rows):.3f}; "
          f"varying: {', '.join(op.label for op in family.varying()) or 'nothing'}")
     table = [[r[k] if k != "name" else r[k] + (" *" if r["current"] else "") for k, _ in CONFIG_COLUMNS]
              for r in rows]

@@ -27,7 +27,7 @@ def _configurations(ctx: ReportContext, sec: Section) -> None:
     rows = configuration_rows(family)
     sec.data["configurations"] = rows
     sec.data["varying"] = [op.label for op in family.varying()]
-    sec.text(f"{family.count} configurations (zoom ratio {zoom_ratio(rows):.3f}); what changes between them: "
+    sec.text(f"{family.count} configurations (longest over shortest EFL {zoom_ratio(rows):.3f}); what changes: "
              f"{', '.join(sec.data['varying']) or 'nothing'}. The other sections analyse configuration "
              f"{family.names[family.current]!r} (the file's current one, marked *).")
     table = [[r[k] if k != "name" else r[k] + (" *" if r["current"] else "") for k, _ in CONFIG_COLUMNS]

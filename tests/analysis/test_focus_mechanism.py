@@ -186,3 +186,24 @@ emission = { spectrum = { line_nm = 550.0 }, radiance_scale = 1.0 }
     assert best == pytest.approx(cam.sensor_z_mm, abs=1e-6)
     unit = setup_camera(scene, lens)
     assert unit.lens == lens and unit.sensor_z_mm != pytest.approx(lens.image_z_mm, abs=1e-3)
+
+
+def test_library_floating_macro_from_its_patent() -> None:
+    """AF-S Micro-Nikkor 105 mm f/2.8G (US 7,218,457 B2 Example 3): the patent's infinity and 1:1 states as two
+    configurations, f = 104.00 (printed to 0.01 mm) at infinity and 1:1 at close focus, and its floating table
+    focusing real rays at any distance in between."""
+    from lensrt.loading import load_configurations
+    family = load_configurations("micro_nikkor_105mm_f2.8_floating")
+    inf, close = family.configuration("infinity"), family.configuration("1:1")
+    assert first_order(inf).efl_mm == pytest.approx(104.00, abs=0.005)
+    assert first_order(close).magnification == pytest.approx(-1.0, abs=0.02)
+    lens = family.configuration()
+    assert lens.focus.kind == "floating" and [g + 1 for g in lens.focus.gaps] == [8, 13, 14, 20, 27]
+    at_inf = focus_at(lens, math.inf)
+    assert abs(at_inf.travel) < 1e-5  # the patent's infinity gaps are (very nearly) at the real best focus
+    sol = focus_at(lens, 300.0)
+    assert abs(_on_sensor(sol)) < 1e-9
+    expect = lens.focus.floating_thickness_mm(sol.travel)
+    assert [sol.lens.surfaces[g].thickness_mm for g in lens.focus.gaps] == pytest.approx(list(expect), abs=1e-12)
+    curve = focus_breathing(lens, [math.inf, 1000.0, 300.0], 43.27)
+    assert all(b < a for a, b in zip(curve.afov_real_deg, curve.afov_real_deg[1:]))  # it narrows closer in
