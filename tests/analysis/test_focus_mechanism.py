@@ -207,3 +207,35 @@ def test_library_floating_macro_from_its_patent() -> None:
     assert [sol.lens.surfaces[g].thickness_mm for g in lens.focus.gaps] == pytest.approx(list(expect), abs=1e-12)
     curve = focus_breathing(lens, [math.inf, 1000.0, 300.0], 43.27)
     assert all(b < a for a, b in zip(curve.afov_real_deg, curve.afov_real_deg[1:]))  # it narrows closer in
+
+
+def _rounding_bound_mm(lens, gap_step_mm: float = 0.005, radius_step_mm: float = 0.0005) -> float:
+    """How far the EFL can move when every printed gap and radius moves by half its last printed digit
+    (first order, summed absolute sensitivities): the precision a transcription of a patent can reach."""
+    e0 = first_order(lens).efl_mm
+    bound = 0.0
+    for i, s in enumerate(lens.surfaces[:-1]):
+        bound += abs(first_order(lens.replace_surface(i, thickness_mm=s.thickness_mm + gap_step_mm)).efl_mm - e0)
+        if s.curvature_per_mm:
+            r = 1.0 / s.curvature_per_mm + radius_step_mm
+            bound += abs(first_order(lens.replace_surface(i, curvature_per_mm=1.0 / r)).efl_mm - e0)
+    return bound
+
+
+def test_library_standard_zoom_from_its_patent() -> None:
+    """Canon RF 24-70 mm f/2.8 (US 2019/0278068 A1 Example 5): f = 24.72 / 44.86 / 67.89 mm and 2w = 82.4 / 35.4 deg
+    at the patent's printed precision (0.005 mm on f plus what the printed gaps and radii allow), and its focus
+    group (L6, rearward) focusing real rays at 1 m in every zoom position with the sensor fixed."""
+    from lensrt.loading import load_configurations
+    family = load_configurations("canon_rf_24-70mm_f2.8")
+    assert family.names == ("24.72mm", "44.86mm", "67.89mm")
+    for stated, lens in zip((24.72, 44.86, 67.89), family.configurations()):
+        efl = first_order(lens).efl_mm
+        assert abs(efl - stated) <= 0.005 + _rounding_bound_mm(lens), (stated, efl)
+        assert first_order(lens).f_number == pytest.approx(2.91, rel=1e-9)
+        sol = focus_at(lens, 1000.0)
+        assert sol.travel > 0 and abs(_on_sensor(sol)) < 1e-9  # L6 moves toward the image
+        assert sol.lens.image_z_mm == pytest.approx(lens.image_z_mm, abs=1e-12)
+    wide, tele = family.configuration("24.72mm"), family.configuration("67.89mm")
+    assert 2 * first_order(wide).half_field_deg == pytest.approx(82.4, abs=0.05)
+    assert 2 * first_order(tele).half_field_deg == pytest.approx(35.4, abs=0.05)
