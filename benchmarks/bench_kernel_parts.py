@@ -35,7 +35,8 @@ from lensrt.prescription.model import Iris  # noqa: E402
 from lensrt.trace import specialised  # noqa: E402
 from lensrt.trace.kernels import get_kernels, module_name  # noqa: E402
 from lensrt.trace.pack import pack_lens  # noqa: E402
-from lensrt.trace.sampling import SAMPLERS, sample_unit_square, spectrum_continuous  # noqa: E402
+from lensrt.trace.kernels.generic import sample_unit_square  # noqa: E402
+from lensrt.trace.sampling import SAMPLERS, spectrum_continuous  # noqa: E402
 from lensrt.trace.specialised import StreamOptions, Tuning, stream_kernel  # noqa: E402
 from lensrt.trace.stream import GPU_THREADS, Grid, stream, stream_source  # noqa: E402
 from lensrt.trace.variants import shape_and_constants  # noqa: E402

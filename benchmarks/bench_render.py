@@ -7,7 +7,7 @@ The issue's target (one H100: 1920 x 1080, 64 spectral samples per pixel, under 
 
     python benchmarks/bench_render.py --device cuda
 
-A small image on the CPU (what the README's table shows)::
+A small image on the CPU (what the table in docs/benchmarks.md shows)::
 
     python benchmarks/bench_render.py --device cpu
 

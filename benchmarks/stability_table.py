@@ -1,4 +1,4 @@
-"""float32 against float64 per library lens and per stiff case: the README's "Numerical stability" table.
+"""float32 against float64 per library lens and per stiff case: the table in docs/validation/stability.md.
 
 Usage: ``python benchmarks/stability_table.py [--rays 4000] [--device cpu] [--random 40] [--markdown]``
 
@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rays", type=int, default=4000)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--random", type=int, default=40, help="random lenses (the worst one is shown)")
-    ap.add_argument("--markdown", action="store_true", help="print a Markdown table (for the README)")
+    ap.add_argument("--markdown", action="store_true", help="print a Markdown table (for docs/validation/stability.md)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     rows, random_rows = [], []

@@ -19,8 +19,8 @@ from .errors import LensrtError
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
 #: modules of lensrt.commands, in the order their subcommands appear in --help
-COMMAND_MODULES = ("lens", "info", "ray", "compare", "psf", "mtf", "bokeh", "render", "sensor",
-                   "converge", "report", "sweep")
+COMMAND_MODULES = ("lens", "info", "glass", "ray", "compare", "psf", "mtf", "wavefront", "bokeh", "render",
+                   "sensor", "converge", "report", "sweep", "simulate")
 
 
 def build_parser() -> argparse.ArgumentParser:

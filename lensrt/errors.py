@@ -10,7 +10,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["LensrtError", "PrescriptionError", "UnknownGlassError", "located"]
+__all__ = ["LensrtError", "PrescriptionError", "UnknownGlassError", "LensrtDeprecationWarning", "located"]
 
 
 class LensrtError(Exception):
@@ -80,3 +80,11 @@ def located(path: str | Path | None = None, line: int | None = None) -> Iterator
         raise
     except (ValueError, IndexError, KeyError, TypeError, OverflowError, ZeroDivisionError) as err:
         raise PrescriptionError(f"cannot read this line: {err}", path=path, line=line) from err
+
+
+class LensrtDeprecationWarning(FutureWarning):
+    """An input spelling that still works but goes away in the next release; the message names the new one.
+
+    A ``FutureWarning`` (shown to users by default, unlike ``DeprecationWarning``): the CLI prints it as
+    one ``lensrt: warning:`` line.
+    """

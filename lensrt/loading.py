@@ -1,4 +1,9 @@
-"""Load a lens ready for use: read the file, compute missing clear apertures, check geometry."""
+"""Load a lens ready for use: read the file, check the aperture, compute missing clear apertures, check geometry.
+
+Every path into a usable :class:`Lens` (the TOML, Zemax, CODE V and pbrt readers, and a ``Lens``
+built in Python and passed to :func:`load_lens`) goes through :func:`complete_lens`, so the physical
+checks run once, here and in the model's own ``__post_init__`` checks (docs/guide/validation.md).
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,6 +14,8 @@ from .prescription.configurations import MultiConfigLens, single_configuration
 from .prescription.formats import read_any
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
+from .paraxial.aperture_check import check_aperture
+from .paraxial.crossing import check_axial_beam_crossing
 from .library import resolve_lens_path
 
 __all__ = ["load_lens", "complete_lens", "load_configurations"]
@@ -27,10 +34,12 @@ def complete_lens(lens: Lens) -> Lens:
     glasses' measured ranges (:meth:`Lens.check_wavelengths`: an ExtrapolationWarning each).
     """
     with located(lens.path):
+        check_aperture(lens)  # an f-number below 0.5 (epd = 1e9): before any ray is traced
         if any(s.semi_diameter_mm is None for s in lens.surfaces):
             from .trace.apertures import compute_clear_apertures
             lens = compute_clear_apertures(lens)
         check_geometry(lens)
+        check_axial_beam_crossing(lens)
     lens.check_wavelengths(lens.wavelengths.nm)  # warns where a glass's formula is extrapolated
     return lens
 

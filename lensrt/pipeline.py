@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .colour import Illuminant, cie_illuminant, srgb_encode, xyz_to_linear_srgb
 from .errors import LensrtError
 
 __all__ = ["write_outputs", "preview_rgb", "sensor_stage", "isp_illuminant"]
@@ -28,7 +29,6 @@ __all__ = ["write_outputs", "preview_rgb", "sensor_stage", "isp_illuminant"]
 
 def preview_rgb(result) -> np.ndarray:
     """Display-referred sRGB (rows, cols, 3) in [0, 1] of a render's ideal-sensor image."""
-    from .render.spectra import srgb_encode, xyz_to_linear_srgb
     if not result.plan.spectral:
         e = result.irradiance[..., 0].astype(np.float64)
         hi = float(np.percentile(e, 99)) if e.size else 0.0
@@ -41,22 +41,14 @@ def preview_rgb(result) -> np.ndarray:
     return srgb_encode(xyz_to_linear_srgb(result.xyz / hi))
 
 
-def isp_illuminant(scene) -> Any:
-    """The adopted white for raw conversion: the scene's uniform illumination when it names a CIE
-    illuminant or a blackbody, else D65."""
+def isp_illuminant(scene) -> Illuminant:
+    """The adopted white for raw conversion: the scene's uniform illumination, as the
+    :class:`~lensrt.colour.Illuminant` the scene file named (CIE table, Planck, daylight or a table),
+    when it is continuous; else D65."""
     s = scene.illumination
-    label = s.label if s is not None else ""
-    parts = label.split()
-    if len(parts) >= 2 and parts[0] == "CIE":
-        from .render.spectra import illuminant_names
-        if parts[1] in illuminant_names():
-            return parts[1]
-    if len(parts) >= 3 and parts[0] == "blackbody":
-        try:
-            return float(parts[1])
-        except ValueError:
-            pass
-    return "D65"
+    if s is not None and s.illuminant is not None and s.illuminant.continuous:
+        return s.illuminant
+    return cie_illuminant("D65")
 
 
 def sensor_stage(result, scene, seed: int = 0) -> tuple[Any, Any, Any]:
@@ -92,7 +84,6 @@ def write_outputs(result, scene, prefix: str | Path, *, seed: int = 0, sensor: b
     from .io.exr import write_spectral_exr
     from .io.png import write_png
     from .io.table import dumps_json
-    from .render.spectra import xyz_to_linear_srgb
     prefix = Path(prefix)
     if prefix.suffix.lower() in (".exr", ".png", ".json"):
         prefix = prefix.with_suffix("")

@@ -43,3 +43,22 @@ def data_dir() -> Path:
 @pytest.fixture
 def library_dir() -> Path:
     return LIBRARY
+
+
+def _register_hypothesis_profiles() -> None:
+    """Hypothesis profiles: ``ci`` (default; the property suite stays well under a minute on 2 cores) and
+    ``long`` (``HYPOTHESIS_PROFILE=long``: many more examples, for local runs)."""
+    import os
+    try:
+        from hypothesis import HealthCheck, settings
+    except ImportError:  # pragma: no cover - hypothesis is in the test extra
+        return
+    common = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                                         HealthCheck.function_scoped_fixture],
+                  print_blob=True)
+    settings.register_profile("ci", max_examples=12, derandomize=True, **common)
+    settings.register_profile("long", max_examples=400, **common)
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+_register_hypothesis_profiles()

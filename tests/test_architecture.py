@@ -32,19 +32,7 @@ FLOORS: list[set[str]] = [
 ALLOWED_UP: dict[tuple[str, str], str] = {}
 
 #: known violations being removed, each with its reason; keep this empty
-PENDING: dict[str, str] = {
-    "cycle lensrt.trace.kernels <-> lensrt.trace.sampling": "Warp factory closures -> generics (issue 16, in progress)",
-    "private lensrt/render/integrator_kernels.py: _i32": "Warp factory closures -> generics (issue 16, in progress)",
-    "long lensrt/render/integrator_kernels.py: get_render_kernels": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/kernels.py: get_kernels": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/kernels.py: trace_stream": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/sampling.py: sampling_funcs": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/specialised.py: _build_trace": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/specialised.py: stream_kernel": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/specialised.py: trace_stream_fast": "Warp factory closures (issue 16, in progress)",
-    "long lensrt/trace/stream.py: stream": "host driver to split into steps (issue 16, in progress)",
-    "long lensrt/trace/surfaces.py: surface_funcs": "Warp factory closures (issue 16, in progress)",
-}
+PENDING: dict[str, str] = {}
 
 #: the longest a function may be (lines, decorators excluded)
 MAX_FUNCTION_LINES = 120

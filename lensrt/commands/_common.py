@@ -5,7 +5,8 @@ import argparse
 import sys
 from typing import Any
 
-__all__ = ["add_lens_argument", "add_reader_options", "reader_options", "lens_config", "print_json", "emit"]
+__all__ = ["add_lens_argument", "add_reader_options", "add_glass_options", "reader_options", "lens_config",
+           "print_json", "emit"]
 
 
 def add_lens_argument(parser: argparse.ArgumentParser, optional: bool = True) -> None:
@@ -37,12 +38,24 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
                              "from the previous one (unscaled 'axpos' tables); default: detected")
     parser.add_argument("--pbrt-field-deg", type=float, default=None, metavar="DEG",
                         help="pbrt tables: largest field half-angle (default: the paraxial chief-ray limit)")
+    add_glass_options(parser)
+
+
+def add_glass_options(parser: argparse.ArgumentParser) -> None:
+    """``--glass-catalog``, ``--glass-substitute``, ``--glass-model-fallback`` (docs/guide/glass.md)."""
+    parser.add_argument("--glass-catalog", action="append", default=None, metavar="PATH",
+                        help="a Zemax .agf glass catalog (or a folder of them) to search; repeatable")
+    parser.add_argument("--glass-substitute", action="store_true", default=None,
+                        help="accept a successor or equivalent glass (SK16 -> N-SK16) for a name no catalog holds, "
+                             "with a warning")
+    parser.add_argument("--glass-model-fallback", action="store_true", default=None,
+                        help="use a file's n_d/V_d for a glass no catalog holds, with a warning")
 
 
 def reader_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments for :func:`lensrt.loading.load_lens` from :func:`add_reader_options`' options."""
     opts: dict[str, Any] = {"format": getattr(args, "format", None)}
-    for key in ("pbrt_thickness", "pbrt_field_deg"):
+    for key in ("pbrt_thickness", "pbrt_field_deg", "glass_catalog", "glass_substitute", "glass_model_fallback"):
         if getattr(args, key, None) is not None:
             opts[key] = getattr(args, key)
     return opts

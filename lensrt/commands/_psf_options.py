@@ -6,13 +6,10 @@ import math
 from typing import Any
 
 from ..errors import LensrtError
+from ._limits import MAX_COUNT, parse_count, parse_seed  # MAX_COUNT, parse_count: re-exported
 
-__all__ = ["add_psf_options", "parse_list", "parse_count", "setup_from_args", "fields_from_args", "host_device",
+__all__ = ["MAX_COUNT", "add_psf_options", "parse_list", "parse_count", "setup_from_args", "fields_from_args", "host_device",
            "print_psf_table"]
-
-
-#: the largest ray count :func:`parse_count` takes (2^62: the stream kernels' 2^32 epochs of 2^30 rays)
-MAX_COUNT = 1 << 62
 
 
 def parse_list(text: str | None, what: str) -> list[float] | None:
@@ -26,19 +23,6 @@ def parse_list(text: str | None, what: str) -> list[float] | None:
     if not vals or not all(math.isfinite(v) for v in vals):
         raise LensrtError(f"{what} list {text!r} must hold finite numbers")
     return vals
-
-
-def parse_count(text: str) -> int:
-    """``"1e6"`` or ``"1000000"`` -> 1000000."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(v) and v >= 1):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive count")
-    if v > MAX_COUNT:  # ray indices and seeds are 64-bit: beyond this the randomisation would repeat
-        raise argparse.ArgumentTypeError(f"{text!r} is more than 2^62 ({MAX_COUNT:.3g})")
-    return int(round(v))
 
 
 def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric") -> None:
@@ -59,8 +43,8 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("spectrum and focus")
     g.add_argument("--wavelength-nm", metavar="LIST", help="wavelength(s) in nm, equal weights (default: the lens file's)")
     g.add_argument("--spectrum", metavar="NAME",
-                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...) or blackbody:<kelvin>, sampled "
-                        "continuously over --band")
+                   help="lens (default), a CIE illuminant (D65, A, D50, FL2, ...), planck:<K>K or daylight:<K>K, "
+                        "sampled continuously over --band")
     g.add_argument("--band", metavar="MIN:MAX", help="wavelength band of --spectrum in nm (default 400:700)")
     g.add_argument("--lines", type=int, default=7, metavar="N",
                    help="wavelengths a diffraction PSF sums for --spectrum (midpoints of N equal bins; default 7)")
@@ -70,13 +54,14 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("method and sampling")
     g.add_argument("--method", choices=["geometric", "diffraction", "auto"], default=method_default,
                    help=f"geometric (ray histogram), diffraction (wavefront -> FFT/MFT/Huygens) or auto "
-                        f"(per field; see the README) (default {method_default})")
+                        f"(per field; see docs/explanation/how-psfs-are-made.md) (default {method_default})")
     g.add_argument("--rays", type=parse_count, default=1 << 20, metavar="N",
                    help="Monte Carlo rays per field point (geometric; 1e6 notation ok; default 1048576)")
     g.add_argument("--sampler", choices=["random", "stratified", "sobol", "r2"], default="sobol",
                    help="pupil sampler: random (plain Monte Carlo), stratified (jittered), sobol (scrambled, "
                         "default) or r2 (low-discrepancy)")
-    g.add_argument("--seed", type=int, default=0, help="job seed; each field's seed derives from it (default 0)")
+    g.add_argument("--seed", type=parse_seed, default=0,
+                   help="job seed, 0..2^63-1; each field's seed derives from it (default 0)")
     g.add_argument("--batches", type=int, default=32, help="independent batches for standard errors (default 32)")
     g.add_argument("--precision", choices=["float32", "float64"], default="float32",
                    help="geometric stream kernel precision (default float32; wavefronts are always float64)")
@@ -94,6 +79,9 @@ def add_psf_options(p: argparse.ArgumentParser, method_default: str = "geometric
     g = p.add_argument_group("output")
     g.add_argument("--out", metavar="DIR", help="write JSON, EXR and PNG files into DIR")
     g.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    from ._limits import add_max_memory_argument, add_max_rays_argument
+    add_max_memory_argument(p)
+    add_max_rays_argument(p)
     from ._parallel import add_parallel_arguments
     add_parallel_arguments(p)
 
@@ -118,6 +106,8 @@ def fields_from_args(args: argparse.Namespace, lens, plane_z_mm: float, device: 
         raise LensrtError("give one way of naming field points: " + ", ".join("--" + k.replace("_", "-") for k in given))
     if args.grid:
         shape = F.parse_grid(args.grid)
+        from ._limits import check_psf_budget
+        check_psf_budget(args, shape[0] * shape[1])
         return F.sensor_grid_fields(lens, args.sensor, shape, plane_z_mm, device), shape
     if args.field_deg:
         return F.angle_fields(lens, parse_list(args.field_deg, "field angle")), None
@@ -136,6 +126,8 @@ def setup_from_args(args: argparse.Namespace, lens, device: str | None, **overri
     from ..analysis.psf.setup import make_setup
     from ..analysis.psf.spectrum import parse_band, parse_spectrum
     from ..paraxial.photographic import sensor_format
+    from ._limits import check_psf_budget
+    check_psf_budget(args)  # rays, grids and pupils of one field point, before the focus search
     spec = parse_spectrum(lens, parse_list(args.wavelength_nm, "wavelength"), args.spectrum, parse_band(args.band),
                           args.lines)
     fmt = sensor_format(args.sensor)

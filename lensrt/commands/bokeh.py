@@ -7,6 +7,7 @@ from typing import Any
 
 from ._common import add_lens_argument, emit, print_json, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer
+from ._limits import add_max_memory_argument, add_max_rays_argument, parse_seed
 from ._psf_options import parse_count
 
 __all__ = ["register", "parse_pair", "parse_list"]
@@ -64,7 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
     m.add_argument("--sampler", choices=("sobol", "random", "stratified", "r2"), default="sobol",
                    help="pupil and wavelength samples (default sobol)")
-    m.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    m.add_argument("--seed", type=parse_seed, default=0, help="random seed, 0..2^63-1 (default 0)")
     m.add_argument("--batches", type=int, default=32, help="independent batches for standard errors (default 32)")
     m.add_argument("--precision", choices=("float32", "float64"), default="float32")
     m.add_argument("--target-error", type=float, default=None, metavar="E",
@@ -79,6 +80,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="PNG exposure: multiply XYZ by K before sRGB (default: 99.5th percentile at white)")
     w.add_argument("--no-files", action="store_true", help="write nothing, print the summary only")
     w.add_argument("--json", action="store_true", help="print the JSON summary instead of the table")
+    add_max_memory_argument(p)
+    add_max_rays_argument(p)
     add_parallel_arguments(p)
     p.add_argument("--device", dest="devices", metavar="DEVICE", help="alias of --devices (cpu, cuda, cuda:N)")
     p.set_defaults(func=cmd_bokeh)
@@ -120,6 +123,36 @@ def _grid(text: str, what: str) -> tuple[int, int]:
     if not sep or v[0] < 1 or v[1] < 1:
         raise LensrtError(f"{what} {text!r} is not COLSxROWS with positive integers", hint="e.g. 15x10")
     return v
+
+
+def _checked_name(args: argparse.Namespace) -> str | None:
+    """``--name`` as a plain file stem (never a path out of ``--out``)."""
+    from ._limits import safe_stem
+    return None if args.name is None else safe_stem(args.name, "--name")
+
+
+def _check_map_budget(args: argparse.Namespace, pixels: tuple[int, int], grid: tuple[int, int], n_depths: int) -> None:
+    """Memory of the map image and the total ray count, before anything is traced."""
+    from ..core.budget import check_memory, estimate_bokeh_map_bytes
+    from ._limits import check_rays, memory_limit
+    n_sources = grid[0] * grid[1] * n_depths
+    check_memory(estimate_bokeh_map_bytes(pixels[1], pixels[0], n_sources, args.batches, "--pixels: a map"),
+                 memory_limit(args))
+    check_rays(args, float(args.rays) * n_sources, f"--map {grid[0]}x{grid[1]} x {n_depths} depth(s) x --rays")
+
+
+def _check_spot_budget(args: argparse.Namespace) -> None:
+    from ..core.budget import MAX_SIDE_PX, check_memory, estimate_bokeh_map_bytes
+    from ..errors import LensrtError
+    from ._limits import check_rays, memory_limit
+    check_rays(args, float(args.rays))
+    if args.window_px is not None:
+        if not 1 <= args.window_px <= MAX_SIDE_PX:
+            raise LensrtError(f"--window-px {args.window_px} must be 1..{MAX_SIDE_PX} pixels")
+        check_memory(estimate_bokeh_map_bytes(args.window_px, args.window_px, 1, args.batches, "--window-px: a spot"),
+                     memory_limit(args))
+    if args.pixel_um is not None and not (math.isfinite(args.pixel_um) and args.pixel_um > 0):
+        raise LensrtError(f"--pixel-um {args.pixel_um:g} must be a positive pitch in um")
 
 
 def _focus(args: argparse.Namespace, lens: Any):
@@ -166,8 +199,12 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     lens = load_lens(args.file, config=lens_config(args))
     lens, focus = _focus(args, lens)
     iris = _iris(args, lens)
+    if args.f_number is not None:
+        from ..paraxial.fnumber import check_f_number
+        check_f_number(lens, args.f_number)  # as render and sweep refuse it: never wider than the lens opens
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
     rays = args.rays
+    stem = _checked_name(args)
     if not rays >= args.batches >= 2:
         raise LensrtError(f"--rays {rays:g} must be at least --batches ({args.batches}) and --batches >= 2")
     if not (math.isfinite(args.source_m) and args.source_m > 0):
@@ -190,12 +227,13 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         else:
             pixels = (1500, max(1, round(1500 * fmt.height_mm / fmt.width_mm)))
         depths = parse_list(args.depths_m, "--depths-m") if args.depths_m else [args.source_m]
+        _check_map_budget(args, pixels, _grid(args.map, "--map"), len(depths))
         with executor_from_args(args, uses_device=True) as ex:
             img = bokeh_map(lens, focus, grid=_grid(args.map, "--map"), depths_mm=[d * MM_PER_M for d in depths],
                             sensor_mm=(fmt.width_mm, fmt.height_mm), pixels=pixels,
                             intensity_scaling=args.intensity_scaling, executor=ex,
                             progress=progress_printer(args, "source batches"), **common)
-        name = args.name or "bokeh_map"
+        name = stem or "bokeh_map"
         extra = {"sensor": fmt.name, "depths_m": depths}
     else:
         from ..parallel.local import resolve_devices
@@ -203,11 +241,12 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         obj = parse_pair(args.object_mm, "--object-mm") if args.object_mm else None
         im = parse_pair(args.image_mm, "--image-mm") if args.image_mm else None
         device = resolve_devices(args.devices)[0]
+        _check_spot_budget(args)
         src = spot_source(lens, focus, args.source_m * MM_PER_M, field_deg=field, object_mm=obj, image_mm=im,
                           device=device)
         img = bokeh_spot(lens, focus, src, pixel_um=args.pixel_um, window_px=args.window_px, device=device,
                          time_budget_s=args.time_budget, **common)
-        name = args.name or "bokeh"
+        name = stem or "bokeh"
         extra = {}
         if field is None and obj is None and im is None:
             g = gaussian_blur(lens, focus, args.source_m * MM_PER_M, stop_radius_mm=stop_r)

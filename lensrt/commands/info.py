@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..views.first_order import first_order_rows, format_value, info_data, seidel_rows
-from ._common import add_lens_argument, emit, lens_config, print_json
+from ._common import add_lens_argument, add_reader_options, emit, lens_config, print_json, reader_options
 
 __all__ = ["register"]
 
@@ -16,6 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "(z positions from the first vertex, +z toward the image), its Seidel "
                                    "sums, and with --sensor the angle of view and depth of field.")
     add_lens_argument(p)
+    add_reader_options(p)
     p.add_argument("--wavelength-nm", type=float, metavar="W", help="wavelength in nm (default: the lens's primary)")
     p.add_argument("--object-distance-mm", type=float, metavar="D",
                    help="object plane to first vertex in mm, 'inf' for infinity (default: the lens's own)")
@@ -39,7 +40,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     config = lens_config(args, allow_all=True)
     if config is not None and config.lower() == "all":
         return _info_all(args)
-    lens = load_lens(args.file, config=config)
+    lens = load_lens(args.file, config=config, **reader_options(args))
     if args.breathing:
         return _info_breathing(args, lens)
     d = info_data(lens, args.wavelength_nm, args.object_distance_mm, args.sensor, args.coc_mm)
@@ -54,6 +55,8 @@ def cmd_info(args: argparse.Namespace) -> int:
              f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
              f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
     emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
+    for w in d["warnings"]:
+        emit(f"warning [{w['code']}]: {w['text']}")
     seidel = d["seidel"]
     srows = seidel_rows(lens, d)
     emit("")
@@ -84,7 +87,7 @@ def _info_all(args: argparse.Namespace) -> int:
     from ..analysis.configurations import CONFIG_COLUMNS, configuration_rows, zoom_ratio
     from ..io.table import format_table
     from ..loading import load_configurations
-    family = load_configurations(args.file)
+    family = load_configurations(args.file, **reader_options(args))
     rows = configuration_rows(family, args.wavelength_nm)
     if args.out:
         from pathlib import Path

@@ -45,6 +45,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                     "fields": {"type": lens.fields.kind, "y": list(lens.fields.y), "x": list(lens.fields.x)},
                     "iris": {"blades": lens.iris.blades, "rotation_rad": lens.iris.rotation_rad},
                     "notes": lens.meta,
+                    "warnings": [w.to_dict() for w in lens.warnings],
                     "surfaces": [dict(zip(headers, r)) for r in rows]})
         return 0
     emit(f"{lens.name or lens.path}")
@@ -64,6 +65,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
     if any(s.semi_diameter_auto for s in lens.surfaces):
         emit(f"* semi-diameter computed ({lens.meta.get('clear_apertures', 'automatic')})")
+    for w in lens.warnings:
+        emit(f"warning [{w.code}]" + (f" surface {w.surface + 1}" if w.surface is not None else "") + f": {w.text}")
     return 0
 
 

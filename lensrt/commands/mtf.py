@@ -88,14 +88,17 @@ def cmd_mtf(args: argparse.Namespace) -> int:
                            args.sensor if args.grid else None)
     curves = [mtf_curves(r, lens, detector, freqs) for r in pmap.results]
     vs_field = mtf_against_field(pmap.results)
-    focus = None
+    focus = spots = None
     if dz is not None:
+        from ..analysis.psf.focus_spots import through_focus_spots
         focus = [through_focus(setup, f, dz, setup.mtf_freqs_cpmm, args.seed, dev) for f in fields]
+        spots = [through_focus_spots(setup, f, dz, device=dev) for f in fields]
     out = {"lens": lens.name, "setup": setup.to_dict(), "sensor": args.sensor, "detector": detector.to_dict(),
            "reference_freqs_cpmm": list(setup.mtf_freqs_cpmm), "seconds": pmap.seconds, "rays_total": pmap.rays,
            "fields": [dict(label=f.label, **c) for f, c in zip(fields, curves)], "mtf_vs_field": vs_field,
-           "through_focus": focus, "psf": [r.to_dict() for r in pmap.results]}
-    files = _write(args, pmap, out, curves, vs_field, focus) if args.out else {}
+           "through_focus": focus, "through_focus_spots": [sp.to_dict() for sp in spots] if spots else None,
+           "psf": [r.to_dict() for r in pmap.results]}
+    files = _write(args, pmap, out, curves, vs_field, focus, spots) if args.out else {}
     out["files"] = files
     if args.json:
         print_json(out)
@@ -122,9 +125,10 @@ def _print(lens, setup, fields, pmap, detector, focus) -> None:
         emit(format_table(rows, heads, title="best focus from the through-focus MTF (um from the focus plane)"))
 
 
-def _write(args, pmap, out: dict, curves, vs_field, focus) -> dict:
+def _write(args, pmap, out: dict, curves, vs_field, focus, spots=None) -> dict:
     from ..io.paths import output_dir
-    from ..views.plots.psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf, plot_through_focus
+    from ..views.plots.psf import (plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf, plot_through_focus,
+                                   plot_through_focus_spots)
     from ..views.psf_files import write_psf_map_exr
     from ..io.table import dumps_json
     d = output_dir(args.out)
@@ -144,5 +148,8 @@ def _write(args, pmap, out: dict, curves, vs_field, focus) -> dict:
     if focus:
         files["focus"] = d / "mtf_focus.png"
         plot_through_focus(files["focus"], focus[0], title=f"{lens}, {pmap.fields[0].label}\nthrough-focus MTF")
+    for k, sp in enumerate(spots or []):
+        files[f"spots{k}"] = d / f"mtf_focus_spots_{k}.png"
+        plot_through_focus_spots(files[f"spots{k}"], sp, title=f"{lens}, {sp.label}: through-focus spot diagrams")
     files["json"].write_text(dumps_json(out) + "\n")
     return {k: str(v) for k, v in files.items()}

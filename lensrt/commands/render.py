@@ -5,6 +5,7 @@ import argparse
 
 from ..errors import LensrtError
 from ._common import emit, print_json
+from ._limits import add_max_memory_argument, memory_limit, parse_seed
 
 __all__ = ["register"]
 
@@ -31,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after the pass that reaches S seconds")
     p.add_argument("--target-error", type=float, default=None, metavar="REL",
                    help="stop when the RMS relative standard error of Y over lit pixels reaches REL (e.g. 0.02)")
-    p.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
+    p.add_argument("--seed", type=parse_seed, default=None, help="random seed, 0..2^63-1 (default: the scene's)")
     p.add_argument("--focus", choices=("best", "paraxial"), default="best",
                    help="best: least RMS spot on axis (default); paraxial: the paraxial image plane")
     p.add_argument("--band-nm", type=float, default=10.0, metavar="NM",
@@ -40,6 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="render only these sensor pixels (rows R0..R1-1, columns C0..C1-1)")
     p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
     p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
+    add_max_memory_argument(p)
     from ._parallel import add_parallel_arguments
     add_parallel_arguments(p)
     p.set_defaults(func=cmd_render)
@@ -71,24 +73,39 @@ def cmd_render(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     if args.preview:
         return _preview(args, scene)
-    if args.plan:
-        from ..render.plan import plan_render
-        lens, note = _load_lens_or_note(scene, args.lens)
-        plan = plan_render(scene, lens)
-        if args.json:
-            print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": note})
-            return 0
-        emit(scene.summary())
-        emit("")
-        emit(plan.describe())
-        if note:
-            emit(f"  note         lens not loaded ({note}); lens-dependent choices use defaults")
-        return 0
-    from ._render_run import run
+    from ._render_run import options_from_args
+    options_from_args(args)  # the option ranges first (one error line each)
     lens, note = _load_lens_or_note(scene, args.lens)
     if lens is None:
         raise LensrtError(f"cannot load the scene's lens: {note}")
+    from ..render.footprint import check_render
+    checked = check_render(scene, lens, width=args.width, band_width_nm=args.band_nm, focus=args.focus,
+                           limit_bytes=memory_limit(args))
+    if args.plan:
+        return _plan(args, checked, lens)
+    from ._render_run import run
     return int(run(args, scene, lens) or 0)
+
+
+def _plan(args: argparse.Namespace, checked, lens) -> int:
+    """``--plan``: the plan of the checked scene, the camera and the memory estimate; renders nothing."""
+    from ..core.budget import format_bytes
+    from ..render.plan import plan_render
+    scene, cam = checked.scene, checked.camera
+    plan = plan_render(scene, lens)
+    focus = "infinity" if cam.focus_distance_mm == float("inf") else f"{cam.focus_distance_mm / 1000.0:.4g} m"
+    if args.json:
+        print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": None,
+                    "camera": {"f_number": cam.f_number, "focus_distance_mm": cam.focus_distance_mm,
+                               "sensor_z_mm": cam.sensor_z_mm},
+                    "memory": {"estimate_bytes": checked.memory.bytes, "detail": checked.memory.detail}})
+        return 0
+    emit(scene.summary())
+    emit("")
+    emit(plan.describe())
+    emit(f"  camera       f/{cam.f_number:.3g}, focus {focus}, sensor at z = {cam.sensor_z_mm:.4f} mm")
+    emit(f"  memory       about {format_bytes(checked.memory.bytes)} ({checked.memory.detail})")
+    return 0
 
 
 def _preview(args: argparse.Namespace, scene) -> int:
@@ -97,7 +114,7 @@ def _preview(args: argparse.Namespace, scene) -> int:
     from PIL import Image
     from ..io.paths import output_file
     from ..render.preview import preview_pinhole
-    from ..render.spectra import srgb_encode, xyz_to_linear_srgb
+    from ..colour import srgb_encode, xyz_to_linear_srgb
     width = 360 if args.width is None else args.width
     spp = 16 if args.spp is None else args.spp
     if width < 1 or width > 8192 or spp < 2:

@@ -1,5 +1,5 @@
 """``lensrt report``: the lens's data sheet -- one self-contained HTML page with the PNG/EXR/JSON
-files behind it (README "Lens report")."""
+files behind it (docs/tutorials/first-report.md)."""
 from __future__ import annotations
 
 import argparse
@@ -49,7 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--quality", choices=list(QUALITIES), default="normal",
                    help="sample counts: draft (a quick look), normal (default), high (smoother figures, about 4x "
-                        "longer); README 'Lens report' lists them")
+                        "longer); docs/tutorials/first-report.md lists them")
     m.add_argument("--time-budget", type=float, default=None, metavar="S",
                    help="seconds for the PSF map and MTF together: each field point gets its share as a "
                         "progressive run (rays added until the share is spent)")

@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
 from ._common import emit, print_json
+from ._limits import add_max_memory_argument, parse_seed
 
 __all__ = ["register"]
 
@@ -15,7 +17,8 @@ def _add_sensor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a sensor parameter, e.g. --set cfa=XTRANS --set read_noise_upstream_e=3 (repeatable)")
     p.add_argument("--iso", type=float, default=None, help="ISO setting (default: the sensor's base ISO)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the temporal noise (numpy Generator)")
+    p.add_argument("--seed", type=parse_seed, default=0, help="seed of the temporal noise (numpy Generator), 0..2^63-1")
+    add_max_memory_argument(p)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -51,7 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                      "(arrays irradiance (rows, cols, n) in W/(m^2 nm) and wavelength_nm)")
     src.add_argument("--flat", type=float, metavar="LUX", help="uniform field of this sensor-plane illuminance (lux)")
     src.add_argument("--colorchecker", action="store_true", help="the 24-patch ColorChecker (colour-science spectra)")
-    ex.add_argument("--illuminant", default="D65", help="illuminant of flat/chart and adopted white: D65, A, 3200K ...")
+    ex.add_argument("--illuminant", default="D65", help="illuminant of flat/chart and adopted white: D65, A, F2, planck:3200K, daylight:5000K ...")
     ex.add_argument("--exposure-s", type=float, help="exposure time (s); default: set by --level")
     ex.add_argument("--level", type=float, default=0.7,
                     help="without --exposure-s: the brightest green signal (chart: a perfect white) at this fraction of raw clipping")
@@ -107,15 +110,51 @@ def _sensor(args: argparse.Namespace):
     return sensor, iso
 
 
-def _size(text: str) -> tuple[int, int]:
+def _size(text: str, args: argparse.Namespace | None = None) -> tuple[int, int]:
+    """``--size ROWSxCOLS``, checked against the memory budget (``--max-memory``)."""
+    from ..core.budget import check_memory, estimate_sensor_bytes
     from ..errors import LensrtError
+    from ._limits import memory_limit
     try:
         r, c = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise LensrtError(f"size {text!r} must be ROWSxCOLS, e.g. 256x256") from None
+        raise LensrtError(f"--size {text!r} must be ROWSxCOLS, e.g. 256x256") from None
     if r < 4 or c < 4:
-        raise LensrtError("frames need at least 4x4 photosites")
+        raise LensrtError(f"--size {text}: frames need at least 4x4 photosites")
+    check_memory(estimate_sensor_bytes(r, c, what=f"--size {text}: a frame"), None if args is None else memory_limit(args))
     return r, c
+
+
+#: the longest exposure time the sensor commands take (s): a day
+MAX_EXPOSURE_S = 86400.0
+
+
+def _check_exposure(value: float | None) -> None:
+    from ..errors import LensrtError
+    if value is not None and not (math.isfinite(value) and 0 < value <= MAX_EXPOSURE_S):
+        raise LensrtError(f"--exposure-s: exposure time {value:g} s is outside (0, {MAX_EXPOSURE_S:g}] s")
+
+
+def _check_chart(args: argparse.Namespace) -> None:
+    """``--colorchecker --patch-px``: a patch size the memory budget allows."""
+    from ..core.budget import check_memory, estimate_sensor_bytes
+    from ..errors import LensrtError
+    from ._limits import memory_limit
+    if args.patch_px > 4096:
+        raise LensrtError(f"--patch-px {args.patch_px} is more than 4096 photosites a patch")
+    check_memory(estimate_sensor_bytes(5 * args.patch_px, 7 * args.patch_px, what="--patch-px: a chart"),
+                 memory_limit(args))
+
+
+def _check_characterize(args: argparse.Namespace) -> None:
+    from ..errors import LensrtError
+    _check_exposure(args.exposure_s)
+    if args.stack < 1:
+        raise LensrtError(f"--stack {args.stack}: at least 1 frame must be averaged for DSNU/PRNU")
+    if not 8 <= args.levels <= 10000:
+        raise LensrtError(f"--levels {args.levels} must be 8..10000 irradiance steps")
+    if not (math.isfinite(args.wavelength_nm) and 200.0 <= args.wavelength_nm <= 2000.0):
+        raise LensrtError(f"--wavelength-nm {args.wavelength_nm:g} is outside 200..2000 nm")
 
 
 def cmd_presets(args: argparse.Namespace) -> int:
@@ -170,9 +209,11 @@ def cmd_characterize(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..sensor.emva import characterize
     sensor, iso = _sensor(args)
+    shape = _size(args.size, args)
+    _check_characterize(args)
     result, expected = characterize(sensor, rng=np.random.default_rng(args.seed), iso=iso,
                                     wavelength_nm=args.wavelength_nm, exposure_s=args.exposure_s, n_levels=args.levels,
-                                    shape=_size(args.size), channel="RGB".index(args.channel), n_stack=args.stack)
+                                    shape=shape, channel="RGB".index(args.channel), n_stack=args.stack)
     files = []
     if args.plot:
         from ..views.plots.sensor import plot_emva
@@ -229,22 +270,24 @@ def cmd_expose(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..isp import Isp, IspSettings, exposure_gain_for_iso
     from ..sensor import average_frames, dark_frame, electrons_to_raw, mean_photoelectrons
-    from ..sensor.exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
+    from ..colour import STANDARD_WAVELENGTHS_NM, parse_illuminant
+    from ..sensor.exposure import spectral_irradiance_from_illuminance
     t_start = time.perf_counter()
+    _check_exposure(args.exposure_s)
+    size = _size(args.size, args) if args.flat is not None else None  # before any work
     sensor, iso = _sensor(args)
     rng = np.random.default_rng(args.seed)
     chart = None
     bin_width = None
-    illuminant = _value(args.illuminant) if args.illuminant[:1].isdigit() else args.illuminant
-    if isinstance(illuminant, (int, float)):
-        illuminant = float(illuminant)
+    illuminant = parse_illuminant(args.illuminant)
     if args.colorchecker:
         from ..sensor.targets import colorchecker_scene
+        _check_chart(args)
         chart = colorchecker_scene(args.patch_px, illuminant)
         E, wl, labels, shape = chart.spectra, chart.wavelength_nm, chart.labels, None
     elif args.flat is not None:
         wl = STANDARD_WAVELENGTHS_NM
-        E, labels, shape = spectral_irradiance_from_illuminance(args.flat, illuminant, wl), None, _size(args.size)
+        E, labels, shape = spectral_irradiance_from_illuminance(args.flat, illuminant, wl), None, size
     else:
         E, wl, bin_width = _read_irradiance(args.irradiance)
         labels, shape = None, None
@@ -309,14 +352,10 @@ def cmd_expose(args: argparse.Namespace) -> int:
               "white_level_dn": raw.white_level_dn, "black_level_dn": raw.black_level_dn,
               "isp_seconds": result.seconds, "seconds": time.perf_counter() - t_start, "files": files}
     if chart is not None:
-        from ..isp.colour import delta_e2000_srgb, xyz_of_reflectances, xyz_to_linear_srgb
-        import colour
-        X, _ = xyz_of_reflectances(chart.reflectance, illuminant, wl)
-        if str(illuminant).upper() != "D65":
-            d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
-            _, wxyz = xyz_of_reflectances(chart.reflectance, illuminant, wl)
-            X = X @ np.asarray(colour.adaptation.matrix_chromatic_adaptation_VonKries(wxyz, d65, "Bradford")).T
-        ref = xyz_to_linear_srgb(X)
+        from ..colour import srgb_matrix_for_white
+        from ..isp.colour import delta_e2000_srgb, xyz_of_reflectances
+        X, wxyz = xyz_of_reflectances(chart.reflectance, illuminant, wl)
+        ref = X @ srgb_matrix_for_white(wxyz).T   # the colours the ISP aims at (adopted white -> sRGB white)
         got = np.array([result.linear[r0:r1, c0:c1].reshape(-1, 3).mean(axis=0) for r0, r1, c0, c1 in chart.boxes])
         de = delta_e2000_srgb(got, ref)
         report["delta_e2000"] = {"mean": float(de.mean()), "max": float(de.max()),
@@ -341,7 +380,6 @@ def cmd_expose(args: argparse.Namespace) -> int:
 
 
 def _read_irradiance(path_text: str):
-    import numpy as np
     from ..errors import LensrtError
     path = Path(path_text)
     if path.suffix.lower() == ".exr":
@@ -352,12 +390,32 @@ def _read_irradiance(path_text: str):
     if path.suffix.lower() == ".npz":
         if not path.is_file():
             raise LensrtError(f"no such file {path}")
-        with np.load(path) as data:
-            if "irradiance" not in data or "wavelength_nm" not in data:
-                raise LensrtError("npz needs arrays 'irradiance' (rows, cols, n) and 'wavelength_nm' (n,)", path=path)
-            bw = data["bin_width_nm"] if "bin_width_nm" in data else None
-            return data["irradiance"], data["wavelength_nm"], bw
+        return _read_npz(path)
     raise LensrtError(f"irradiance file {path} must be .exr or .npz")
+
+
+def _read_npz(path: Path):
+    """(irradiance, wavelength_nm, bin width or None) from an .npz file, every problem one error line."""
+    import zipfile
+    import numpy as np
+    from ..errors import LensrtError
+    need = "an .npz needs arrays 'irradiance' (rows, cols, n) and 'wavelength_nm' (n,)"
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if not hasattr(data, "files") or "irradiance" not in data.files or "wavelength_nm" not in data.files:
+                raise LensrtError(need, path=path)
+            E, wl = np.asarray(data["irradiance"]), np.asarray(data["wavelength_nm"])
+            bw = np.asarray(data["bin_width_nm"]) if "bin_width_nm" in data.files else None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+        raise LensrtError(f"not a readable .npz file ({type(err).__name__}: {err})", path=path,
+                          hint=need) from None
+    if E.ndim != 3 or wl.ndim != 1 or E.shape[-1] != wl.size or E.dtype.kind not in "fiu" or wl.dtype.kind not in "fiu":
+        raise LensrtError(f"arrays of shapes {E.shape} and {wl.shape}: {need}", path=path)
+    if not (np.isfinite(E).all() and (E >= 0).all() and np.isfinite(wl).all() and (wl > 0).all()):
+        raise LensrtError("irradiance and wavelengths must be finite and non-negative", path=path)
+    if bw is not None and not (bw.size == 1 and np.isfinite(bw).all() and float(bw) > 0):
+        raise LensrtError("bin_width_nm must be one positive number", path=path)
+    return E, wl, (None if bw is None else float(bw))
 
 
 def _calibration_for_dng(sensor):

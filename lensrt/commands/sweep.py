@@ -8,6 +8,8 @@ import io
 import math
 from typing import Any
 
+from ..core.budget import MAX_SWEEP_ROWS
+from ._limits import parse_seed, positive_int
 from ._common import add_lens_argument, emit, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer, run_summary_line
 
@@ -42,13 +44,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("table", "csv", "json"), default="table",
                    help="what to print (default table)")
     p.add_argument("-o", "--output", metavar="FILE", help="write the table to FILE (.csv, .json or .txt)")
-    p.add_argument("--seed", type=int, default=0, help="job seed (the paraxial sweep draws no random numbers)")
+    p.add_argument("--seed", type=parse_seed, default=0, help="job seed (the paraxial sweep draws no random numbers)")
+    p.add_argument("--max-rows", type=positive_int, default=None, metavar="N",
+                   help=f"allow more than {MAX_SWEEP_ROWS} variants (focus distances x f-numbers)")
     add_parallel_arguments(p)
     p.set_defaults(func=cmd_sweep)
 
 
-def parse_values(text: str, what: str) -> list[float]:
-    """A comma list of numbers ('inf' allowed) or ``A:B:N`` (N values from A to B in equal ratios)."""
+def parse_values(text: str, what: str, max_count: int | None = None) -> list[float]:
+    """A comma list of numbers ('inf' allowed) or ``A:B:N`` (N values from A to B in equal ratios);
+    N at most ``max_count`` (default :data:`lensrt.core.budget.MAX_SWEEP_ROWS`, ``--max-rows``)."""
     import numpy as np
 
     from ..errors import LensrtError
@@ -56,9 +61,10 @@ def parse_values(text: str, what: str) -> list[float]:
     try:
         if ":" in text:
             a, b, n = text.split(":")
-            lo, hi, count = float(a), float(b), int(n)
+            lo, hi, count = float(a), float(b), int(float(n)) if math.isfinite(float(n)) else -1
             if not (0 < lo and 0 < hi and math.isfinite(lo) and math.isfinite(hi) and count >= 1):
                 raise ValueError
+            _check_rows(count, f"{what} {text}", max_count)
             return [float(v) for v in np.geomspace(lo, hi, count)] if count > 1 else [lo]
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
@@ -66,7 +72,14 @@ def parse_values(text: str, what: str) -> list[float]:
                           hint="e.g. 1000,2000,inf or 500:20000:8") from None
     if not values:
         raise LensrtError(f"{what} is empty")
+    if not all(v > 0 for v in values):  # nan, 0 and negative distances or f-numbers
+        raise LensrtError(f"{what} {text!r}: every value must be positive", hint="e.g. 1000,2000,inf or 500:20000:8")
     return values
+
+
+def _check_rows(count: int, what: str, max_count: int | None) -> None:
+    from ..core.budget import check_count
+    check_count(count, max_count or MAX_SWEEP_ROWS, f"{what}: {count} variants", "--max-rows")
 
 
 def _default_f_numbers(lens: Any, wavelength_nm: float | None) -> list[float]:
@@ -129,12 +142,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     lens = variants[0][1]
     if args.wavelength_nm is not None:
         lens.check_wavelengths(args.wavelength_nm)  # an ExtrapolationWarning where a glass is extrapolated
-    focus = parse_values(args.focus_distance_mm, "--focus-distance-mm") if args.focus_distance_mm \
+    focus = parse_values(args.focus_distance_mm, "--focus-distance-mm", args.max_rows) if args.focus_distance_mm \
         else list(DEFAULT_FOCUS_MM)
     rows = []
     for name, one in variants:
-        fnums = parse_values(args.f_number, "--f-number") if args.f_number \
+        fnums = parse_values(args.f_number, "--f-number", args.max_rows) if args.f_number \
             else _default_f_numbers(one, args.wavelength_nm)
+        _check_rows(len(variants) * len(focus) * len(fnums),
+                    f"{len(variants)} configurations x {len(focus)} focus distances x {len(fnums)} f-numbers",
+                    args.max_rows)
+        if args.f_number:
+            from ..paraxial.fnumber import check_f_number
+            for n in fnums:  # as render and bokeh: never wider than the lens opens
+                check_f_number(one, n)
         job = sweep_job(SweepSetup(one, args.wavelength_nm, args.sensor, args.coc_mm), focus, fnums, args.seed)
         with executor_from_args(args, uses_device=job.uses_device) as ex:
             result = ex.run(job, progress=progress_printer(args, "variants"))

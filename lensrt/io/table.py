@@ -19,13 +19,13 @@ def _cell(value: Any, digits: int) -> str:
         if math.isinf(v):
             return "inf" if v > 0 else "-inf"
         if math.isnan(v):
-            return "nan"
+            return "-"  # undefined (no analysis presents nan as a result; notes say why)
         return f"{v:.{digits}f}" if abs(v) < 1e7 else f"{v:.{digits}g}"
     return str(value)
 
 
 def format_cell(value: Any, digits: int = 4) -> str:
-    """One table cell as text: floats with ``digits`` decimals, None as "-", inf/nan spelled out."""
+    """One table cell as text: floats with ``digits`` decimals, None and nan (undefined) as "-", inf spelled out."""
     return _cell(value, digits)
 
 

@@ -13,7 +13,8 @@ from .colour import ColourCalibration, calibrate, white_balance_from_illuminant
 from .demosaic import DEMOSAIC_METHODS, demosaic
 from .metrics import exposure_gain_for_iso, sos_iso
 from .pipeline import Isp, IspResult, IspSettings, output_histograms, raw_histograms
-from .tone import SCurve, image_dynamic_range_stops, quantize, srgb_decode, srgb_encode, tone_curve
+from .tone import SCurve, image_dynamic_range_stops, quantize, tone_curve
+from ..colour import srgb_decode, srgb_encode  # re-exported for one release: their home is lensrt.colour
 
 __all__ = ["ColourCalibration", "calibrate", "white_balance_from_illuminant", "DEMOSAIC_METHODS", "demosaic",
            "exposure_gain_for_iso", "sos_iso", "Isp", "IspResult", "IspSettings", "output_histograms",

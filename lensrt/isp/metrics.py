@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import LensrtError
-from ..sensor.exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
+from ..colour import STANDARD_WAVELENGTHS_NM
+from ..sensor.exposure import spectral_irradiance_from_illuminance
 from .pipeline import Isp
 from .tone import inverse_tone_curve
 

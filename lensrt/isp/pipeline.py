@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..colour import Illuminant
 from ..errors import LensrtError
 from ..sensor.detector import RawFrame, subtract_dark
 from ..sensor.model import Sensor
@@ -37,9 +38,11 @@ class IspSettings:
 
     Attributes
     ----------
-    illuminant : str or float
-        Scene illuminant / adopted white (``"D65"``, ``"A"``, a CCT in K such as 3200): the colour
-        matrix is fitted under it and, with ``white_balance="illuminant"``, the multipliers come from it.
+    illuminant : str or Illuminant
+        Scene illuminant / adopted white: the spectrum itself (a :class:`lensrt.colour.Illuminant`, as
+        the render stage passes it) or its name in the one syntax (``"D65"``, ``"A"``, ``"F2"``,
+        ``"planck:3200K"``, ``"daylight:5000K"``): the colour matrix is fitted under it and, with
+        ``white_balance="illuminant"``, the multipliers come from it.
     white_balance : str or tuple
         ``"illuminant"``, ``"grey"`` (multipliers from the mean raw of ``grey_region``) or three
         multipliers (R, G, B).
@@ -57,7 +60,7 @@ class IspSettings:
         Digital gain on linear values (1: raw clipping -> linear 1.0).
     """
 
-    illuminant: str | float = "D65"
+    illuminant: str | Illuminant = "D65"
     white_balance: str | tuple[float, float, float] = "illuminant"
     grey_region: tuple[int, int, int, int] | None = None
     demosaic: str = "bilinear"
@@ -159,9 +162,13 @@ class Isp:
         encoded = tone_curve(linear, s.tone)  # 5.
         sec["tone"] = time.perf_counter() - t0
         return IspResult(linear=linear, encoded=encoded, wb_multipliers=wb, camera_to_srgb=R, seconds=sec,
-                         meta={"illuminant": s.illuminant, "demosaic": s.demosaic,
+                         meta={"illuminant": _illuminant_name(s.illuminant), "demosaic": s.demosaic,
                                "tone": s.tone if isinstance(s.tone, str) else f"scurve(contrast={s.tone.contrast})",
                                "exposure_gain": s.exposure_gain})
+
+
+def _illuminant_name(illuminant: str | Illuminant) -> str:
+    return illuminant.name if isinstance(illuminant, Illuminant) else str(illuminant)
 
 
 def raw_histograms(raw: RawFrame, bins: int = 256) -> dict[str, Any]:

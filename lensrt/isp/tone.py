@@ -1,6 +1,7 @@
 """Tone curves, encoding to 8/16-bit output levels, histograms (Field Guide p. 66-70).
 
-* sRGB encoding (IEC 61966-2-1): 12.92 x for x <= 0.0031308, 1.055 x^(1/2.4) - 0.055 above.
+* sRGB encoding (IEC 61966-2-1, :func:`lensrt.colour.srgb_encode`): 12.92 x for x <= 0.0031308,
+  1.055 x^(1/2.4) - 0.055 above.
 * A custom S-curve (:class:`SCurve`): y = A x^c / (x^c + k), the log-logistic
   (Naka-Rushton) form, fixed so that mid-grey stays mid-grey (f(m) = m) and the white input
   maps to 1; c > 1 lifts mid-tone contrast, rolls off the highlights and darkens the toe, as
@@ -16,22 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..colour import srgb_decode, srgb_encode
 from ..errors import LensrtError
 
-__all__ = ["srgb_encode", "srgb_decode", "SCurve", "tone_curve", "inverse_tone_curve", "quantize",
+__all__ = ["SCurve", "tone_curve", "inverse_tone_curve", "quantize",
            "image_dynamic_range_stops", "histogram"]
-
-
-def srgb_encode(linear: np.ndarray) -> np.ndarray:
-    """sRGB transfer function (IEC 61966-2-1): linear [0, 1] -> encoded [0, 1] (clipped)."""
-    x = np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, np.float32(1 / 2.4)) - 0.055).astype(np.float32)
-
-
-def srgb_decode(encoded: np.ndarray) -> np.ndarray:
-    """Inverse sRGB transfer function: encoded [0, 1] -> linear [0, 1]."""
-    v = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
 
 @dataclass(frozen=True)
@@ -79,9 +69,9 @@ class SCurve:
 def tone_curve(linear: np.ndarray, tone: str | SCurve = "srgb") -> np.ndarray:
     """Encoded output [0, 1] from linear sRGB values: ``"srgb"``, ``"linear"`` or an :class:`SCurve`."""
     if isinstance(tone, SCurve):
-        return srgb_encode(tone(linear))
+        return srgb_encode(tone(linear)).astype(np.float32)
     if tone == "srgb":
-        return srgb_encode(linear)
+        return srgb_encode(linear).astype(np.float32)
     if tone == "linear":
         return np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0)
     raise LensrtError(f"unknown tone curve {tone!r}", hint="use srgb, linear or scurve")

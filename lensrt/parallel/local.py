@@ -116,6 +116,8 @@ class LocalExecutor:
     devices : str or sequence of str, optional
         A device specification for :func:`resolve_devices` (default ``"auto"``).
 
+    Notes
+    -----
     A host-only job (``job.uses_device`` False) runs in the calling thread and
     never initialises Warp.
     """

@@ -253,6 +253,8 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         Distance from the object plane to the first vertex (mm; ``inf``
         allowed); default the lens's own.
 
+    Notes
+    -----
     The entrance-pupil diameter follows the lens's aperture specification at
     this wavelength and object distance; the image is the paraxial image of the
     object plane (the lens's image surface is not moved: ``image_surface_distance_mm``
@@ -286,6 +288,9 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     image_offset = m_ray.axis_crossing_mm()
     # an object at (or within rounding of) the front focal point images to infinity: rounding leaves
     # a finite but meaningless image distance (1e17 mm), so anything beyond 1e9 focal lengths is infinity
+    if (math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl)) and math.isinf(d_obj):
+        raise LensrtError(f"the lens is afocal (EFL {efl:.4g} mm, its power nearly zero): an object at infinity "
+                          "images at infinity", hint="a camera lens needs power; check the radii")
     if math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl):
         raise LensrtError(f"the image is at infinity at this object distance ({d_obj:g} mm: the object is at the "
                           f"front focal point, z = {front_focal_z:g} mm)",

@@ -36,14 +36,15 @@ import numpy as np
 
 from ..errors import PrescriptionError, UnknownGlassError
 from ..units import FRAUNHOFER_NM, NM_PER_UM
+from .dispersion import DISPERSION_WIDTH
 
 __all__ = [
     "DISPERSION_WIDTH", "Material", "Air", "ConstantIndex", "ModelGlass", "CatalogGlass",
     "AIR", "CATALOGS", "find_glass", "parse_material", "index_from_packed",
-    "glass_names", "ExtrapolationWarning", "check_wavelength_range",
+    "glass_names", "ExtrapolationWarning", "check_wavelength_range", "find_exact_vendor_glass",
+    "vendor_nd_vd_table", "make_vendor_glass",
 ]
 
-DISPERSION_WIDTH = 15
 #: catalog names in the default search order
 CATALOGS: tuple[str, ...] = ("Schott", "Ohara", "Hoya", "CDGM", "Hikari", "Sumita")
 
@@ -134,15 +135,23 @@ AIR = Air()
 
 @dataclass(frozen=True)
 class ConstantIndex(Material):
-    """A non-dispersive medium of index ``n`` (pbrt tables, immersion media)."""
+    """A non-dispersive medium of index ``n`` (pbrt tables, immersion media).
+
+    ``n`` is 1..5; an index in 0.5..1 (an exotic medium, relative to air) needs ``exotic=True``
+    (TOML ``material = { index = 0.7, exotic = true }``).
+    """
 
     n: float
     name: str = ""
+    exotic: bool = False
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.n) and 0.5 <= self.n <= 5.0):
+        low = 0.5 if self.exotic else 1.0
+        if not (math.isfinite(self.n) and low <= self.n <= 5.0):
             raise PrescriptionError(f"refractive index {self.n!r} is not physical",
-                                    hint="give an index between 1 and 5")
+                                    hint="give an index between 1 and 5" + (
+                                        "; an index below 1 needs 'exotic = true' in a TOML material table"
+                                        if math.isfinite(self.n) and 0.5 <= self.n < 1.0 else ""))
         if not self.name:
             object.__setattr__(self, "name", f"n={self.n:g}")
 
@@ -183,12 +192,23 @@ class ModelGlass(Material):
 
 @dataclass(frozen=True)
 class CatalogGlass(Material):
-    """A vendor catalog glass; its coefficients are copied from ``opticalglass`` at load."""
+    """A catalog material: its packed coefficients are copied from the catalog's own formula at load.
+
+    ``source`` says where the data come from (``opticalglass``'s vendor
+    spreadsheet, a refractiveindex.info page, a user ``.agf`` file, a CODE V
+    private catalog), ``formula`` which formula it was. Outside ``range_nm``
+    the formula is extrapolated: a warning for glasses, an error where
+    ``range_is_limit`` (crystals and semiconductors whose formulas fail
+    outside their data, e.g. germanium in the visible).
+    """
 
     name: str
     catalog: str
     coefficients: tuple[float, ...] = field(repr=False, default=())
     range_nm: tuple[float, float] | None = field(repr=False, default=None)
+    source: str = field(default="", compare=False)
+    formula: str = field(default="", compare=False)
+    range_is_limit: bool = field(default=False, compare=False)
 
     def packed(self) -> tuple[float, ...]:
         return self.coefficients
@@ -283,8 +303,50 @@ def _make_catalog_glass(cat: str, name: str) -> CatalogGlass:
     coefs = _catalog(cat).glass_coefs(name)
     if not np.all(np.isfinite(coefs)):
         raise PrescriptionError(f"catalog {cat} has no dispersion coefficients for {name}")
+    formula = "Sellmeier (3 terms)" if cat in ("Schott", "Ohara") else \
+        "extended power series" if cat == "Hikari" else "Schott power series"
     return CatalogGlass(name=name, catalog=cat, coefficients=_pack_catalog(cat, coefs),
-                        range_nm=_measured_range_nm(cat, name))
+                        range_nm=_measured_range_nm(cat, name), source=f"opticalglass ({cat} catalog)",
+                        formula=formula)
+
+
+@lru_cache(maxsize=1)
+def vendor_nd_vd_table() -> tuple[tuple[str, str, float, float], ...]:
+    """(catalog, glass, n_d, V_d) of every glass of :data:`CATALOGS`, as the vendors' sheets list them."""
+    rows = []
+    for cat in CATALOGS:
+        df = _catalog(cat).df
+        try:
+            nd = df["refractive indices"]["d"]
+            vd = df["abbe number"]["vd"]
+        except KeyError:  # pragma: no cover - every opticalglass sheet has both columns
+            continue
+        for name, n, v in zip(df.index, nd, vd):
+            try:
+                n, v = float(n), float(v)
+            except (TypeError, ValueError):
+                continue
+            if math.isfinite(n) and math.isfinite(v):
+                rows.append((cat, str(name), n, v))
+    return tuple(rows)
+
+
+def find_exact_vendor_glass(name: str, catalog: str) -> CatalogGlass | None:
+    """The glass of vendor ``catalog`` whose name equals ``name`` ignoring case, spaces, hyphens, dots
+    and underscores (``NSK16`` = ``N-SK16``), else ``None``. No successor or prefix matching."""
+    cat = _canonical_catalog(catalog)
+    if cat is None:
+        return None
+    key = _normalise(name)
+    for gname in glass_names(cat):
+        if _normalise(gname) == key:
+            return _make_catalog_glass(cat, gname)
+    return None
+
+
+def make_vendor_glass(catalog: str, name: str) -> CatalogGlass:
+    """The glass ``name`` (exact catalog spelling) of vendor ``catalog``."""
+    return _make_catalog_glass(catalog, name)
 
 
 def find_glass(name: str, catalogs: Iterable[str] | None = None) -> CatalogGlass:
@@ -359,6 +421,8 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
         return find_glass(text, catalogs)
     if isinstance(spec, dict):
         keys = set(spec)
+        if {"glass", "coefficients"} <= keys:
+            return _packed_glass(spec)
         if "glass" in keys:
             cats = [spec["catalog"]] if "catalog" in spec else catalogs
             if "catalog" in spec and _canonical_catalog(str(spec["catalog"])) is None:
@@ -369,20 +433,57 @@ def parse_material(spec: object, catalogs: Iterable[str] | None = None) -> Mater
             return ModelGlass(float(spec["nd"]), float(spec["vd"]), name=str(spec.get("name", "")))
         if "index" in keys:
             n = float(spec["index"])
-            return AIR if n == 1.0 else ConstantIndex(n, name=str(spec.get("name", "")))
+            exotic = spec.get("exotic", False)
+            if not isinstance(exotic, bool):
+                raise PrescriptionError(f"exotic must be true or false, not {exotic!r}")
+            return AIR if n == 1.0 else ConstantIndex(n, name=str(spec.get("name", "")), exotic=exotic)
         raise PrescriptionError(f"material table {spec!r} needs 'glass', 'nd'+'vd' or 'index'")
     raise PrescriptionError(f"material {spec!r} is not a glass name, a number or a table")
 
 
+def _packed_glass(spec: dict) -> CatalogGlass:
+    """A glass given by its packed coefficients (how the native format stores non-vendor glasses)."""
+    coefs = spec["coefficients"]
+    if not isinstance(coefs, list) or len(coefs) != DISPERSION_WIDTH or \
+            not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in coefs):
+        raise PrescriptionError(f"glass {spec['glass']!r}: coefficients must be {DISPERSION_WIDTH} finite numbers")
+    rng = spec.get("range_nm")
+    if rng is not None and (not isinstance(rng, list) or len(rng) != 2 or
+                            not all(isinstance(v, (int, float)) and math.isfinite(v) for v in rng)):
+        raise PrescriptionError(f"glass {spec['glass']!r}: range_nm must be two numbers (nm)")
+    glass = CatalogGlass(name=str(spec["glass"]), catalog=str(spec.get("catalog", "")),
+                         coefficients=tuple(float(c) for c in coefs),
+                         range_nm=None if rng is None else (float(rng[0]), float(rng[1])),
+                         source=str(spec.get("source", "native file")), formula=str(spec.get("formula", "")),
+                         range_is_limit=bool(spec.get("range_is_limit", False)))
+    n = glass.index(FRAUNHOFER_NM["d"]) if rng is None or rng[0] <= FRAUNHOFER_NM["d"] <= rng[1] else \
+        glass.index(0.5 * (float(rng[0]) + float(rng[1])))
+    if not (math.isfinite(n) and 1.0 <= n <= 5.0):
+        raise PrescriptionError(f"glass {spec['glass']!r}: its coefficients give n = {n!r}, not a physical index")
+    return glass
+
+
 def check_wavelength_range(materials: Iterable[Material], wavelength_nm: Iterable[float]) -> list[str]:
-    """Messages (and :class:`ExtrapolationWarning` s) for wavelengths outside a glass's data range."""
+    """Messages (and :class:`ExtrapolationWarning` s) for wavelengths outside a glass's data range.
+
+    Raises
+    ------
+    PrescriptionError
+        For a material whose range is a limit (``CatalogGlass.range_is_limit``:
+        crystals and semiconductors, e.g. germanium at 550 nm).
+    """
     msgs = []
     waves = [float(w) for w in wavelength_nm]
-    for mat in set(materials):
+    for mat in sorted(set(materials), key=lambda m: m.describe()):
         rng = mat.valid_range_nm
         if rng is None:
             continue
         bad = [w for w in waves if w < rng[0] - 1e-9 or w > rng[1] + 1e-9]
+        if bad and getattr(mat, "range_is_limit", False):
+            raise PrescriptionError(
+                f"{mat.describe()} has no index data at {', '.join(f'{w:g}' for w in bad)} nm "
+                f"(its formula covers {rng[0]:g}-{rng[1]:g} nm)",
+                hint="use wavelengths inside that range (see 'lensrt glass NAME') or another material")
         if bad:
             msg = (f"{mat.describe()}: dispersion formula extrapolated at {', '.join(f'{w:g}' for w in bad)} nm "
                    f"(catalog data cover {rng[0]:g}-{rng[1]:g} nm)")

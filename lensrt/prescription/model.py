@@ -27,7 +27,7 @@ from .focusing import UNIT_FOCUS, FocusMechanism
 from .materials import AIR, Material
 
 __all__ = [
-    "APERTURE_KINDS", "FIELD_KINDS", "Aperture", "Iris", "Fields", "Wavelengths", "Surface", "Lens",
+    "APERTURE_KINDS", "FIELD_KINDS", "Aperture", "Iris", "Fields", "Wavelengths", "Surface", "Lens", "LoadWarning",
 ]
 
 #: epd: entrance-pupil diameter (mm); image_fno: image-space f-number at infinite
@@ -157,6 +157,8 @@ class Wavelengths:
         w = tuple(_finite(v, "wavelength weight") for v in self.weights) if self.weights else (1.0,) * len(nm)
         if len(w) != len(nm) or any(v < 0 for v in w):
             raise PrescriptionError("wavelength weights must be one non-negative number per wavelength")
+        if not any(v > 0 for v in w):
+            raise PrescriptionError("wavelength weights are all zero", hint="give at least one positive weight")
         if not 0 <= int(self.primary) < len(nm):
             raise PrescriptionError(f"primary wavelength index {self.primary} is not one of the {len(nm)} wavelengths")
         object.__setattr__(self, "nm", nm)
@@ -235,6 +237,25 @@ class Surface:
 
 
 @dataclass(frozen=True)
+class LoadWarning:
+    """An approximation a reader made, for programs to check (``lensrt info --json``'s ``warnings``).
+
+    ``code`` is one of ``glass_other_catalog``, ``glass_alias``, ``glass_substituted``,
+    ``glass_model``, ``glass_line_disagrees``, ``glass_private``, ``keyword_ignored``,
+    ``keyword_unknown``, ``assumed_default``, ...; ``surface`` the 0-based lens surface
+    (``None`` for system data); ``line`` the file line.
+    """
+
+    code: str
+    text: str
+    surface: int | None = None
+    line: int | None = None
+
+    def to_dict(self) -> dict[str, object]:
+        return {"code": self.code, "surface": self.surface, "line": self.line, "text": self.text}
+
+
+@dataclass(frozen=True)
 class Lens:
     """A complete prescription: surfaces plus the system data (aperture, fields, ...)."""
 
@@ -249,6 +270,8 @@ class Lens:
     source: str = ""
     #: free-form metadata as (key, value) pairs, e.g. ("clear_apertures", "paraxial")
     notes: tuple[tuple[str, str], ...] = ()
+    #: approximations the reader made (glass substitutions, ignored keywords, assumed defaults)
+    warnings: tuple[LoadWarning, ...] = field(default=(), compare=False)
     #: file the lens was read from (not part of equality)
     path: str | None = field(default=None, compare=False)
     #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default

@@ -1,6 +1,6 @@
 """The camera of a render: lens, aperture, focus, sensor geometry, and the one image <-> sensor map.
 
-Frames (README "Rendering"): the lens frame of the scene (z along the axis, light toward +z,
+Frames (docs/tutorials/render-a-scene.md): the lens frame of the scene (z along the axis, light toward +z,
 first lens vertex at z = 0 in its focused position, +y up, +x to the photographer's right).
 The sensor plane stands at ``sensor_z_mm``; a sensor-plane point is ``(x_mm, y_mm)`` centred
 on the axis, +y up, as in the lens frame.
@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
+from ..colour import WavelengthGrid, photopic_v
 
 __all__ = ["SensorGrid", "Camera", "setup_camera", "best_focus_z_mm", "sensor_grid_of"]
 
@@ -190,59 +191,24 @@ class Camera:
 
 def _stop_radius(lens: Lens, f_number: float | None) -> tuple[float | None, float]:
     """(iris radius override or None, paraxial f-number at infinity) for the asked f-number."""
-    from ..paraxial.first_order import first_order
+    from ..paraxial.fnumber import check_f_number, full_aperture_f_number
     from ..trace.aiming import pupil_geometry
-    n_full = first_order(lens, None, math.inf).f_number
     if f_number is None:
-        return None, n_full
-    if f_number < n_full * (1.0 - 1e-3):
-        raise LensrtError(f"f/{f_number:g} is wider than the lens opens (f/{n_full:.3g})",
-                          hint=f"use f_number >= {n_full:.3g}, or leave it out for full aperture")
+        return None, full_aperture_f_number(lens)
+    n_full = check_f_number(lens, f_number, "[camera] f_number")
     r_full = pupil_geometry(lens).stop_radius_mm
     return r_full * n_full / float(f_number), float(f_number)
 
 
 def best_focus_z_mm(lens: Lens, object_distance_mm: float, wavelengths_nm: tuple[float, ...],
-                    weights: tuple[float, ...], stop_radius_mm: float | None = None, rings: int = 12) -> float:
-    """z (lens frame) of least weighted RMS spot radius for the axial object point (float64 reference rays).
-
-    Rays fill the (stopped-down) entrance pupil uniformly in area (``rings`` rings of a polar grid);
-    each ray is a line near focus, so the mean square radius about the centroid is quadratic in z and
-    its minimum is found in closed form.
-    """
-    from ..trace.aiming import pupil_geometry, ray_through_point
-    from ..trace.reference import trace_reference
-    from ..trace.status import OK
-    geom = pupil_geometry(lens)
-    scale = 1.0 if stop_radius_mm is None else stop_radius_mm / geom.stop_radius_mm
-    r_ep = geom.ep_radius_mm * min(scale, 1.0) * 1.02   # a little beyond: the clip decides
+                    weights: tuple[float, ...], stop_radius_mm: float | None = None) -> float:
+    """z (lens frame) of least weighted RMS spot radius for the axial object point at ``object_distance_mm``,
+    with the stop at ``stop_radius_mm``: :mod:`lensrt.trace.focus`, the routine every table uses."""
+    from ..trace.focus import best_focus_plane, focus_moments
     fp = _axial_point(object_distance_mm)
-    pts = []
-    for i in range(rings):
-        rho = r_ep * math.sqrt((i + 0.5) / rings)
-        n_phi = 6 * (i + 1)
-        for k in range(n_phi):
-            phi = 2.0 * math.pi * (k + 0.5 * (i % 2)) / n_phi
-            pts.append((rho * math.cos(phi), rho * math.sin(phi), geom.ep_z_mm))
-    o, d = ray_through_point(fp, np.array(pts))
-    z_img = lens.image_z_mm
-    pos, slope, wts = [], [], []
-    for wl, wt in zip(wavelengths_nm, weights):
-        for j in range(len(o)):
-            r = trace_reference(lens, tuple(o[j]), tuple(d[j]), wl, stop_radius_mm=stop_radius_mm)
-            if r.status != OK or r.N <= 0:
-                continue
-            pos.append((r.x_mm, r.y_mm))
-            slope.append((r.L / r.N, r.M / r.N))
-            wts.append(wt)
-    if len(wts) < 8:
-        raise LensrtError("cannot find the best focus: too few real rays pass the lens on axis")
-    p, s, w = np.array(pos), np.array(slope), np.array(wts)
-    a = p - np.average(p, axis=0, weights=w)
-    b = s - np.average(s, axis=0, weights=w)
-    den = float(np.sum(w[:, None] * b * b))
-    dz = -float(np.sum(w[:, None] * a * b)) / den if den > 0 else 0.0
-    return z_img + dz
+    moments = [focus_moments(lens, float(wl), fp=fp, z0_mm=lens.image_z_mm, stop_radius_mm=stop_radius_mm)
+               for wl in wavelengths_nm]
+    return best_focus_plane(moments, weights).z_mm
 
 
 def _axial_point(distance_mm: float):
@@ -259,7 +225,6 @@ def _focus_weights(scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
     lam = line if line is not None else mono
     if lam is not None:
         return (float(lam),), (1.0,)
-    from .spectra import WavelengthGrid, photopic_v
     g = WavelengthGrid(380.0, 780.0, 5.0)
     v = np.interp(_FOCUS_WAVELENGTHS_NM, g.nm, photopic_v(g))
     return _FOCUS_WAVELENGTHS_NM, tuple(float(x) for x in v)

@@ -1,6 +1,6 @@
 """The render integrator: a scene through a real lens onto the sensor, as spectral irradiance.
 
-What it does (camera paths; README "Rendering" has the whole story):
+What it does (camera paths; docs/explanation/radiometry.md has the whole story):
 
 * per path, a point in the pixel, a wavelength (the plan's importance sampler, or the one
   wavelength of a monochromatic scene), a point in the exit-pupil box of the pixel's radius

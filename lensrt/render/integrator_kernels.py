@@ -1,8 +1,8 @@
 """The integrator's Warp kernels: camera paths sensor -> lens -> scene, and the exit-pupil probe.
 
-One Warp module, ``lensrt_render`` (float32), compiled on first use and cached on disk by Warp.
-It calls the tracer's own ``@wp.func`` surface code (:func:`lensrt.trace.surfaces.surface_funcs`,
-``trace_ray`` with the forward tracer's signature) on the lens mirrored by
+One Warp module (this one, float32), compiled on first use and cached on disk by Warp.
+It calls the tracer's own generic ``@wp.func`` surface code (:mod:`lensrt.trace.kernels.surfaces`,
+``trace_ray`` with the forward tracer's signature, instantiated for float32) on the lens mirrored by
 :func:`lensrt.trace.reverse.reversed_lens`, and the scene stage's ``scene_radiance``
 (:mod:`lensrt.render.scene.kernels`). Plan switches (spectral or one wavelength, meshes,
 shadow rays) are run-time values the kernel reads (the packed scene has no BVH when it has no
@@ -32,216 +32,216 @@ seed on the same device, whatever the launch is split into. Per path:
 from functools import lru_cache
 from types import SimpleNamespace
 
-__all__ = ["get_render_kernels", "MODULE"]
+import warp as wp
 
-MODULE = "lensrt_render"
+from ..trace.kernels.sampling import i32
+from ..trace.kernels.surfaces import medium_index, trace_ray
+from ..trace.status import OK
+from .scene import kernels as sk
+
+__all__ = ["get_render_kernels", "MODULE", "camera_pass", "pupil_probe", "accumulate", "accumulate_moments",
+           "finalize", "permute", "sensor_ray"]
+
+MODULE = __name__
+wp.set_module_options({"enable_backward": False})
+
+K1, K2, K3, K4, K5, K6 = (i32(v) for v in (0xE170893D, 0x0929EB3F, 0x6935FA69, 0x74DCB303, 0x9E501CC3, 0xC860A3DF))
+
+
+@wp.func
+def permute_round(i: wp.uint32, p: wp.uint32, w: wp.uint32) -> wp.uint32:
+    # one round of Kensler's hash-based permutation ("Correlated multi-jittered sampling", Pixar 2013)
+    i = i ^ p
+    i = i * wp.uint32(K1)
+    i = i ^ (p >> wp.uint32(16))
+    i = i ^ ((i & w) >> wp.uint32(4))
+    i = i ^ (p >> wp.uint32(8))
+    i = i * wp.uint32(K2)
+    i = i ^ (p >> wp.uint32(23))
+    i = i ^ ((i & w) >> wp.uint32(1))
+    i = i * (wp.uint32(1) | (p >> wp.uint32(27)))
+    i = i * wp.uint32(K3)
+    i = i ^ ((i & w) >> wp.uint32(11))
+    i = i * wp.uint32(K4)
+    i = i ^ ((i & w) >> wp.uint32(2))
+    i = i * wp.uint32(K5)
+    i = i ^ ((i & w) >> wp.uint32(2))
+    i = i * wp.uint32(K6)
+    i = i & w
+    i = i ^ (i >> wp.uint32(5))
+    return i
+
+@wp.func
+def permute(k: int, n: int, p: wp.uint32) -> int:
+    # element k of a pseudo-random permutation of 0 .. n-1 chosen by p (cycle walking)
+    w = wp.uint32(n - 1)
+    w = w | (w >> wp.uint32(1))
+    w = w | (w >> wp.uint32(2))
+    w = w | (w >> wp.uint32(4))
+    w = w | (w >> wp.uint32(8))
+    w = w | (w >> wp.uint32(16))
+    i = permute_round(wp.uint32(k), p, w)
+    while i >= wp.uint32(n):
+        i = permute_round(i, p, w)
+    return int((i + p) % wp.uint32(n))
+
+@wp.func
+def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist: float) -> wp.vec4:
+    # direction (unit, reversed frame: toward +z) from the sensor point to a point of the pupil
+    # box rotated to the point's azimuth; w = cos(theta)
+    pa = box[0] + u0 * (box[1] - box[0])
+    pb = box[2] + u1 * (box[3] - box[2])
+    r = wp.sqrt(x * x + y * y)
+    c = float(1.0)
+    s = float(0.0)
+    if r > 0.0:
+        c = x / r
+        s = y / r
+    qx = c * pa - s * pb
+    qy = s * pa + c * pb
+    dx = qx - x
+    dy = qy - y
+    inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
+    return wp.vec4(dx * inv, dy * inv, rear_dist * inv, rear_dist * inv)
+
+@wp.kernel
+def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32),
+                iris: wp.array(dtype=wp.float32),
+                n_surfaces: int, table: wp.array2d(dtype=wp.float32), rec: wp.array3d(dtype=wp.float32),
+                sensor_z: float, rear_dist: float,
+                width: int, ax0: float, ax1: float, ay0: float, ay1: float,
+                boxes: wp.array(dtype=wp.vec4), inv_dr: float, n_bins: int,
+                scn: sk.SceneData, spectral: int, lam_fixed: float, cdf: wp.array(dtype=float),
+                band0: float, inv_band: float, n_bands: int,
+                cmf: wp.array2d(dtype=float), km: float,
+                spp: int, seed: int, pix_base: int, out_base: int,
+                spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
+    # pixel pix of the image (its random numbers), stored at pix - out_base (tiles keep their own arrays)
+    pix = wp.tid() + pix_base
+    o = pix - out_base
+    row = pix // width
+    col = pix - row * width
+    st = wp.rand_init(seed, pix)
+    acc = wp.vec3(0.0, 0.0, 0.0)
+    n_ok = int(0)
+    # stratification within the pass: the pixel's paths take distinct cells of an ncx x ncy grid
+    # over the pixel and over the pupil box, and distinct strata of the wavelength sampler's
+    # [0, 1), each dimension through its own random permutation (pbrt's padded stratified
+    # sampling): every path's sample stays uniform, so each pass is an unbiased, independent
+    # estimate (as batch means need), and the dimensions are not paired in lockstep (a pairing
+    # by one shift made a pass's error independent of its path count)
+    ncx = wp.max(int(wp.floor(wp.sqrt(float(spp)))), 1)
+    ncy = (spp + ncx - 1) // ncx
+    ncell = ncx * ncy
+    p_pix = wp.uint32(wp.randi(st))
+    p_pup = wp.uint32(wp.randi(st))
+    p_lam = wp.uint32(wp.randi(st))
+    for kk in range(spp):
+        # 1. sensor point (x right, y up; the orientation lives in ax1, ay1)
+        cpx = permute(kk, ncell, p_pix)
+        x = ax0 + ax1 * (float(col) + (float(cpx % ncx) + wp.randf(st)) / float(ncx) - 0.5)
+        y = ay0 + ay1 * (float(row) + (float(cpx // ncx) + wp.randf(st)) / float(ncy) - 0.5)
+        cpu = permute(kk, ncell, p_pup)
+        u0 = (float(cpu % ncx) + wp.randf(st)) / float(ncx)
+        u1 = (float(cpu // ncx) + wp.randf(st)) / float(ncy)
+        ul = (float(permute(kk, spp, p_lam)) + wp.randf(st)) / float(spp)
+        us = wp.vec3(wp.randf(st), wp.randf(st), wp.randf(st))
+        # 2. wavelength
+        lam = lam_fixed
+        pdf = float(1.0)
+        if spectral != 0:
+            lp = sk.sample_wavelength(cdf, scn.lam0, scn.dlam, ul)
+            lam = lp[0]
+            pdf = lp[1]
+        if pdf <= 0.0:
+            continue
+        # 3. pupil box of the radial bin
+        b = wp.min(int(wp.sqrt(x * x + y * y) * inv_dr), n_bins - 1)
+        box = boxes[b]
+        area = (box[1] - box[0]) * (box[3] - box[2])
+        if area <= 0.0:
+            continue
+        d = sensor_ray(x, y, box, u0, u1, rear_dist)
+        # 4. backward through the lens
+        w_um = lam * 1.0e-3
+        w2 = w_um * w_um
+        status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
+            surf, media, iris, n_surfaces, x, y, sensor_z, d[0], d[1], d[2], w2, table, -1,
+            n_surfaces, 1, 0.0, 0, rec, 0)
+        if status != OK:
+            continue
+        n_ok = n_ok + 1
+        # 5. into the scene (lens frame of the scene: z mirrored back)
+        rad = sk.scene_radiance(scn, wp.vec3(px, py, -pz), wp.normalize(wp.vec3(L, M, -N)), lam, us)
+        if rad <= 0.0:
+            continue
+        # 6. irradiance estimate
+        n_img = medium_index(media, 0, w2)
+        n_obj = medium_index(media, n_surfaces, w2)
+        c2 = d[3] * d[3]
+        e = rad * (n_img * n_img) / (n_obj * n_obj) * c2 * c2 * area / (rear_dist * rear_dist * pdf)
+        k = int(0)
+        if n_bands > 1:
+            k = wp.clamp(int((lam - band0) * inv_band), 0, n_bands - 1)
+        spec[o * n_bands + k] = spec[o * n_bands + k] + e * inv_band
+        fx = (lam - scn.lam0) / scn.dlam
+        if fx >= 0.0 and fx <= float(scn.n_lam - 1):
+            m = wp.min(int(fx), scn.n_lam - 2)
+            t = fx - float(m)
+            for c in range(3):
+                acc[c] = acc[c] + e * km * ((1.0 - t) * cmf[c, m] + t * cmf[c, m + 1])
+    xyz[o] = acc
+    hits[o] = wp.int32(n_ok)
+
+@wp.kernel
+def pupil_probe(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.float32),
+                iris: wp.array(dtype=wp.float32),
+                n_surfaces: int, table: wp.array2d(dtype=wp.float32), rec: wp.array3d(dtype=wp.float32),
+                sensor_z: float, rear_dist: float, radii: wp.array(dtype=float),
+                pts: wp.array(dtype=wp.vec2), lams: wp.array(dtype=float), n_pts: int, n_lam: int,
+                tid_base: int, out: wp.array(dtype=wp.int32)):
+    tid = wp.tid() + tid_base
+    p = tid % n_pts
+    k = (tid // n_pts) % n_lam
+    i = tid // (n_pts * n_lam)
+    x = radii[i]
+    q = pts[i * n_pts + p]
+    dx = q[0] - x
+    dy = q[1]
+    inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
+    w_um = lams[k] * 1.0e-3
+    status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
+        surf, media, iris, n_surfaces, x, 0.0, sensor_z, dx * inv, dy * inv, rear_dist * inv, w_um * w_um,
+        table, -1, n_surfaces, 1, 0.0, 0, rec, 0)
+    out[tid] = wp.int32(status)
+
+@wp.kernel
+def accumulate(src: wp.array(dtype=float), dst: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    dst[i] = dst[i] + wp.float64(src[i])
+
+@wp.kernel
+def accumulate_moments(src: wp.array(dtype=wp.vec3), s1: wp.array2d(dtype=wp.float64),
+                       s2: wp.array2d(dtype=wp.float64)):
+    # per-pixel sums of the pass values and of their squares (exact in float64: bit-identical to the host)
+    i = wp.tid()
+    for c in range(3):
+        v = wp.float64(src[i][c])
+        s1[i, c] = s1[i, c] + v
+        s2[i, c] = s2[i, c] + v * v
+
+@wp.kernel
+def finalize(src: wp.array(dtype=wp.float64), inv_n: wp.float64, dst: wp.array(dtype=float)):
+    # the mean over all paths, as float32 (what the host would compute from the float64 sums)
+    i = wp.tid()
+    dst[i] = float(src[i] * inv_n)
 
 
 @lru_cache(maxsize=None)
 def get_render_kernels() -> SimpleNamespace:
-    """The render kernels (built and registered on first call)."""
+    """The render kernels in a namespace (compiled on first launch)."""
     from ..device import warp
-    from ..trace.status import OK
-    from ..trace.surfaces import surface_funcs
-    from .scene import kernels as sk
-    wp = warp()
-    real = wp.float32
-    wp.set_module_options({"enable_backward": False}, module=MODULE)
-    sf = surface_funcs(wp, real, MODULE)
-    trace_ray = sf.trace_ray
-    medium_index = sf.medium_index
-
-    from ..trace.sampling import _i32
-    u32 = wp.uint32
-    K1, K2, K3, K4, K5, K6 = (_i32(v) for v in (0xE170893D, 0x0929EB3F, 0x6935FA69, 0x74DCB303, 0x9E501CC3,
-                                                 0xC860A3DF))
-
-    @wp.func(module=MODULE)
-    def permute_round(i: wp.uint32, p: wp.uint32, w: wp.uint32) -> wp.uint32:
-        # one round of Kensler's hash-based permutation ("Correlated multi-jittered sampling", Pixar 2013)
-        i = i ^ p
-        i = i * u32(K1)
-        i = i ^ (p >> u32(16))
-        i = i ^ ((i & w) >> u32(4))
-        i = i ^ (p >> u32(8))
-        i = i * u32(K2)
-        i = i ^ (p >> u32(23))
-        i = i ^ ((i & w) >> u32(1))
-        i = i * (u32(1) | (p >> u32(27)))
-        i = i * u32(K3)
-        i = i ^ ((i & w) >> u32(11))
-        i = i * u32(K4)
-        i = i ^ ((i & w) >> u32(2))
-        i = i * u32(K5)
-        i = i ^ ((i & w) >> u32(2))
-        i = i * u32(K6)
-        i = i & w
-        i = i ^ (i >> u32(5))
-        return i
-
-    @wp.func(module=MODULE)
-    def permute(k: int, n: int, p: wp.uint32) -> int:
-        # element k of a pseudo-random permutation of 0 .. n-1 chosen by p (cycle walking)
-        w = u32(n - 1)
-        w = w | (w >> u32(1))
-        w = w | (w >> u32(2))
-        w = w | (w >> u32(4))
-        w = w | (w >> u32(8))
-        w = w | (w >> u32(16))
-        i = permute_round(u32(k), p, w)
-        while i >= u32(n):
-            i = permute_round(i, p, w)
-        return int((i + p) % u32(n))
-
-    @wp.func(module=MODULE)
-    def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist: float) -> wp.vec4:
-        # direction (unit, reversed frame: toward +z) from the sensor point to a point of the pupil
-        # box rotated to the point's azimuth; w = cos(theta)
-        pa = box[0] + u0 * (box[1] - box[0])
-        pb = box[2] + u1 * (box[3] - box[2])
-        r = wp.sqrt(x * x + y * y)
-        c = float(1.0)
-        s = float(0.0)
-        if r > 0.0:
-            c = x / r
-            s = y / r
-        qx = c * pa - s * pb
-        qy = s * pa + c * pb
-        dx = qx - x
-        dy = qy - y
-        inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
-        return wp.vec4(dx * inv, dy * inv, rear_dist * inv, rear_dist * inv)
-
-    @wp.kernel(module=MODULE, enable_backward=False)
-    def camera_pass(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
-                    n_surfaces: int, table: wp.array2d(dtype=real), rec: wp.array3d(dtype=real),
-                    sensor_z: float, rear_dist: float,
-                    width: int, ax0: float, ax1: float, ay0: float, ay1: float,
-                    boxes: wp.array(dtype=wp.vec4), inv_dr: float, n_bins: int,
-                    scn: sk.SceneData, spectral: int, lam_fixed: float, cdf: wp.array(dtype=float),
-                    band0: float, inv_band: float, n_bands: int,
-                    cmf: wp.array2d(dtype=float), km: float,
-                    spp: int, seed: int, pix_base: int, out_base: int,
-                    spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
-        # pixel pix of the image (its random numbers), stored at pix - out_base (tiles keep their own arrays)
-        pix = wp.tid() + pix_base
-        o = pix - out_base
-        row = pix // width
-        col = pix - row * width
-        st = wp.rand_init(seed, pix)
-        acc = wp.vec3(0.0, 0.0, 0.0)
-        n_ok = int(0)
-        # stratification within the pass: the pixel's paths take distinct cells of an ncx x ncy grid
-        # over the pixel and over the pupil box, and distinct strata of the wavelength sampler's
-        # [0, 1), each dimension through its own random permutation (pbrt's padded stratified
-        # sampling): every path's sample stays uniform, so each pass is an unbiased, independent
-        # estimate (as batch means need), and the dimensions are not paired in lockstep (a pairing
-        # by one shift made a pass's error independent of its path count)
-        ncx = wp.max(int(wp.floor(wp.sqrt(float(spp)))), 1)
-        ncy = (spp + ncx - 1) // ncx
-        ncell = ncx * ncy
-        p_pix = wp.uint32(wp.randi(st))
-        p_pup = wp.uint32(wp.randi(st))
-        p_lam = wp.uint32(wp.randi(st))
-        for kk in range(spp):
-            # 1. sensor point (x right, y up; the orientation lives in ax1, ay1)
-            cpx = permute(kk, ncell, p_pix)
-            x = ax0 + ax1 * (float(col) + (float(cpx % ncx) + wp.randf(st)) / float(ncx) - 0.5)
-            y = ay0 + ay1 * (float(row) + (float(cpx // ncx) + wp.randf(st)) / float(ncy) - 0.5)
-            cpu = permute(kk, ncell, p_pup)
-            u0 = (float(cpu % ncx) + wp.randf(st)) / float(ncx)
-            u1 = (float(cpu // ncx) + wp.randf(st)) / float(ncy)
-            ul = (float(permute(kk, spp, p_lam)) + wp.randf(st)) / float(spp)
-            us = wp.vec3(wp.randf(st), wp.randf(st), wp.randf(st))
-            # 2. wavelength
-            lam = lam_fixed
-            pdf = float(1.0)
-            if spectral != 0:
-                lp = sk.sample_wavelength(cdf, scn.lam0, scn.dlam, ul)
-                lam = lp[0]
-                pdf = lp[1]
-            if pdf <= 0.0:
-                continue
-            # 3. pupil box of the radial bin
-            b = wp.min(int(wp.sqrt(x * x + y * y) * inv_dr), n_bins - 1)
-            box = boxes[b]
-            area = (box[1] - box[0]) * (box[3] - box[2])
-            if area <= 0.0:
-                continue
-            d = sensor_ray(x, y, box, u0, u1, rear_dist)
-            # 4. backward through the lens
-            w_um = lam * 1.0e-3
-            w2 = w_um * w_um
-            status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
-                surf, media, iris, n_surfaces, x, y, sensor_z, d[0], d[1], d[2], w2, table, -1,
-                n_surfaces, 1, 0.0, 0, rec, 0)
-            if status != OK:
-                continue
-            n_ok = n_ok + 1
-            # 5. into the scene (lens frame of the scene: z mirrored back)
-            rad = sk.scene_radiance(scn, wp.vec3(px, py, -pz), wp.normalize(wp.vec3(L, M, -N)), lam, us)
-            if rad <= 0.0:
-                continue
-            # 6. irradiance estimate
-            n_img = medium_index(media, 0, w2)
-            n_obj = medium_index(media, n_surfaces, w2)
-            c2 = d[3] * d[3]
-            e = rad * (n_img * n_img) / (n_obj * n_obj) * c2 * c2 * area / (rear_dist * rear_dist * pdf)
-            k = int(0)
-            if n_bands > 1:
-                k = wp.clamp(int((lam - band0) * inv_band), 0, n_bands - 1)
-            spec[o * n_bands + k] = spec[o * n_bands + k] + e * inv_band
-            fx = (lam - scn.lam0) / scn.dlam
-            if fx >= 0.0 and fx <= float(scn.n_lam - 1):
-                m = wp.min(int(fx), scn.n_lam - 2)
-                t = fx - float(m)
-                for c in range(3):
-                    acc[c] = acc[c] + e * km * ((1.0 - t) * cmf[c, m] + t * cmf[c, m + 1])
-        xyz[o] = acc
-        hits[o] = wp.int32(n_ok)
-
-    @wp.kernel(module=MODULE, enable_backward=False)
-    def pupil_probe(surf: wp.array2d(dtype=real), media: wp.array2d(dtype=real), iris: wp.array(dtype=real),
-                    n_surfaces: int, table: wp.array2d(dtype=real), rec: wp.array3d(dtype=real),
-                    sensor_z: float, rear_dist: float, radii: wp.array(dtype=float),
-                    pts: wp.array(dtype=wp.vec2), lams: wp.array(dtype=float), n_pts: int, n_lam: int,
-                    tid_base: int, out: wp.array(dtype=wp.int32)):
-        tid = wp.tid() + tid_base
-        p = tid % n_pts
-        k = (tid // n_pts) % n_lam
-        i = tid // (n_pts * n_lam)
-        x = radii[i]
-        q = pts[i * n_pts + p]
-        dx = q[0] - x
-        dy = q[1]
-        inv = 1.0 / wp.sqrt(dx * dx + dy * dy + rear_dist * rear_dist)
-        w_um = lams[k] * 1.0e-3
-        status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
-            surf, media, iris, n_surfaces, x, 0.0, sensor_z, dx * inv, dy * inv, rear_dist * inv, w_um * w_um,
-            table, -1, n_surfaces, 1, 0.0, 0, rec, 0)
-        out[tid] = wp.int32(status)
-
-    @wp.kernel(module=MODULE, enable_backward=False)
-    def accumulate(src: wp.array(dtype=float), dst: wp.array(dtype=wp.float64)):
-        i = wp.tid()
-        dst[i] = dst[i] + wp.float64(src[i])
-
-    @wp.kernel(module=MODULE, enable_backward=False)
-    def accumulate_moments(src: wp.array(dtype=wp.vec3), s1: wp.array2d(dtype=wp.float64),
-                           s2: wp.array2d(dtype=wp.float64)):
-        # per-pixel sums of the pass values and of their squares (exact in float64: bit-identical to the host)
-        i = wp.tid()
-        for c in range(3):
-            v = wp.float64(src[i][c])
-            s1[i, c] = s1[i, c] + v
-            s2[i, c] = s2[i, c] + v * v
-
-    @wp.kernel(module=MODULE, enable_backward=False)
-    def finalize(src: wp.array(dtype=wp.float64), inv_n: wp.float64, dst: wp.array(dtype=float)):
-        # the mean over all paths, as float32 (what the host would compute from the float64 sums)
-        i = wp.tid()
-        dst[i] = float(src[i] * inv_n)
-
+    warp()
     return SimpleNamespace(camera_pass=camera_pass, pupil_probe=pupil_probe, accumulate=accumulate,
                            accumulate_moments=accumulate_moments, finalize=finalize,
                            module=MODULE, trace_ray=trace_ray)

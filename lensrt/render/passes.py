@@ -23,6 +23,7 @@ import numpy as np
 from ..parallel.work import WARP_SEED_MASK, item_seed_sequence
 from .camera import Camera
 from .plan import Plan
+from ..colour import cie_xyz_cmfs
 
 __all__ = ["RenderSetup", "Prepared", "PassResult", "PassSum", "pass_seed", "prepare_setup", "render_pass",
            "run_pass_item", "device_pass", "REGIONS"]
@@ -104,7 +105,6 @@ def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
     from ..trace.reverse import reversed_lens
     from .integrator_kernels import get_render_kernels
     from .scene.pack import pack_scene
-    from .spectra import cie_xyz_cmfs
     wp = warp()
     cam = setup.camera
     rev = reversed_lens(cam.lens, 0.0)

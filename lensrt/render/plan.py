@@ -40,8 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from ..colour import WavelengthGrid, cie_xyz_cmfs, integrate
 from .scene.model import Scene
-from .spectra import WavelengthGrid, cie_xyz_cmfs, integrate
 
 __all__ = ["KernelVariant", "Plan", "plan_render", "wavelength_weight"]
 

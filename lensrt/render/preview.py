@@ -18,8 +18,8 @@ import numpy as np
 from ..device import resolve_device, warp
 from ..stats import Estimate
 from ..units import LUMINOUS_EFFICACY_LM_PER_W
+from ..colour import cie_xyz_cmfs
 from .scene.model import Scene
-from .spectra import cie_xyz_cmfs
 
 __all__ = ["preview_pinhole"]
 

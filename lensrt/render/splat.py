@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..units import LUMINOUS_EFFICACY_LM_PER_W, MM_PER_M
+from ..colour import cie_xyz_cmfs
 
 __all__ = ["splat_feasible", "render_splat"]
 
@@ -125,7 +126,6 @@ def _shared_boxes(lens, camera, lights: list[dict], wls, device: str) -> list:
 def _channels(plan, grid, band0: float, bw: float, nb: int):
     """Channel table: the output bands (1 / width inside) then K_m x-bar, y-bar, z-bar."""
     from ..trace.stream import Channels
-    from .spectra import cie_xyz_cmfs
     if not plan.spectral:
         lam = float(plan.wavelength_nm)
         cm = cie_xyz_cmfs(grid)

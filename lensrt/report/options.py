@@ -75,7 +75,7 @@ QUALITIES: dict[str, Quality] = {q.name: q for q in (
 
 @dataclass(frozen=True)
 class ReportOptions:
-    """Everything ``lensrt report`` can be told (README "Lens report").
+    """Everything ``lensrt report`` can be told (docs/tutorials/first-report.md).
 
     Attributes
     ----------
@@ -159,14 +159,11 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
     (Field Guide p. 12), the extension e(D) - e(file) from first-order data at the primary
     wavelength -- the whole lens moved out, in the lens frame of the first vertex.
     """
-    from ..paraxial import first_order
     from ..prescription.model import Aperture
     notes = []
     if options.f_number is not None:
-        n_full = first_order(lens, None, math.inf).f_number
-        if options.f_number < n_full * (1.0 - 1e-3):
-            raise LensrtError(f"f/{options.f_number:g} is wider than the lens opens (f/{n_full:.3g})",
-                              hint=f"use --f-number {n_full:.3g} or more, or leave it out for full aperture")
+        from ..paraxial.fnumber import check_f_number
+        n_full = check_f_number(lens, options.f_number)
         lens = lens.replace(aperture=Aperture("image_fno", float(options.f_number)))
         notes.append(f"stopped down from f/{n_full:.3g} to f/{options.f_number:g} (the stop's radius scaled; "
                      "clear apertures as in the file)")

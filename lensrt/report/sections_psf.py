@@ -210,6 +210,13 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
     rows, heads = reference_table(pmap.fields, pmap.results, ref)
     sec.table(Table(rows, heads, digits=3, title="MTF at the reference frequencies (cycles/mm), +- one standard "
                                                  "error (none for deterministic diffraction MTFs)"))
+    wfe = _wavefront_rows(ctx, foc, fields)
+    if wfe:
+        sec.table(Table([[r["field"], r.get("rms_waves_no_tilt", "-"), r.get("pv_waves", "-"), r.get("strehl", "-"),
+                          r.get("strehl_marechal", "-"), r.get("error", "")] for r in wfe],
+                        ["field", "RMS WFE no tilt (waves)", "PV (waves)", "Strehl", "Marechal", "note"], digits=4,
+                        title=f"Wavefront error and Strehl ratio against field at {ctx.lens.wavelengths.primary_nm:g} nm, "
+                              "same focus, reference sphere on the chief ray (lensrt wavefront); deterministic"))
     sec.figure(p3, "Lens, 4-spot OLPF, detector aperture and system MTF on axis "
                    f"({detector.pixel_pitch_um:g} um pixels, fill factor 1, OLPF spot separation = pitch).")
     out = {"lens": ctx.lens.name, "setup": setup.to_dict(), "sensor": fmt.name, "detector": detector.to_dict(),
@@ -219,7 +226,17 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
     sec.files([("mtf.json", "curves (lens, diffraction limit, detector, OLPF, system) with standard errors, and "
                             "MTF against field")])
     sec.data["mtf"] = {"reference_freqs_cpmm": list(ref), "mtf_vs_field": vs_field, "seconds": pmap.seconds,
-                       "rays_total": pmap.rays, "methods": kinds}
+                       "rays_total": pmap.rays, "methods": kinds, "wavefront_vs_field": wfe}
+
+
+def _wavefront_rows(ctx: ReportContext, focus: dict, fields) -> list[dict]:
+    """RMS wavefront error and Strehl ratio at the MTF's field points (primary wavelength, same focus)."""
+    from ..analysis.psf.setup import make_setup
+    from ..analysis.psf.spectrum import line_spectrum
+    from ..analysis.psf.wavefront_error import wavefront_error_table
+    setup = make_setup(ctx.lens, line_spectrum([ctx.lens.wavelengths.primary_nm]), focus, ctx.device,
+                       method="diffraction", pupil_samples=64)
+    return wavefront_error_table(setup, fields, device=ctx.device)
 
 
 def _mtf_record(pmap, vs_field: dict) -> MonteCarlo:

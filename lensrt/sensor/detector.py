@@ -224,10 +224,12 @@ def electrons_to_raw(sensor: Sensor, mean_electrons_e: np.ndarray, exposure_s: f
     rows, cols = mean_e.shape
     fpn = fixed_pattern_maps(sensor, rows, cols) if switches.fixed_pattern else None
     signal = mean_e * fpn["prnu_gain"] if fpn is not None else mean_e
-    # photon shot noise is Poisson (p. 46)
+    # photon shot noise is Poisson (p. 46); a mean far past any full well (an absurd exposure or irradiance)
+    # is held at 1e15 e-, which numpy's Poisson sampler takes and the full-well clip makes irrelevant
+    signal = np.minimum(np.nan_to_num(signal, nan=0.0, posinf=1e15), np.float32(1e15))
     electrons = rng.poisson(signal).astype(np.float32) if switches.shot_noise else signal.astype(np.float32, copy=True)
     if switches.dark_current and sensor.dark_current_e_per_s > 0 and exposure_s > 0:
-        dark_mean = np.float32(sensor.dark_current_e_per_s * exposure_s)
+        dark_mean = np.float32(min(sensor.dark_current_e_per_s * exposure_s, 1e15))
         dark = dark_mean * fpn["dark_current_scale"] if fpn is not None else np.full_like(electrons, dark_mean)
         electrons += rng.poisson(dark).astype(np.float32) if switches.shot_noise else dark
     if switches.full_well:

@@ -32,7 +32,9 @@ __all__ = ["Sensor"]
 class Sensor:
     """A camera sensor: geometry, spectral response, noise, gain and ADC.
 
-    Attributes (units in the names; e- = electrons, DN = data numbers)
+    Units are in the attribute names (e- = electrons, DN = data numbers).
+
+    Attributes
     ----------
     name, description : str
     rows, cols : int

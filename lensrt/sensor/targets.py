@@ -1,7 +1,7 @@
 """Test targets as sensor-plane spectral irradiance: a uniform field and the ColorChecker chart.
 
-Spectral reflectances come from colour-science (``SDS_COLOURCHECKERS``), illuminants from
-:func:`lensrt.sensor.exposure.illuminant_spd`. A chart is returned as a table of spectra plus
+Spectral reflectances and illuminants come from :mod:`lensrt.colour` (colour-science's
+``SDS_COLOURCHECKERS`` and illuminants). A chart is returned as a table of spectra plus
 a label image, the piecewise-uniform form :func:`lensrt.sensor.expose` takes with ``labels``.
 """
 from __future__ import annotations
@@ -10,26 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..colour import CHART, STANDARD_WAVELENGTHS_NM, Illuminant, colorchecker_names, colorchecker_reflectances
 from ..errors import LensrtError
-from .exposure import STANDARD_WAVELENGTHS_NM, spectral_irradiance_from_illuminance
+from .exposure import spectral_irradiance_from_illuminance
 
-__all__ = ["colorchecker_reflectances", "ChartScene", "colorchecker_scene", "CHART"]
-
-#: the ColorChecker reflectance set used by default
-CHART = "ColorChecker N Ohta"
-
-
-def colorchecker_reflectances(wavelength_nm: np.ndarray = STANDARD_WAVELENGTHS_NM,
-                              chart: str = CHART) -> tuple[list[str], np.ndarray]:
-    """Patch names and spectral reflectances (24, n) of a ColorChecker at ``wavelength_nm`` (nm)."""
-    import colour
-    if chart not in colour.SDS_COLOURCHECKERS:
-        raise LensrtError(f"unknown chart {chart!r}", hint=f"use one of {list(colour.SDS_COLOURCHECKERS)}")
-    sds = colour.SDS_COLOURCHECKERS[chart]
-    names = list(sds)
-    wl = np.asarray(wavelength_nm, dtype=np.float64)
-    refl = np.stack([np.interp(wl, sds[n].wavelengths, sds[n].values) for n in names])
-    return names, refl
+__all__ = ["ChartScene", "colorchecker_scene", "CHART"]
 
 
 @dataclass
@@ -46,7 +31,7 @@ class ChartScene:
     reflectance: np.ndarray
 
 
-def colorchecker_scene(patch_px: int = 32, illuminant: str | float = "D65", white_illuminance_lux: float = 1000.0,
+def colorchecker_scene(patch_px: int = 32, illuminant: str | Illuminant = "D65", white_illuminance_lux: float = 1000.0,
                        wavelength_nm: np.ndarray = STANDARD_WAVELENGTHS_NM, chart: str = CHART) -> ChartScene:
     """The 4 x 6 ColorChecker, each patch ``patch_px`` square, lit so that a perfect white reflector
     would give ``white_illuminance_lux`` on the sensor."""
@@ -55,7 +40,7 @@ def colorchecker_scene(patch_px: int = 32, illuminant: str | float = "D65", whit
     if patch_px < 8:
         raise LensrtError(f"ColorChecker patches of {patch_px} x {patch_px} photosites leave nothing to measure "
                           "inside their margins", hint="give --patch-px 8 or more")
-    names, refl = colorchecker_reflectances(wavelength_nm, chart)
+    names, refl = list(colorchecker_names(chart)), colorchecker_reflectances(wavelength_nm, chart)
     white = spectral_irradiance_from_illuminance(white_illuminance_lux, illuminant, wavelength_nm)
     rows, cols = 4 * patch_px, 6 * patch_px
     r = np.arange(rows)[:, None] // patch_px

@@ -29,7 +29,7 @@ from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
 from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
-from .surfaces import N_RECORD
+from .kernels import N_RECORD
 from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["RayBatch", "RayResult", "trace", "rays_from_pupil", "make_rays", "kernel_to_stop", "chief_ray"]

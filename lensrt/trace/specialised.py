@@ -41,12 +41,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from types import SimpleNamespace
 
-from .kernels import N_COUNTS, N_STATS, RAY_OUT_COLS, SRC, FIXED_POINT_BITS
+from .kernels import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM, RAY_OUT_COLS
 from .pack import real_dtype
-from .sampling import sampling_funcs
-from .shape import ASPHERE, CONIC, IRIS_CIRCLE, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
-from .status import GRAZING_COS, INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
-from .surfaces import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
+from .shape import ASPHERE, CONIC, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layout, LensShape
+from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from .reference import NEWTON_MAX_ITER
 
 __all__ = ["StreamOptions", "Tuning", "DEFAULT_TUNING", "GPU_TUNING", "stream_kernel", "store_kernel", "module_tag"]
@@ -115,237 +113,163 @@ def _consts_type(wp, real, size: int, mode: str):
     return wp.array(dtype=real)
 
 
-_LAZY_DIV = """
-    if (c) return a / b;
-    return a - a;
-"""
+def _make_sag(wp, real, module, shape, lay, Consts, i: int):
+    """``sag_slope`` of asphere ``i`` (its coefficients at fixed offsets of the constants)."""
+    na = shape.n_asphere[i]
+    base = lay.asph[i]
 
-_NATIVE: dict = {}
+    def sag_slope(P: Consts, c: real, kp1: real, r2: real):
+        # surfaces.sag_slope: sag z(r) and dz/d(r^2); ok false beyond the conic's extent
+        q = real(1.0) - kp1 * c * c * r2
+        root = wp.sqrt(wp.max(q, real(0.0)))
+        poly = real(0.0)
+        dpoly = real(0.0)
+        for jj in range(wp.static(na)):
+            a = P[wp.static(base + na - 1 - jj)]
+            poly = poly * r2 + a
+            dpoly = dpoly * r2 + real(wp.static(float(na - jj))) * a
+        sag = c * r2 / (real(1.0) + root) + poly * r2
+        slope = c / (real(2.0) * wp.where(q > real(0.0), root, real(1.0))) + dpoly
+        return q > real(0.0), sag, slope
 
-
-def _lazy_div(wp, real):
-    """``lazy_div(c, a, b)``: a / b where c, else 0 -- a division that a warp skips when no
-    thread needs it, without a Warp variable that only one branch defines (native snippet)."""
-    key = "f64" if real is wp.float64 else "f32"
-    if key not in _NATIVE:
-        if key == "f64":
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f64(c: bool, a: wp.float64, b: wp.float64) -> wp.float64:
-                ...
-
-            _NATIVE[key] = lazy_div_f64
-        else:
-            @wp.func_native(_LAZY_DIV)
-            def lazy_div_f32(c: bool, a: wp.float32, b: wp.float32) -> wp.float32:
-                ...
-
-            _NATIVE[key] = lazy_div_f32
-    return _NATIVE[key]
+    return wp.func(sag_slope, module=module, name=f"sag_slope_s{i}")
 
 
-def _build_trace(wp, real, module, shape, table, Consts):
-    """The specialised ``@wp.func`` s of ``shape``; ``trace_fast`` traces one ray.
+def _make_asphere(wp, real, module, shape, lay, Consts, i: int, quadric_t):
+    """``intersect_asphere`` of surface ``i``."""
+    newton_tol = NEWTON_TOL_F64_MM if real is wp.float64 else NEWTON_TOL_F32_MM
+    sag_slope = _make_sag(wp, real, module, shape, lay, Consts, i)
+    co, ko = lay.c[i], lay.kp1[i]
 
-    The code is branch-free (``wp.where`` selects, no ``if`` that assigns): every value is
-    defined on every path, so a kernel looping over rays keeps no value of one ray alive
-    into the next (with branches, Warp's code generation leaves values that only one branch
-    defines, which the CUDA compiler must carry around the loop -- hundreds of registers).
-    A warp runs every branch its threads take anyway; failed rays keep their last state.
-    """
-    is64 = real is wp.float64
-    newton_tol = NEWTON_TOL_F64_MM if is64 else NEWTON_TOL_F32_MM
-    lay = Layout(shape)
-    n = shape.n_surfaces
-    kinds = tuple(shape.kinds) + (PLANE,)
-    func = wp.func(module=module)
-    lazy_div = _lazy_div(wp, real)
-    ZERO = real(0.0)
-    ONE = real(1.0)
-
-    # ---------------------------------------------------------------- pieces
-    @func
-    def quadric_t(c: real, kp1: real, x: real, y: real, z: real, L: real, M: real, N: real):
-        # the roots of surfaces.conic_t (t1 = F / q, t2 = q / A; the vertex-branch one; when both
-        # are, the one where the ray crosses toward the surface's +z side: t1 when B >= 0);
-        # q / A is divided out only where it is on the vertex branch
-        F = c * (x * x + y * y) + c * kp1 * z * z - real(2.0) * z
-        B = N - c * (x * L + y * M + kp1 * z * N)
-        A = c * (L * L + M * M + kp1 * N * N)
-        disc = B * B - A * F
-        real_roots = disc >= real(0.0)
-        root = wp.sqrt(wp.max(disc, real(0.0)))
-        q = wp.where(B < real(0.0), B - root, B + root)
-        u = c * kp1
-        t1 = F / wp.where(q != real(0.0), q, real(1.0))
-        v1 = real_roots and q != real(0.0) and u * (z + t1 * N) < real(1.0)
-        lhs = u * (z * A + q * N)  # u (z + (q / A) N) < 1, multiplied by A
-        v2 = real_roots and A != real(0.0) and wp.where(A > real(0.0), lhs < A, lhs > A)
-        t2 = lazy_div(v2, q, A)
-        use2 = v2 and ((not v1) or B < real(0.0))
-        t = wp.where(use2, t2, wp.where(v1, t1, real(0.0)))
-        return v1 or v2, t
-
-    @func
-    def unit_near_one(x: real, y: real, z: real):
-        # (x, y, z) / |(x, y, z)| for |(x, y, z)| = 1 up to rounding: one Newton step from 1
-        f = real(1.5) - real(0.5) * (x * x + y * y + z * z)
-        return x * f, y * f, z * f
-
-    @func
-    def refract_unit(L: real, M: real, N: real, nx: real, ny: real, nz: real, mu: real):
-        # surfaces.refract with the ratio mu = n1 / n2 given, no angles, the result renormalised
-        # by unit_near_one; returns total internal reflection, L', M', N', min(cos I, cos I')
-        ci = L * nx + M * ny + N * nz
-        sg = wp.where(ci < real(0.0), real(-1.0), real(1.0))
-        cos_i = ci * sg
-        k = real(1.0) - mu * mu * (real(1.0) - cos_i * cos_i)
-        cos_r = wp.sqrt(wp.max(k, real(0.0)))
-        g = cos_r - mu * cos_i
-        L2, M2, N2 = unit_near_one(mu * L + g * sg * nx, mu * M + g * sg * ny, mu * N + g * sg * nz)
-        return k < real(0.0), L2, M2, N2, wp.where(k < real(0.0), cos_i, wp.min(cos_i, cos_r))
-
-    # per-surface helpers that need the surface's constants at fixed offsets: built per surface
-    def make_sag(i: int):
-        na = shape.n_asphere[i]
-        base = lay.asph[i]
-
-        def sag_slope(P: Consts, c: real, kp1: real, r2: real):
-            # surfaces.sag_slope: sag z(r) and dz/d(r^2); ok false beyond the conic's extent
-            q = real(1.0) - kp1 * c * c * r2
-            root = wp.sqrt(wp.max(q, real(0.0)))
-            poly = real(0.0)
-            dpoly = real(0.0)
-            for jj in range(wp.static(na)):
-                a = P[wp.static(base + na - 1 - jj)]
-                poly = poly * r2 + a
-                dpoly = dpoly * r2 + real(wp.static(float(na - jj))) * a
-            sag = c * r2 / (real(1.0) + root) + poly * r2
-            slope = c / (real(2.0) * wp.where(q > real(0.0), root, real(1.0))) + dpoly
-            return q > real(0.0), sag, slope
-
-        return wp.func(sag_slope, module=module, name=f"sag_slope_s{i}")
-
-    def make_asphere(i: int):
-        sag_slope = make_sag(i)
-        co, ko = lay.c[i], lay.kp1[i]
-
-        def intersect_asphere(P: Consts, x: real, y: real, z: real, L: real, M: real, N: real):
-            # surfaces.intersect for kind 2: Newton on the sag from the conic's root; returns
-            # status, t, unit normal
-            c = real(0.0)
-            if wp.static(co >= 0):
-                c = P[wp.static(co)]
-            kp1 = P[wp.static(ko)]
-            ok, t = quadric_t(c, kp1, x, y, z, L, M, N)
-            status = wp.where(ok or N != real(0.0), int(OK), int(MISSED))
-            t = wp.where(ok, t, -z / wp.where(N != real(0.0), N, real(1.0)))
-            converged = int(0)
-            it = int(0)
-            while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
-                px = x + t * L
-                py = y + t * M
-                pz = z + t * N
-                oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
-                df = N - real(2.0) * slope * (px * L + py * M)
-                dt = (pz - sag) / wp.where(df != real(0.0), df, real(1.0))
-                status = wp.where(oks, wp.where(df == real(0.0), int(NO_CONVERGE), int(OK)), int(MISSED))
-                step = status == int(OK)
-                t = wp.where(step, t - dt, t)
-                converged = wp.where(step and wp.abs(dt) <= real(newton_tol), 1, 0)
-                it = it + 1
-            status = wp.where(status == int(OK) and converged == 0, int(NO_CONVERGE), status)
+    def intersect_asphere(P: Consts, x: real, y: real, z: real, L: real, M: real, N: real):
+        # surfaces.intersect for kind 2: Newton on the sag from the conic's root; returns
+        # status, t, unit normal
+        c = real(0.0)
+        if wp.static(co >= 0):
+            c = P[wp.static(co)]
+        kp1 = P[wp.static(ko)]
+        ok, t = quadric_t(c, kp1, x, y, z, L, M, N)
+        status = wp.where(ok or N != real(0.0), int(OK), int(MISSED))
+        t = wp.where(ok, t, -z / wp.where(N != real(0.0), N, real(1.0)))
+        converged = int(0)
+        it = int(0)
+        while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
             px = x + t * L
             py = y + t * M
+            pz = z + t * N
             oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
-            status = wp.where(status == int(OK) and not oks, int(MISSED), status)
-            nx = real(-2.0) * slope * px
-            ny = real(-2.0) * slope * py
-            inv = real(1.0) / wp.sqrt(nx * nx + ny * ny + real(1.0))
-            return status, t, nx * inv, ny * inv, inv
+            df = N - real(2.0) * slope * (px * L + py * M)
+            dt = (pz - sag) / wp.where(df != real(0.0), df, real(1.0))
+            status = wp.where(oks, wp.where(df == real(0.0), int(NO_CONVERGE), int(OK)), int(MISSED))
+            step = status == int(OK)
+            t = wp.where(step, t - dt, t)
+            converged = wp.where(step and wp.abs(dt) <= real(newton_tol), 1, 0)
+            it = it + 1
+        status = wp.where(status == int(OK) and converged == 0, int(NO_CONVERGE), status)
+        px = x + t * L
+        py = y + t * M
+        oks, sag, slope = sag_slope(P, c, kp1, px * px + py * py)
+        status = wp.where(status == int(OK) and not oks, int(MISSED), status)
+        nx = real(-2.0) * slope * px
+        ny = real(-2.0) * slope * py
+        inv = real(1.0) / wp.sqrt(nx * nx + ny * ny + real(1.0))
+        return status, t, nx * inv, ny * inv, inv
 
-        return wp.func(intersect_asphere, module=module, name=f"intersect_asphere_s{i}")
+    return wp.func(intersect_asphere, module=module, name=f"intersect_asphere_s{i}")
 
-    def make_medium(m: int):
-        ms = shape.media[m]
-        if ms.constant:
-            return None
-        p = lay.p[m]
-        b = lay.b[m]
-        cs = lay.cs[m]
-        top = max(ms.inverse) if ms.inverse else 0
-        sell = list(ms.sellmeier)
-        ns = len(sell)
-        b0 = b[sell[0]] if ns > 0 else -1
-        b1 = b[sell[1]] if ns > 1 else -1
-        b2 = b[sell[2]] if ns > 2 else -1
-        c0 = cs[sell[0]] if ns > 0 else -1
-        c1 = cs[sell[1]] if ns > 1 else -1
-        c2 = cs[sell[2]] if ns > 2 else -1
 
-        def medium_n(P: Consts, w2: real, inv: real) -> real:
-            # n(w) of materials.index_from_packed with this medium's terms only; -1 where n^2 <= 0
-            n2 = real(0.0)
-            if wp.static(p[0] >= 0):
-                n2 = P[wp.static(p[0])]
-            if wp.static(p[2] >= 0):
-                n2 = n2 + w2 * w2 * P[wp.static(p[2])]
-            if wp.static(p[1] >= 0):
-                n2 = n2 + w2 * P[wp.static(p[1])]
-            if wp.static(top > 0):
-                # sum_k p_k inv^(k - 2), k = 3 .. top, by Horner
-                acc = real(0.0)
-                for kk in range(wp.static(top - 2)):
-                    acc = acc * inv
-                    if wp.static(p[top - kk] >= 0):
-                        acc = acc + P[wp.static(p[top - kk])]
-                n2 = n2 + acc * inv
-            if wp.static(ns == 1):
-                n2 = n2 + P[wp.static(b0)] * w2 / (w2 - P[wp.static(c0)])
-            elif wp.static(ns == 2):
-                d0 = w2 - P[wp.static(c0)]
-                d1 = w2 - P[wp.static(c1)]
-                n2 = n2 + w2 * (P[wp.static(b0)] * d1 + P[wp.static(b1)] * d0) / (d0 * d1)
-            elif wp.static(ns == 3):
-                d0 = w2 - P[wp.static(c0)]
-                d1 = w2 - P[wp.static(c1)]
-                d2 = w2 - P[wp.static(c2)]
-                num = P[wp.static(b0)] * d1 * d2 + P[wp.static(b1)] * d0 * d2 + P[wp.static(b2)] * d0 * d1
-                n2 = n2 + w2 * num / (d0 * d1 * d2)
-            return wp.where(n2 > real(0.0), wp.sqrt(wp.max(n2, real(0.0))), real(-1.0))
+def _make_medium(wp, real, module, shape, lay, Consts, m: int):
+    """``medium_n`` of medium ``m`` with its terms only (None for a constant index)."""
+    ms = shape.media[m]
+    if ms.constant:
+        return None
+    p = lay.p[m]
+    b = lay.b[m]
+    cs = lay.cs[m]
+    top = max(ms.inverse) if ms.inverse else 0
+    sell = list(ms.sellmeier)
+    ns = len(sell)
+    b0 = b[sell[0]] if ns > 0 else -1
+    b1 = b[sell[1]] if ns > 1 else -1
+    b2 = b[sell[2]] if ns > 2 else -1
+    c0 = cs[sell[0]] if ns > 0 else -1
+    c1 = cs[sell[1]] if ns > 1 else -1
+    c2 = cs[sell[2]] if ns > 2 else -1
 
-        return wp.func(medium_n, module=module, name=f"medium_n_m{m}")
+    def medium_n(P: Consts, w2: real, inv: real) -> real:
+        # n(w) of materials.index_from_packed with this medium's terms only; -1 where n^2 <= 0
+        n2 = real(0.0)
+        if wp.static(p[0] >= 0):
+            n2 = P[wp.static(p[0])]
+        if wp.static(p[2] >= 0):
+            n2 = n2 + w2 * w2 * P[wp.static(p[2])]
+        if wp.static(p[1] >= 0):
+            n2 = n2 + w2 * P[wp.static(p[1])]
+        if wp.static(top > 0):
+            # sum_k p_k inv^(k - 2), k = 3 .. top, by Horner
+            acc = real(0.0)
+            for kk in range(wp.static(top - 2)):
+                acc = acc * inv
+                if wp.static(p[top - kk] >= 0):
+                    acc = acc + P[wp.static(p[top - kk])]
+            n2 = n2 + acc * inv
+        if wp.static(ns == 1):
+            n2 = n2 + P[wp.static(b0)] * w2 / (w2 - P[wp.static(c0)])
+        elif wp.static(ns == 2):
+            d0 = w2 - P[wp.static(c0)]
+            d1 = w2 - P[wp.static(c1)]
+            n2 = n2 + w2 * (P[wp.static(b0)] * d1 + P[wp.static(b1)] * d0) / (d0 * d1)
+        elif wp.static(ns == 3):
+            d0 = w2 - P[wp.static(c0)]
+            d1 = w2 - P[wp.static(c1)]
+            d2 = w2 - P[wp.static(c2)]
+            num = P[wp.static(b0)] * d1 * d2 + P[wp.static(b1)] * d0 * d2 + P[wp.static(b2)] * d0 * d1
+            n2 = n2 + w2 * num / (d0 * d1 * d2)
+        return wp.where(n2 > real(0.0), wp.sqrt(wp.max(n2, real(0.0))), real(-1.0))
 
-    medium_fns = [make_medium(m) for m in range(n + 1)]
-    asphere_fns = [make_asphere(i) if kinds[i] == ASPHERE else None for i in range(n)] + [None]
-    is_const = [ms.constant for ms in shape.media]
+    return wp.func(medium_n, module=module, name=f"medium_n_m{m}")
+
+
+def _make_inside_stop(wp, real, module, shape, lay, Consts):
+    """``inside_stop``: the iris test at the stop (None when the lens has no iris)."""
     iris = shape.iris
     blades = shape.blades
-    stop = shape.stop
-    inside_stop = None
-    if iris != IRIS_NONE:
-        @func
-        def inside_stop(P: Consts, x: real, y: real) -> bool:
-            # surfaces.inside_iris: circle or regular N-gon (blade normals), roundness, obstruction
-            r2 = x * x + y * y
-            inside = r2 <= P[wp.static(lay.iris_limit2)]
-            if wp.static(shape.obstruction):
-                inside = inside and not (r2 < P[wp.static(lay.iris_obs2)])
-            if wp.static(iris == IRIS_POLYGON):
-                # the largest projection on the blades' outward normals is r cos(phi - half) in the
-                # nearest blade's sector; outside when r > rho + roundness (limit - rho), rho = a r / p
-                p = x * P[wp.static(lay.blade_cos)] + y * P[wp.static(lay.blade_sin)]
-                for k in range(wp.static(blades - 1)):
-                    p = wp.max(p, x * P[wp.static(lay.blade_cos + 1 + k)] + y * P[wp.static(lay.blade_sin + 1 + k)])
-                a = P[wp.static(lay.iris_apothem)]
-                if wp.static(shape.rounded):
-                    r = wp.sqrt(r2)
-                    rnd = P[wp.static(lay.iris_round)]
-                    inside = inside and not (r * p > (real(1.0) - rnd) * a * r + rnd * P[wp.static(lay.iris_limit)] * p)
-                else:
-                    inside = inside and not (p > a)
-            return inside
+    if iris == IRIS_NONE:
+        return None
 
-    @func
+    def inside_stop(P: Consts, x: real, y: real) -> bool:
+        # surfaces.inside_iris: circle or regular N-gon (blade normals), roundness, obstruction
+        r2 = x * x + y * y
+        inside = r2 <= P[wp.static(lay.iris_limit2)]
+        if wp.static(shape.obstruction):
+            inside = inside and not (r2 < P[wp.static(lay.iris_obs2)])
+        if wp.static(iris == IRIS_POLYGON):
+            # the largest projection on the blades' outward normals is r cos(phi - half) in the
+            # nearest blade's sector; outside when r > rho + roundness (limit - rho), rho = a r / p
+            p = x * P[wp.static(lay.blade_cos)] + y * P[wp.static(lay.blade_sin)]
+            for k in range(wp.static(blades - 1)):
+                p = wp.max(p, x * P[wp.static(lay.blade_cos + 1 + k)] + y * P[wp.static(lay.blade_sin + 1 + k)])
+            a = P[wp.static(lay.iris_apothem)]
+            if wp.static(shape.rounded):
+                r = wp.sqrt(r2)
+                rnd = P[wp.static(lay.iris_round)]
+                inside = inside and not (r * p > (real(1.0) - rnd) * a * r + rnd * P[wp.static(lay.iris_limit)] * p)
+            else:
+                inside = inside and not (p > a)
+        return inside
+
+    return wp.func(inside_stop, module=module)
+
+
+def _make_trace_fast(wp, real, module, shape, lay, Consts, table, quadric_t, unit_near_one, refract_unit,
+                     medium_fns, asphere_fns, inside_stop):
+    """``trace_fast``: one ray through the unrolled surface loop of ``shape``."""
+    n = shape.n_surfaces
+    kinds = tuple(shape.kinds) + (PLANE,)
+    is_const = [ms.constant for ms in shape.media]
+    iris = shape.iris
+    stop = shape.stop
+
     def trace_fast(P: Consts, x0: real, y0: real, z0: real, L0: real, M0: real, N0: real, w2: real,
                    index_table: wp.array2d(dtype=real), row: int, plane_dz: real):
         """Trace one ray (surfaces.trace_ray with end = n_surfaces, no record); returns status,
@@ -455,8 +379,31 @@ def _build_trace(wp, real, module, shape, table, Consts):
                     z = wp.where(go, z - P[wp.static(lay.thick[i] if i < n else 0)], z)
         return status, where, x, y, z, L, M, N, opl, min_cos
 
+    return wp.func(trace_fast, module=module)
+
+
+def _build_trace(wp, real, module, shape, table, Consts):
+    """The specialised ``@wp.func`` s of ``shape``; ``trace_fast`` traces one ray.
+
+    The code is branch-free (``wp.where`` selects, no ``if`` that assigns): every value is
+    defined on every path, so a kernel looping over rays keeps no value of one ray alive
+    into the next (with branches, Warp's code generation leaves values that only one branch
+    defines, which the CUDA compiler must carry around the loop -- hundreds of registers).
+    A warp runs every branch its threads take anyway; failed rays keep their last state.
+    """
+    lay = Layout(shape)
+    n = shape.n_surfaces
+    kinds = tuple(shape.kinds) + (PLANE,)
+    from .kernels.fast import quadric_t, refract_unit, unit_near_one
+    medium_fns = [_make_medium(wp, real, module, shape, lay, Consts, m) for m in range(n + 1)]
+    asphere_fns = [_make_asphere(wp, real, module, shape, lay, Consts, i, quadric_t) if kinds[i] == ASPHERE else None
+                   for i in range(n)] + [None]
+    inside_stop = _make_inside_stop(wp, real, module, shape, lay, Consts)
+    trace_fast = _make_trace_fast(wp, real, module, shape, lay, Consts, table, quadric_t, unit_near_one,
+                                  refract_unit, medium_fns, asphere_fns, inside_stop)
     return SimpleNamespace(trace_fast=trace_fast, quadric_t=quadric_t, refract_unit=refract_unit,
                            inside_stop=inside_stop, medium_fns=medium_fns)
+
 
 
 def _module(kind: str, precision: str, key) -> str:
@@ -473,8 +420,8 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
     wp.set_module_options({"enable_backward": False}, module=mod)
     lay = Layout(shape)
     Consts = _consts_type(wp, real, lay.size, tuning.consts)
-    tf = _build_trace(wp, real, mod, shape, False, Consts)
-    trace_fast = tf.trace_fast
+    trace_fast = _build_trace(wp, real, mod, shape, False, Consts).trace_fast
+    from .kernels.surfaces import write_ray
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
     def trace_store_fast(P: Consts, rays: wp.array2d(dtype=real), plane_dz: real,
@@ -485,239 +432,99 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
         st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
             P, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4], rays[r, 5], w_um * w_um,
             index_table, -1, plane_dz)
-        out[r, 0] = x
-        out[r, 1] = y
-        out[r, 2] = z
-        out[r, 3] = L
-        out[r, 4] = M
-        out[r, 5] = N
-        out[r, 6] = opl
-        out[r, 7] = min_cos
-        status[r] = st
-        surface[r] = where
+        write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
     assert RAY_OUT_COLS == 8
-    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real, layout=lay,
+    return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
+                           layout=lay,
                            trace_fast=trace_fast)
+
+
+def _fast_samples(wp, real, module: str, sampler: int):
+    """``samples(i, sl, bseed, wseed, rseed)``: ray i's pupil point (u0, u1) and wavelength sample,
+    the sampler fixed at compile time (the generic kernel's ``generic_samples``, branch-free)."""
+    from .kernels import sampling as sm
+    from .kernels import stream_body as sb
+
+    def samples(i: int, sl: sb.Slots, bseed: wp.uint32, wseed: wp.uint32, rseed: int):
+        u0 = real(0.0)
+        u1 = real(0.0)
+        uw = real(0.0)
+        if wp.static(sampler == 2):
+            u0, u1 = sm.sobol_2d(wp.uint32(i), bseed, real(0.0))
+            uw = sm.sobol_1d(wp.uint32(i), wseed, real(0.0))
+        elif wp.static(sampler == 3):
+            state = wp.rand_init(rseed, i)
+            u0, u1 = sm.r2_2d(wp.uint32(i), bseed, real(0.0))
+            uw = real(wp.randf(state))
+        else:
+            state = wp.rand_init(rseed, i)
+            u0 = real(wp.randf(state))
+            u1 = real(wp.randf(state))
+            uw = real(wp.randf(state))
+            if wp.static(sampler == 1):
+                # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
+                n_cells = sl.n_strata * sl.n_strata
+                strat = i < n_cells * sl.n_wstrata
+                cell = i % n_cells
+                u0 = wp.where(strat, (real(cell % sl.n_strata) + u0) / real(sl.n_strata), u0)
+                u1 = wp.where(strat, (real(cell // sl.n_strata) + u1) / real(sl.n_strata), u1)
+                uw = wp.where(strat, (real(i // n_cells) + uw) / real(sl.n_wstrata), uw)
+        return u0, u1, uw
+
+    return wp.func(samples, module=module, name=f"samples_{sampler}")
 
 
 @lru_cache(maxsize=64)
 def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
                   tuning: Tuning = DEFAULT_TUNING) -> SimpleNamespace:
-    """The specialised stream kernel of ``shape`` with ``opts`` (the generic trace_stream's contract)."""
+    """The specialised stream kernel of ``shape`` with ``opts`` (the generic trace_stream's contract
+    and per-ray body, :mod:`lensrt.trace.kernels.stream_body`; only the samples and the trace differ)."""
     from ..device import warp
+    from .kernels import stream_body as sb
     wp = warp()
     real = real_dtype(wp, precision)
     mod = _module("stream", precision, (shape, opts, tuning))
     wp.set_module_options({"enable_backward": False}, module=mod)
     lay = Layout(shape)
     Consts = _consts_type(wp, real, lay.size, tuning.consts)
-    tf = _build_trace(wp, real, mod, shape, opts.table, Consts)
-    trace_fast = tf.trace_fast
-    sm = sampling_funcs(wp, real, mod)
-    u32 = wp.uint32
-    fixed_one = float(2**FIXED_POINT_BITS)
-    sampler = int(opts.sampler)
-    table = bool(opts.table)
-    channels = bool(opts.channels)
-    histogram = bool(opts.histogram)
-    (_KIND, _OX, _OY, _OZ, _WX, _WY, _WZ, _E1X, _E1Y, _E1Z, _E2X, _E2Y, _E2Z, _CX, _CY, _CZ, _A0, _A1, _B0, _B1,
-     _DIST, _PLANE_DZ, _GX0, _GY0, _LAYER, _SX, _SY, _IDX, _IDY, _WSCALE) = (SRC[k] for k in SRC)
-    assert N_STATS == 8 and N_COUNTS == 8
+    trace_fast = _build_trace(wp, real, mod, shape, opts.table, Consts).trace_fast
+    samples = _fast_samples(wp, real, mod, int(opts.sampler))
+    table, channels, histogram = int(opts.table), int(opts.channels), bool(opts.histogram)
+
+    Source = sb.SOURCE[precision]
 
     @wp.kernel(module=mod, **_kernel_kwargs(tuning))
-    def trace_stream_fast(P: Consts, sources: wp.array2d(dtype=real), src_int: wp.array2d(dtype=wp.int32),
+    def trace_stream_fast(P: Consts, sources: wp.array(dtype=Source), src_int: wp.array2d(dtype=wp.int32),
                           spec_nm: wp.array(dtype=real), spec_cdf: wp.array(dtype=real),
-                          index_table: wp.array2d(dtype=real),
-                          n_chan: int, chan: wp.array2d(dtype=real), chan_nm0: real, chan_dnm: real,
-                          hist: wp.array(dtype=wp.int64), nx: int, ny: int,
-                          n_layers: int, n_rep: int, hist_batches: int,
-                          epoch: int, n_batches: int, n_slots: int, slot_rays: int,
-                          start: int, count: int, n_strata: int, n_wstrata: int, tid_base: int, rep_base: int,
-                          stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64)):
-        # one thread per slot (kernels.trace_stream's contract)
-        tid = wp.tid() + tid_base
-        q = tid % n_slots
-        g = tid // n_slots
-        src = g // n_batches
-        batch = g % n_batches
-        rep = rep_base + tid % n_rep
-        kind = int(sources[src, _KIND])
-        ox = sources[src, _OX]
-        oy = sources[src, _OY]
-        oz = sources[src, _OZ]
-        wx = sources[src, _WX]
-        wy = sources[src, _WY]
-        wz = sources[src, _WZ]
-        e1x = sources[src, _E1X]
-        e1y = sources[src, _E1Y]
-        e1z = sources[src, _E1Z]
-        e2x = sources[src, _E2X]
-        e2y = sources[src, _E2Y]
-        e2z = sources[src, _E2Z]
-        cx = sources[src, _CX]
-        cy = sources[src, _CY]
-        cz = sources[src, _CZ]
-        a0 = sources[src, _A0]
-        a1 = sources[src, _A1]
-        b0 = sources[src, _B0]
-        b1 = sources[src, _B1]
-        dist = sources[src, _DIST]
-        plane_dz = sources[src, _PLANE_DZ]
-        gx0 = sources[src, _GX0]
-        gy0 = sources[src, _GY0]
-        layer = int(sources[src, _LAYER])
-        refx = sources[src, _SX]
-        refy = sources[src, _SY]
-        inv_dx = sources[src, _IDX]
-        inv_dy = sources[src, _IDY]
-        wscale = sources[src, _WSCALE]
-        spec_off = src_int[src, 2]
-        spec_n = src_int[src, 3]
-        # one independent randomisation per (source seed, source index, batch, epoch), as in
-        # kernels.trace_stream
-        bseed = sm.hash_u32(u32(src_int[src, 0]) ^ sm.hash_u32(u32(src_int[src, 1] * n_batches + batch)
-                                                               ^ sm.hash_u32(u32(epoch))))
-        wseed = sm.hash_u32(bseed ^ u32(0x68E31DA4))
-        rseed = int(bseed >> u32(1))
-        plane_size = nx * ny
-        n_cells = n_strata * n_strata
-        n_strat = n_cells * n_wstrata
-        hist_base = (((rep * n_layers + layer) * hist_batches + batch % hist_batches) * n_chan) * plane_size
-        sw = wp.float64(0.0)
-        swx = wp.float64(0.0)
-        swy = wp.float64(0.0)
-        swxx = wp.float64(0.0)
-        swyy = wp.float64(0.0)
-        swxy = wp.float64(0.0)
-        swg = wp.float64(0.0)
-        c_ok = int(0)
-        c_missed = int(0)
-        c_vig = int(0)
-        c_tir = int(0)
-        c_nc = int(0)
-        c_inv = int(0)
-        c_out = int(0)
-        c_graze = int(0)
-        k = q * slot_rays
-        k_end = wp.min(k + slot_rays, count)
+                          index_table: wp.array2d(dtype=real), chan: wp.array2d(dtype=real), chan_nm0: real,
+                          chan_dnm: real, h: sb.Histogram, sl: sb.Slots, stats: wp.array2d(dtype=wp.float64),
+                          counts: wp.array2d(dtype=wp.int64)):
+        # one thread per slot (the generic trace_stream's contract and body)
+        tid = wp.tid() + sl.tid_base
+        q, src, batch, rep = sb.slot_of(tid, sl, h)
+        bseed, wseed, rseed = sb.batch_seeds(src_int, src, sl, batch)
+        s = sources[src]
+        base = sb.hist_base(h, s, rep, batch)
+        plane_dz = s.plane_dz_mm
+        sums = sb.SlotSums()
+        k = q * sl.slot_rays
+        k_end = wp.min(k + sl.slot_rays, sl.count)
         while k < k_end:
             # branch-free like trace_fast (see _build_trace): no value of one ray outlives it
-            i = start + k
-            u0 = real(0.0)
-            u1 = real(0.0)
-            uw = real(0.0)
-            if wp.static(sampler == 2):
-                u0, u1 = sm.sobol_2d(u32(i), bseed)
-                uw = sm.sobol_1d(u32(i), wseed)
-            elif wp.static(sampler == 3):
-                state = wp.rand_init(rseed, i)
-                u0, u1 = sm.r2_2d(u32(i), bseed)
-                uw = real(wp.randf(state))
-            else:
-                state = wp.rand_init(rseed, i)
-                u0 = real(wp.randf(state))
-                u1 = real(wp.randf(state))
-                uw = real(wp.randf(state))
-                if wp.static(sampler == 1):
-                    # n_wstrata wavelength strata, each with an n_strata^2 jittered pupil grid
-                    strat = i < n_strat
-                    cell = i % n_cells
-                    u0 = wp.where(strat, (real(cell % n_strata) + u0) / real(n_strata), u0)
-                    u1 = wp.where(strat, (real(cell // n_strata) + u1) / real(n_strata), u1)
-                    uw = wp.where(strat, (real(i // n_cells) + uw) / real(n_wstrata), uw)
-            pa = a0 + u0 * (a1 - a0)
-            pb = b0 + u1 * (b1 - b0)
-            # wavelength: the bin k with cdf[k] <= uw < cdf[k + 1] (sampling.sample_cdf)
-            lo = spec_off
-            hi = spec_off + spec_n
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                below = spec_cdf[mid] <= uw
-                lo = wp.where(below, mid, lo)
-                hi = wp.where(below, hi, mid)
-            row = lo
-            wl = spec_nm[lo]
-            if wp.static(not table):
-                width = spec_cdf[lo + 1] - spec_cdf[lo]
-                f = wp.clamp((uw - spec_cdf[lo]) / wp.where(width > real(0.0), width, real(1.0)),
-                             real(0.0), real(1.0))
-                f = wp.where(width > real(0.0), f, real(0.5))
-                wl = wl + f * (spec_nm[lo + 1] - wl)
-            px = cx + pa * e1x + pb * e2x
-            py = cy + pa * e1y + pb * e2y
-            pz = cz + pa * e1z + pb * e2z
-            # from an object point: along P - O, weight cos(theta_plane) (D / rho)^2 (x cos(theta_obj))
-            vx = px - ox
-            vy = py - oy
-            vz = pz - oz
-            rho = wp.sqrt(vx * vx + vy * vy + vz * vz)
-            point = kind != 0
-            rs = wp.where(point, rho, real(1.0))
-            dx = wp.where(point, vx / rs, wx)
-            dy = wp.where(point, vy / rs, wy)
-            dz = wp.where(point, vz / rs, wz)
-            qq = dist / rs
-            weight = wp.where(point, (dx * wx + dy * wy + dz * wz) * qq * qq, real(1.0))
-            weight = wp.where(kind == 1, weight * dz, weight) * wscale
+            i = sl.start + k
+            u0, u1, uw = samples(i, sl, bseed, wseed, rseed)
+            wl, row = sb.pick_wavelength(uw, wp.static(table), spec_nm, spec_cdf, src_int[src, 2], src_int[src, 3])
+            px, py, pz, dx, dy, dz, weight = sb.ray_from_source(s, u0, u1)
             w_um = wl * real(1.0e-3)
             st, where, x, y, z, L, M, N, opl, min_cos = trace_fast(
                 P, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row, plane_dz)
-            ok = st == int(OK)
-            c_ok = c_ok + wp.where(ok, 1, 0)
-            c_graze = c_graze + wp.where(ok and min_cos < real(GRAZING_COS), 1, 0)
-            c_missed = c_missed + wp.where(st == int(MISSED), 1, 0)
-            c_vig = c_vig + wp.where(st == int(VIGNETTED), 1, 0)
-            c_tir = c_tir + wp.where(st == int(TIR), 1, 0)
-            c_nc = c_nc + wp.where(st == int(NO_CONVERGE), 1, 0)
-            c_inv = c_inv + wp.where(st == int(INVALID), 1, 0)
-            xd = wp.float64(wp.where(ok, x - refx, real(0.0)))
-            yd = wp.float64(wp.where(ok, y - refy, real(0.0)))
-            wd = wp.float64(wp.where(ok, weight, real(0.0)))
-            sw = sw + wd
-            swx = swx + wd * xd
-            swy = swy + wd * yd
-            swxx = swxx + wd * xd * xd
-            swyy = swyy + wd * yd * yd
-            swxy = swxy + wd * xd * yd
-            fx = (x - gx0) * inv_dx
-            fy = (y - gy0) * inv_dy
-            on_grid = ok and fx >= real(0.0) and fy >= real(0.0) and fx < real(nx) and fy < real(ny)
-            swg = swg + wp.where(on_grid, wd, wp.float64(0.0))
-            c_out = c_out + wp.where(ok and not on_grid, 1, 0)
+            sums, on_grid, fx, fy = sb.accumulate(sums, st, min_cos, x, y, weight, s, h)
             if wp.static(histogram):
                 if on_grid:
-                    base = hist_base + int(fy) * nx + int(fx)
-                    if wp.static(not channels):
-                        wp.atomic_add(hist, base, wp.int64(weight * real(fixed_one) + real(0.5)))
-                    else:
-                        pos = (wl - chan_nm0) / chan_dnm
-                        g = chan.shape[1]
-                        if pos >= real(0.0) and pos <= real(g - 1):
-                            k0 = wp.min(int(pos), g - 2)
-                            fr = pos - real(k0)
-                            for c in range(n_chan):
-                                cw = chan[c, k0] * (real(1.0) - fr) + chan[c, k0 + 1] * fr
-                                v = weight * cw * real(fixed_one) + real(0.5)
-                                if v >= real(1.0):
-                                    wp.atomic_add(hist, base + c * plane_size, wp.int64(v))
+                    sb.bin_ray(h, base, fx, fy, weight, wl, wp.static(channels), chan, chan_nm0, chan_dnm)
             k = k + 1
-        stats[tid, 0] = wp.float64(c_ok)
-        stats[tid, 1] = sw
-        stats[tid, 2] = swx
-        stats[tid, 3] = swy
-        stats[tid, 4] = swxx
-        stats[tid, 5] = swyy
-        stats[tid, 6] = swxy
-        stats[tid, 7] = swg
-        counts[tid, 0] = wp.int64(c_ok)
-        counts[tid, 1] = wp.int64(c_missed)
-        counts[tid, 2] = wp.int64(c_vig)
-        counts[tid, 3] = wp.int64(c_tir)
-        counts[tid, 4] = wp.int64(c_nc)
-        counts[tid, 5] = wp.int64(c_inv)
-        counts[tid, 6] = wp.int64(c_out)
-        counts[tid, 7] = wp.int64(c_graze)
+        sb.store_slot(stats, counts, tid, sums)
 
-    return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real, layout=lay,
-                           trace_fast=trace_fast)
+    return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
+                           layout=lay, trace_fast=trace_fast)

@@ -36,9 +36,7 @@ response (e.g. CIE x-bar, y-bar, z-bar for bokeh colour).
 from __future__ import annotations
 
 import math
-import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -52,23 +50,16 @@ from .kernels import (COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC
 from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
-from .surfaces import N_RECORD
 from .shape import describe
 from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
+from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables, launch_all, plan_slots, slot_layout
 from .variants import choose_kernel, params, shape_and_constants
 
 __all__ = ["PupilBox", "StreamSource", "Grid", "Channels", "StreamResult", "pupil_box", "pupil_boxes",
-           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS"]
+           "stream_source", "stream_sources", "stream", "slot_layout", "strata", "EMITTERS", "SLOTS_MAX",
+           "SLOT_MIN_RAYS", "LAUNCH_SLOTS"]
 
 EMITTERS = ("lambertian", "isotropic")
-_EPOCH = 1 << 30
-#: slots (one thread each: a contiguous run of rays of one source and batch) per batch: at most
-#: SLOTS_MAX, of at least SLOT_MIN_RAYS rays (a power of two) -- a function of the rays per batch only
-SLOTS_MAX = 8192
-SLOT_MIN_RAYS = 64
-#: slots per launch (all sources and batches) at most, per device kind: the per-slot sums take
-#: 128 bytes each
-LAUNCH_SLOTS = {"gpu": 1 << 20, "cpu": 1 << 16}
 
 
 @dataclass(frozen=True)
@@ -243,15 +234,6 @@ class StreamResult:
         return self.histogram[layer, channel]
 
 
-def _cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
-
-
 def stream_sources(lens: Lens, fields, *, plane_z_mm: float | None = None,
                    centres_mm: Sequence[tuple[float, float]] | None = None, layers: Sequence[int] | None = None,
                    emitter: str = "lambertian", wavelengths_nm: Sequence[float] | None = None,
@@ -339,20 +321,6 @@ def _pixel_of(s: StreamSource, grid: Grid) -> tuple[float, float]:
     if s.pixel_mm is None:
         return grid.pixel_mm, grid.dy_mm
     return float(s.pixel_mm), float(s.pixel_mm if s.pixel_y_mm is None else s.pixel_y_mm)
-
-
-def slot_layout(rays_per_batch: int, threads_per_batch: int | None = None) -> tuple[int, int]:
-    """(rays per slot, slots per batch) of a stream (:mod:`.kernels`): a function of the rays per batch
-    only -- at most :data:`SLOTS_MAX` slots of at least :data:`SLOT_MIN_RAYS` rays, a power of two --
-    unless ``threads_per_batch`` fixes the number of slots."""
-    n_b = int(rays_per_batch)
-    if threads_per_batch is not None:
-        per = max(1, -(-n_b // max(1, min(int(threads_per_batch), n_b))))
-    else:
-        per = max(SLOT_MIN_RAYS, 1 << max(0, (-(-n_b // SLOTS_MAX) - 1).bit_length()))
-    if n_b > _EPOCH:  # slots must not straddle a change of epoch (2^30 rays)
-        per = min(1 << max(0, (per - 1).bit_length()), _EPOCH)
-    return per, -(-n_b // per)
 
 
 def strata(rays_per_batch: int, spectra: Sequence[Spectrum]) -> tuple[int, int]:
@@ -464,17 +432,57 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         raise LensrtError("a stream needs at least 2 batches (for the standard error)")
     code = sampler_code(sampler)
     packed = pack_lens(lens, precision, device, iris, stop_radius_mm)
-    dev = packed.device
-    k = get_kernels(precision)
-    real = k.real
-    is_gpu = dev.startswith("cuda")
+    dev, k = packed.device, get_kernels(precision)
     S, B = len(sources), int(batches)
     n_b = int(rays_per_source) // B
     if n_b < 1:
         raise LensrtError(f"{rays_per_source} rays cannot fill {B} batches")
     shape, consts = shape_and_constants(packed, clip)
     variant = choose_kernel(kernel, dev, shape, S * B * n_b)
-    want_hist = bool(histogram)
+    spectra = _spectra_of(lens, spectrum, sources)
+    mode, nm, cdf, table, spec_off, spec_n = _spectrum_tables(lens, spectra)
+    chan_mode, chan, nm0, dnm = _channel_table(channels)
+    _check_grid(grid, sources)
+    plan = plan_slots(S, B, n_b, grid.nx * grid.ny, max(s.layer for s in sources) + 1, chan.shape[0],
+                      dev.startswith("cuda"), batch_histograms=batch_histograms, threads_per_batch=threads_per_batch,
+                      replicas=replicas, cpu_workers=cpu_workers, rays_per_launch=rays_per_launch)
+    src_int, seeds = _source_ints(sources, seed, spec_off, spec_n)
+    t = device_tables(wp, dev, precision, plan, _source_rows(lens, sources, grid), src_int, nm, cdf, table, chan)
+    use_table = int(mode == SPECTRUM_DISCRETE)
+    chan_args = [t.chan, k.real(nm0), k.real(dnm)]
+    if variant == "specialised":
+        spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, bool(histogram)),
+                             GPU_TUNING[precision] if plan.is_gpu else DEFAULT_TUNING)
+        kern, after = spec.kernel, []
+        head = [params(spec, consts, dev), t.src, t.src_int, t.spec_nm, t.spec_cdf, t.table] + chan_args
+    else:
+        kern, after = k.trace_stream, [t.rec]
+        head = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), t.src, t.src_int, t.spec_nm,
+                t.spec_cdf, use_table, t.table, chan_mode] + chan_args + [code]
+    out, launches, kernel_seconds = launch_all(wp, dev, plan, t, grid.nx, grid.ny, strata(n_b, spectra), kern,
+                                               head, after, k.fold_slots, k.sum_replicas)
+    h = out.numpy().reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
+    if not histogram:
+        h[...] = 0
+    unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
+    extra = {"threads_per_batch": plan.n_slots, "slot_rays": plan.slot_rays, "replicas": plan.replicas,
+             "cpu_workers": 1 if plan.is_gpu else plan.replicas, "kernel": variant, "shape": describe(shape),
+             "layers_of_sources": [s.layer for s in sources], "stat_names": STAT_NAMES,
+             "kernel_seconds": float(kernel_seconds), "source_seeds": seeds,
+             "spectrum_totals": [spectra[s.spectrum].total * 1.0 for s in sources]}
+    if any(s.pixel_mm is not None for s in sources):
+        extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
+    return StreamResult((h.sum(axis=1) if plan.hb > 1 else h[:, 0]) * unit, n_b * B, B,
+                        t.tot_stats.numpy().reshape(S, B, N_STATS), t.tot_counts.numpy().reshape(S, B, N_COUNTS),
+                        np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
+                        np.array([s.centre_mm for s in sources], dtype=np.float64), grid,
+                        time.perf_counter() - t_call, precision, dev, sampler, int(seed), launches,
+                        h * unit if batch_histograms else None, extra)
+
+
+def _spectra_of(lens: Lens, spectrum: Spectrum | Sequence[Spectrum] | None,
+                sources: Sequence[StreamSource]) -> list[Spectrum]:
+    """The call's spectra (default: the lens's wavelengths and weights), checked against the sources."""
     if spectrum is None:
         spectra = [spectrum_discrete(lens.wavelengths.nm, lens.wavelengths.weights)]
     elif isinstance(spectrum, Spectrum):
@@ -483,138 +491,33 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         spectra = list(spectrum)
     if not spectra or any(not (0 <= s.spectrum < len(spectra)) for s in sources):
         raise LensrtError("every source's spectrum index must name one of the call's spectra")
-    mode, nm, cdf, table, spec_off, spec_n = _spectrum_tables(lens, spectra)
-    use_table = int(mode == SPECTRUM_DISCRETE)
+    return spectra
+
+
+def _channel_table(channels: Channels | None) -> tuple[int, np.ndarray, float, float]:
+    """(mode, table (channels, wavelengths), nm0, dnm): mode 0 is one channel of weight 1."""
     if channels is None:
-        chan_mode, n_chan, chan, nm0, dnm = 0, 1, np.zeros((1, 2)), 0.0, 1.0
-    else:
-        chan = np.atleast_2d(np.asarray(channels.table, dtype=np.float64))
-        if chan.shape[1] < 2 or channels.dnm <= 0:
-            raise LensrtError("a channel table needs at least two wavelengths and a positive step")
-        chan_mode, n_chan, nm0, dnm = 1, chan.shape[0], float(channels.nm0), float(channels.dnm)
-    layers = max(s.layer for s in sources) + 1
-    plane = grid.nx * grid.ny
+        return 0, np.zeros((1, 2)), 0.0, 1.0
+    chan = np.atleast_2d(np.asarray(channels.table, dtype=np.float64))
+    if chan.shape[1] < 2 or channels.dnm <= 0:
+        raise LensrtError("a channel table needs at least two wavelengths and a positive step")
+    return 1, chan, float(channels.nm0), float(channels.dnm)
+
+
+def _check_grid(grid: Grid, sources: Sequence[StreamSource]) -> None:
     if grid.nx < 1 or grid.ny < 1 or grid.pixel_mm <= 0 or grid.dy_mm <= 0:
         raise LensrtError("the histogram grid needs positive sizes")
     if any(s.pixel_mm is not None and not (s.pixel_mm > 0 and (s.pixel_y_mm or s.pixel_mm) > 0) for s in sources):
         raise LensrtError("a source's pixel size must be positive")
-    slot_rays, n_slots = slot_layout(n_b, threads_per_batch)
-    hb = B if batch_histograms else 1
-    if is_gpu:
-        workers = 1
-        if replicas is None:
-            replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan * hb, 1)))
-    else:  # Warp's CPU atomics are plain adds: one histogram replica per worker thread
-        workers = 0  # set per launch below
-        replicas = max(1, int(cpu_workers or _cpu_count()))
-    hist_len = replicas * layers * hb * n_chan * plane
-    if hist_len >= 2**31:
-        raise LensrtError(f"histogram of {hist_len} bins is too large (limit 2^31)")
-    if rays_per_launch is None:
-        rays_per_launch = (1 << 30) if is_gpu else (1 << 22)
-    cap = LAUNCH_SLOTS["gpu" if is_gpu else "cpu"]
-    per_launch = max(1, min(int(rays_per_launch) // (S * B * slot_rays), cap // (S * B)))
-    per_launch = min(per_launch, n_slots, max(1, _EPOCH // slot_rays))
-    # per-source integers: seed, index mixed into it, spectrum table entries
-    src_int = np.zeros((S, SRC_INT_COLS), dtype=np.int32)
+
+
+def _source_ints(sources: Sequence[StreamSource], seed: int, spec_off: list[int],
+                 spec_n: list[int]) -> tuple[np.ndarray, list[int]]:
+    """The per-source integers (:data:`SRC_INT`: seed, index mixed into it, spectrum table entries)."""
+    src_int = np.zeros((len(sources), SRC_INT_COLS), dtype=np.int32)
     seeds = [int(seed if s.seed is None else s.seed) & 0x7FFFFFFF for s in sources]
     src_int[:, SRC_INT["seed"]] = seeds
     src_int[:, SRC_INT["index"]] = [j if s.rng_index is None else int(s.rng_index) for j, s in enumerate(sources)]
     src_int[:, SRC_INT["spec_off"]] = [spec_off[s.spectrum] for s in sources]
     src_int[:, SRC_INT["spec_n"]] = [spec_n[s.spectrum] for s in sources]
-    # device arrays
-    src = wp.array(_source_rows(lens, sources, grid), dtype=real, device=dev)
-    src_i = wp.array(src_int, dtype=wp.int32, device=dev)
-    spec_nm = wp.array(nm, dtype=real, device=dev)
-    spec_cdf = wp.array(cdf, dtype=real, device=dev)
-    tab = wp.array(table, dtype=real, device=dev)
-    chan_arr = wp.array(chan, dtype=real, device=dev)
-    hist = wp.zeros(hist_len, dtype=wp.int64, device=dev)
-    max_threads = S * B * per_launch
-    stats = wp.zeros((max_threads, N_STATS), dtype=wp.float64, device=dev)
-    counts = wp.zeros((max_threads, N_COUNTS), dtype=wp.int64, device=dev)
-    tot_stats = wp.zeros((S * B, N_STATS), dtype=wp.float64, device=dev)
-    tot_counts = wp.zeros((S * B, N_COUNTS), dtype=wp.int64, device=dev)
-    rec = wp.zeros((1, 1, N_RECORD), dtype=real, device=dev)
-    spec = None
-    if variant == "specialised":
-        spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, want_hist),
-                             GPU_TUNING[precision] if is_gpu else DEFAULT_TUNING)
-        pconst = params(spec, consts, dev)
-    n_wstrata, n_strata = strata(n_b, spectra)
-    launches = 0
-    pool = ThreadPoolExecutor(replicas) if (not is_gpu and replicas > 1) else None
-    if is_gpu:
-        ev0, ev1 = wp.Event(dev, enable_timing=True), wp.Event(dev, enable_timing=True)
-        wp.get_stream(dev).record_event(ev0)
-    t0 = time.perf_counter()
-    start = 0
-    try:
-        while start < n_b:
-            epoch, local = divmod(start, _EPOCH)
-            count = min(per_launch * slot_rays, n_b - start, _EPOCH - local)
-            ns = -(-count // slot_rays)
-            n_threads = S * B * ns
-            workers = 1 if is_gpu else max(1, min(replicas, n_threads))
-            bounds = [n_threads * w // workers for w in range(workers + 1)]
-            tail = [hist, grid.nx, grid.ny, layers, 1 if not is_gpu else int(replicas), hb]
-            if spec is None:
-                common = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), src, src_i,
-                          int(mode), spec_nm, spec_cdf, use_table, tab,
-                          chan_mode, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          code, int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
-            else:
-                common = [pconst, src, src_i, spec_nm, spec_cdf, tab, n_chan, chan_arr, real(nm0), real(dnm)] + tail + [
-                          int(epoch), B, ns, slot_rays, int(local), int(count), n_strata, n_wstrata]
-
-            def run(w: int) -> None:
-                extra = [bounds[w], w if not is_gpu else 0, stats, counts]
-                if spec is None:
-                    wp.launch(k.trace_stream, dim=bounds[w + 1] - bounds[w], device=dev, inputs=common + extra + [rec])
-                else:
-                    wp.launch(spec.kernel, dim=bounds[w + 1] - bounds[w], device=dev, inputs=common + extra)
-
-            if pool is None or workers == 1:
-                run(0)
-            else:
-                list(pool.map(run, range(workers)))
-            launches += 1
-            # the launch's slots added to the totals, in slot order (kernels.fold_slots)
-            wp.launch(k.fold_slots, dim=S * B * (N_STATS + N_COUNTS), device=dev,
-                      inputs=[stats, counts, ns, tot_stats, tot_counts])
-            start += count
-        length = layers * hb * n_chan * plane
-        if replicas > 1:
-            out = wp.empty(length, dtype=wp.int64, device=dev)
-            wp.launch(k.sum_replicas, dim=length, device=dev, inputs=[hist, int(replicas), length, out])
-        else:
-            out = hist
-        if is_gpu:
-            wp.get_stream(dev).record_event(ev1)
-    finally:
-        if pool is not None:
-            pool.shutdown()
-    if is_gpu:
-        kernel_seconds = wp.get_event_elapsed_time(ev0, ev1) * 1e-3
-    else:
-        kernel_seconds = time.perf_counter() - t0
-    h = out.numpy().reshape(layers, hb, n_chan, grid.ny, grid.nx)
-    stats_h = tot_stats.numpy().reshape(S, B, N_STATS)
-    counts_h = tot_counts.numpy().reshape(S, B, N_COUNTS)
-    if not want_hist:
-        h[...] = 0
-    unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
-    per_batch = h * unit if batch_histograms else None
-    histogram = (h.sum(axis=1) if hb > 1 else h[:, 0]) * unit
-    seconds = time.perf_counter() - t_call
-    extra = {"threads_per_batch": n_slots, "slot_rays": slot_rays, "replicas": int(replicas),
-             "cpu_workers": 1 if is_gpu else int(replicas), "kernel": variant, "shape": describe(shape),
-             "layers_of_sources": [s.layer for s in sources], "stat_names": STAT_NAMES,
-             "kernel_seconds": float(kernel_seconds), "source_seeds": seeds,
-             "spectrum_totals": [spectra[s.spectrum].total * 1.0 for s in sources]}
-    if any(s.pixel_mm is not None for s in sources):
-        extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
-    return StreamResult(histogram, n_b * B, B, stats_h, counts_h,
-                        np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
-                        np.array([s.centre_mm for s in sources], dtype=np.float64), grid, seconds, precision, dev,
-                        sampler, int(seed), launches, per_batch, extra)
+    return src_int, seeds

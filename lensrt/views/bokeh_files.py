@@ -1,6 +1,6 @@
 """Bokeh images on disk: an sRGB PNG for people, a linear XYZ EXR with metadata, a JSON summary.
 
-Colour (colour-science via :mod:`lensrt.render.spectra`): the image's CIE 1931
+Colour (colour-science via :mod:`lensrt.colour`): the image's CIE 1931
 XYZ (Y = sensor illuminance in lux) is scaled by an exposure, turned into
 linear sRGB by the IEC 61966-2-1 matrix (D65 white, no adaptation: a D65 source
 is neutral), clipped to [0, 1] (out-of-gamut colours lose their negative
@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from ..colour import srgb_encode, xyz_to_linear_srgb
 
 __all__ = ["xyz_to_srgb8", "auto_exposure", "write_bokeh_files", "read_bokeh_exr"]
 
@@ -35,7 +36,6 @@ def auto_exposure(y: np.ndarray, percentile: float = 99.5) -> float:
 
 def xyz_to_srgb8(xyz: np.ndarray, exposure: float | None = None) -> tuple[np.ndarray, float]:
     """(rows, cols, 3) XYZ -> (uint8 sRGB image, the exposure multiplier used)."""
-    from ..render.spectra import srgb_encode, xyz_to_linear_srgb
     k = auto_exposure(xyz[..., 1]) if exposure is None else float(exposure)
     rgb = xyz_to_linear_srgb(np.asarray(xyz, dtype=np.float64) * k)
     enc = srgb_encode(np.clip(rgb, 0.0, 1.0))

@@ -172,14 +172,19 @@ def _pupil_tables(c: "Comparison", out: dict) -> None:
                                    f"area of the rays passing every aperture); real working f-number "
                                    f"{pu.real_working_f_number:.4f} (paraxial {par['working_f_number']:.4f})")
     vg = c.vignetting
+    agree = vg.ri_methods_agree
+    # "!" marks an exit-pupil value beyond the flux estimate's error: that method does not hold there
     rows = [[math.degrees(v) if c.infinite else v, _est(vg.vignetting_fraction[k]),
-             _est(vg.relative_illumination[k]), _f(float(vg.relative_illumination_exit_pupil[k])), vg.cos4[k]]
+             _est(vg.relative_illumination[k]),
+             _f(float(vg.relative_illumination_exit_pupil[k])) + ("!" if agree[k] is False else ""), vg.cos4[k]]
             for k, v in enumerate(vg.object_value)]
     out["vignetting"] = Table(rows, [okey, "unvignetted fraction", "rel. illumination",
                                     "RI exit pupil", "cos^4"], digits=4,
                              title=f"Vignetting and relative illumination at {p:g} nm ({vg.rays_per_field} Monte Carlo "
                                    f"rays per field and pupil, {sum(e.seconds for e in vg.relative_illumination):.3g} s; "
-                                   f"+- one standard error, {vg.relative_illumination[0].method if vg.relative_illumination else ''})")
+                                   f"+- one standard error, {vg.relative_illumination[0].method if vg.relative_illumination else ''}"
+                                   "; RI exit pupil holds only where a field's image-space rays meet in one point: '!' "
+                                   "marks a value beyond the flux estimate's error, read the flux column there)")
     if c.spots:
         rows = [[sp.label, _est(sp.estimates["rms_radius_mm"], ".5f"),
                  _est(sp.estimates["rms_radius_centroid_mm"], ".5f"), sp.geometric_radius_mm,

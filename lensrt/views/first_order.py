@@ -27,6 +27,8 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
     data.update(fo.to_dict())
+    # every approximation the reader made (glass substitutions, model glasses, ignored keywords, defaults)
+    data["warnings"] = [w.to_dict() for w in lens.warnings]
     data["field_image_heights_mm"] = list(fo.field_image_heights_mm)
     data["seidel"] = sums.to_dict()
     data["third_order_transverse"] = {(f"{k}_per_mm" if k == "PTZ" else f"{k}_mm"): v

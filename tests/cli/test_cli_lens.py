@@ -89,7 +89,11 @@ def test_warnings_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture) ->
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         rc, out, err = run(["lens", "show", str(p)], capsys)
-    assert rc == 0
+    assert rc == 2 and "MYFLINT" in err and "--glass-model-fallback" in err  # an unknown glass: one error
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        rc, out, err = run(["lens", "show", str(p), "--glass-model-fallback"], capsys)
+    assert rc == 0 and "warning [glass_model]" in out
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert lines and all(ln.startswith("lensrt: warning: ") for ln in lines)
     assert "MYFLINT" in lines[0] and "Traceback" not in err

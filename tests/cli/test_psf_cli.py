@@ -88,8 +88,13 @@ def test_mtf_json_plots_and_through_focus(capsys, tmp_path):
     assert len(v["image_height_mm"]) == 2 and np.shape(v["sagittal"]) == (2, 3) and np.shape(v["sagittal_stderr"]) == (2, 3)
     tf = d["through_focus"][0]
     assert len(tf["focus_mm"]) == 5 and np.shape(tf["tangential"]) == (5, 3) and tf["method"] == "geometric"
-    for name in ("mtf.png", "mtf_system.png", "mtf_field.png", "mtf_focus.png", "psf.exr", "mtf.json"):
+    for name in ("mtf.png", "mtf_system.png", "mtf_field.png", "mtf_focus.png", "psf.exr", "mtf.json",
+                 "mtf_focus_spots_0.png", "mtf_focus_spots_1.png"):
         assert (out / name).stat().st_size > 1000, name
+    # through-focus spots beside it (their physics: tests/analysis/psf/test_psf_real.py)
+    sp = d["through_focus_spots"][0]
+    assert len(sp["focus_mm"]) == 5 and sp["rays"] > 0
+    assert np.all(np.isfinite(sp["rms_radius_mm"])) and np.all(np.asarray(sp["rms_radius_mm"]) > 0)
 
 
 def test_mtf_of_a_psf_wider_than_the_grid_cap_stops_at_its_grid_nyquist(capsys, tmp_path, monkeypatch):
@@ -148,7 +153,7 @@ def test_converge_prints_slopes(capsys, tmp_path):
 
 @pytest.mark.parametrize("args,message", [
     (["--focus", "sideways"], "bad focus"),
-    (["--spectrum", "D66"], "unknown spectrum"),
+    (["--spectrum", "D66"], "unknown illuminant"),
     (["--grid", "3x3", "--field", "0"], "give one way"),
     (["--grid", "3x3", "--sensor", "36x24", "--focus", "paraxial", "--field-deg", "1"], "give one way"),
     (["--image-height-mm", "500"], "beyond the lens's coverage"),

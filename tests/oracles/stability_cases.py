@@ -1,7 +1,7 @@
 """Lenses and helpers for the numerical-stability suite (tests/test_stability_*.py).
 
-Stated tolerances live here, next to the cases that use them, so the README's
-"Numerical stability" section and the tests quote one set of numbers.
+Stated tolerances live here, next to the cases that use them, so the manual's
+numerical-stability pages (docs/validation/stability.md) and the tests quote one set of numbers.
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ LIBRARY = Path(__file__).resolve().parents[2] / "lens_prescriptions"
 #: documented agreement (tests/test_trace_kernels.py), observed ~1e-13
 F64_VS_REFERENCE_MM = 1e-10
 #: float32 against float64, image intercepts and OPL, rays that are not flagged grazing
-#: (tests/test_trace_kernels.py::FLOAT32_BOUND_MM; the README's precision table)
+#: (tests/test_trace_kernels.py::FLOAT32_BOUND_MM; docs/explanation/kernels.md, the precision table)
 F32_BOUND_MM = 1e-4
 #: float32 direction cosines against float64 (non-grazing rays)
 F32_BOUND_DIRECTION = 1e-5
@@ -36,7 +36,7 @@ F32_BOUND_DIRECTION = 1e-5
 #: 1 / c term; with it, of the 40 random lenses in benchmarks/stability_table.py and the lenses
 #: opened to f/0.95, 0.58 (a ray at 79 deg on the 28 mm f/1.4's hemispherical surface, which
 #: reached 2.1 x the bound without the 1 / c term). The library lenses at their own apertures stay
-#: below 1e-4 mm (README, "Numerical stability").
+#: below 1e-4 mm (docs/validation/stability.md).
 F32_RAY_BOUND_MM = 2e-4
 F32_RAY_BOUND_PER_MM = 2e-6
 WL_D = 587.5618

@@ -74,10 +74,10 @@ def test_tokenizer() -> None:
 
 
 def test_lowercase_semicolons_comments_and_long_names() -> None:
-    text = ("tit 'x'; dim m\nepd 10 ! the pupil\nwl 587.6\nyan 0 5\nso 0 1e10\ns 50 5 nbk7_schott; stop\n"
+    text = ("rdm; tit 'x'; dim m\nepd 10 ! the pupil\nwl 587.6\nyan 0 5\nso 0 1e10\ns 50 5 nbk7_schott; stop\n"
             "s -50 45\nsi 0 0\ngo\n")
     lens = loads_seq(text)
-    assert lens.surfaces[0].radius_mm == 50.0  # radius mode by default
+    assert lens.surfaces[0].radius_mm == 50.0  # RDM: radius mode
     assert lens.surfaces[0].is_stop and lens.name == "x"
     assert lens == loads_seq(BASE.replace("'test lens'", "'x'"))
 
@@ -131,12 +131,12 @@ def test_solves_and_variable_codes_are_kept_values() -> None:
     (("  STO", "  STO\n  REX 3"), "rectangular aperture"),
     (("  STO", "  STO\n  CIR HOL 3"), "holes"),
     (("EPD 10", "EPD 10\nZOO 3"), "zoom"),
-    (("EPD 10", "EPD 10\nPRV"), "private glass catalog"),
+    (("EPD 10", "EPD 10\nPRV"), "close the private catalog with END"),
     (("EPD 10", "EPD 10\nNA 0.1"), "image-space NA"),
     (("EPD 10", "EPD 10\nFNO 2"), "two system apertures"),
     (("EPD 10\n", ""), "no system aperture"),
     (("WL 587.6\n", ""), "no wavelengths"),
-    (("  STO", "  STO\n  FROB 1"), "unknown command 'FROB'"),
+    (("  STO", "  STO\n  2.5377"), "not a command"),
     (("SO 0 1e10", "SO 0.01 1e10"), "curved object"),
     (("SI 0 0", "SI -0.01 0"), "curved image"),
     (("S 0.02 5 NBK7_SCHOTT", "S 0.02 5 NBK7_SCHOTT EXTRA"), "unexpected"),
@@ -172,3 +172,80 @@ def test_real_codev_files_load_or_fail_cleanly() -> None:
         except LensrtError as err:
             assert str(path) in str(err) and "\n" not in str(err)
     assert len(loaded) >= 5
+
+
+@pytest.mark.parametrize("code,nd,vd", [("1.55:55.8", 1.55, 55.8), ("517642", 1.517, 64.2), ("517.642", 1.517, 64.2),
+                                        ("'1.6:40'", 1.6, 40.0)])
+def test_fictitious_glass_forms(code: str, nd: float, vd: float) -> None:
+    with pytest.warns(UserWarning, match="fictitious glass"):
+        lens = loads_seq(BASE.replace("NBK7_SCHOTT", code))
+    m = lens.surfaces[0].material
+    assert isinstance(m, ModelGlass) and (m.nd, m.vd) == (nd, vd)
+    assert [w.code for w in lens.warnings] == ["glass_model"]
+
+
+def test_continuation_glued_to_a_number() -> None:
+    """'650.0&' continues the command as '650.0 &' does (rayoptics' CODV_65988.seq writes it so)."""
+    text = BASE.replace("WL 587.6", "WL 486.1 587.6&\n 656.3\nREF 2")
+    assert loads_seq(text).wavelengths.nm == (486.1, 587.6, 656.3)
+    assert tokenize_seq("PWL 1 2&\n 3\n") == [(1, ["PWL", "1", "2", "3"])]
+
+
+def test_private_catalog_fitted_to_its_indices() -> None:
+    """A PRV glass whose indices come from N-BK7 (opticalglass) at the PWL wavelengths: the fit reproduces
+    them, and N-BK7 between them, to the data's own digits."""
+    from lensrt.prescription.materials import find_glass
+    bk7 = find_glass("N-BK7")
+    pwl = [1014.0, 852.1, 706.5, 656.3, 587.6, 546.1, 486.1, 435.8, 404.7]
+    idx = " ".join(f"{bk7.index(w):.6f}" for w in pwl)
+    text = BASE.replace("SO 0 1e10", f"PRV\n  PWL {' '.join(map(str, pwl))}\n  'MY-BK7' {idx}\nEND\nSO 0 1e10")
+    with pytest.warns(UserWarning, match="private catalog"):
+        lens = loads_seq(text.replace("NBK7_SCHOTT", "'MY-BK7'"))
+    m = lens.surfaces[0].material
+    assert m.catalog == "PRV" and m.valid_range_nm == (404.7, 1014.0)
+    w = np.linspace(410.0, 1000.0, 31)
+    assert np.max(np.abs(m.index(w) - bk7.index(w))) < 2e-6
+    assert [x.code for x in lens.warnings] == ["glass_private"]
+    with pytest.raises(PrescriptionError, match="8 indices for 9 PWL"):
+        loads_seq(text.replace(f"{bk7.index(404.7):.6f}", "").replace("NBK7_SCHOTT", "'MY-BK7'"))
+
+
+def test_rayoptics_private_catalog_file() -> None:
+    """CODV_65988_noDOE.seq: its PRV glass E48 and '&' lines read (the file then stops at CUF, a surface type)."""
+    ro = pytest.importorskip("rayoptics")
+    path = Path(ro.__file__).parent / "codev" / "tests" / "CODV_65988_noDOE.seq"
+    with pytest.raises(PrescriptionError) as err:
+        read_lens(path)
+    assert "CUF" in str(err.value)  # past PRV, PWL and the continued lines
+
+
+def test_non_optical_and_unknown_commands() -> None:
+    with pytest.warns(UserWarning, match="'XYZQ'"):
+        lens = loads_seq(BASE.replace("EPD 10", "EPD 10\nDOR 1\nUID 'me'\nXYZQ 3"))
+    assert [w.text.split("'")[1] for w in lens.warnings if w.code == "keyword_unknown"] == ["XYZQ"]
+    assert lens.surfaces == loads_seq(BASE).surfaces
+
+
+def test_documented_defaults() -> None:
+    """No STO: the stop is surface 1; no RDM: curvatures; short VUY lists: the rest 0. Each is warned."""
+    text = BASE.replace("RDM N\n", "").replace("  STO\n", "").replace("YAN 0 5", "YAN 0 5 7\nVUY 0.1")
+    with pytest.warns(UserWarning):
+        lens = loads_seq(text)
+    assert lens.stop_index == 0 and lens.surfaces[0].curvature_per_mm == 0.02
+    assert lens.meta["vignetting_vuy"] == "0.1 0 0"
+    assert sorted(w.code for w in lens.warnings) == ["assumed_default"] * 3
+
+
+def test_landscape_lens_reads_as_rayoptics_does() -> None:
+    """rayoptics' landscape_lens.seq has no RDM: read as curvatures its EFL is ~10 mm, the 10.15 mm image
+    distance the file itself gives; as radii it would be -1.33 mm (a lens that images nothing there)."""
+    ro = pytest.importorskip("rayoptics")
+    from lensrt.loading import load_lens
+    from lensrt.paraxial import first_order
+    from rayoptics.environment import open_model
+    path = Path(ro.__file__).parent / "codev" / "tests" / "landscape_lens.seq"
+    with pytest.warns(UserWarning, match="no RDM"):
+        lens = load_lens(path)
+    opm = open_model(str(path))
+    theirs = opm["analysis_results"]["parax_data"].fod.efl
+    assert first_order(lens, lens.wavelengths.primary_nm).efl_mm == pytest.approx(theirs, rel=1e-6)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lensrt.render import spectra as sp
+from lensrt.render.spectra import WavelengthSampler
 from lensrt.render.plan import plan_render, wavelength_weight
 from lensrt.render.scene.load import builtin_scenes, load_scene, loads_scene
 
@@ -115,7 +115,7 @@ def test_wavelength_weight_scene_times_cie():
     # the sodium (HP1) lamps and the narrow red/green signals put weight where they emit
     i589, i450 = np.searchsorted(g.nm, 590), np.searchsorted(g.nm, 450)
     assert w[i589] > w[i450]
-    sampler = sp.WavelengthSampler.from_weight(g, w)
+    sampler = WavelengthSampler.from_weight(g, w)
     assert math.isclose(sampler.probabilities.sum(), 1.0)
     with pytest.raises(ValueError):
         wavelength_weight(s, "camera")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lensrt.render import spectra as sp
+import lensrt.colour as sp
 from lensrt.render.preview import preview_pinhole
 from lensrt.render.scene.load import loads_scene
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lensrt.errors import LensrtError
-from lensrt.render import spectra as sp
+import lensrt.colour as sp
 from lensrt.render.scene.load import builtin_scenes, load_scene, loads_scene
 from lensrt.render.scene.textures import pattern_level, texture_value_ref
 from lensrt.units import LUMINOUS_EFFICACY_LM_PER_W as KM
@@ -105,7 +105,7 @@ radiance_scale = 0.01
     assert sp.luminous_value(s.sphere_lights[1].radiance.values, g) == pytest.approx(
         1000 / (math.pi * 4 * math.pi * 0.1 ** 2), rel=1e-9)
     assert sp.luminous_value(s.illumination.values, g) == pytest.approx(500, rel=1e-9)
-    assert np.allclose(s.background.values, 0.01 * sp.illuminant("D65", g))
+    assert np.allclose(s.background.values, 0.01 * sp.spectrum("D65", g))
     assert s.sphere_lights[0].radiance.unit == "W/(m^2 sr nm)"
     assert s.point_lights[0].intensity.unit == "W/(sr nm)"
 
@@ -306,8 +306,8 @@ emission = { spectrum = "D65", luminance_cd_m2 = 100 }
 
 
 def test_readme_scene_example_loads():
-    text = (SCENES.parent / "README.md").read_text()
-    block = text.split("### The format", 1)[1].split("```toml", 1)[1].split("```", 1)[0]
+    text = (SCENES.parent / "docs" / "reference" / "scene-format.md").read_text()
+    block = text.split("## The format", 1)[1].split("```toml", 1)[1].split("```", 1)[0]
     s = loads_scene(block, SCENES / "readme_example.toml")
     assert s.name == "example" and len(s.planes) == 1 and len(s.meshes) == 1
     assert len(s.sphere_lights) == 1 and len(s.point_lights) == 1

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lensrt.render import spectra as sp
+import lensrt.colour as sp
+from lensrt.render.spectra import WavelengthSampler
 from lensrt.render.scene.load import loads_scene
 from lensrt.render.scene.pack import evaluate_irradiance, evaluate_radiance, pack_scene
 from lensrt.render.scene.reference import ref_intersect_sphere, ref_scene_radiance
@@ -254,7 +255,7 @@ def test_wavelength_sampler_kernel_matches_numpy(device):
     from lensrt.render.scene.kernels import sample_wavelength_kernel
     wp = warp()
     g = sp.DEFAULT_GRID
-    s = sp.WavelengthSampler.from_weight(g, sp.illuminant("FL11", g) * sp.cie_xyz_cmfs(g)[1])
+    s = WavelengthSampler.from_weight(g, sp.spectrum("FL11", g) * sp.cie_xyz_cmfs(g)[1])
     u = np.random.default_rng(1).random(5000)
     out = wp.zeros(u.size, dtype=wp.vec2, device=device)
     wp.launch(sample_wavelength_kernel, dim=u.size, inputs=[wp.array(s.cdf.astype(np.float32), dtype=float,

@@ -10,7 +10,8 @@ from scipy import stats
 colour = pytest.importorskip("colour")
 
 from lensrt.errors import LensrtError  # noqa: E402
-from lensrt.render import spectra as sp  # noqa: E402
+import lensrt.colour as sp  # noqa: E402
+from lensrt.render.spectra import WavelengthSampler  # noqa: E402
 from lensrt.units import LUMINOUS_EFFICACY_LM_PER_W as KM  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
@@ -42,7 +43,7 @@ def test_luminance_of_a_line_at_555nm_is_km():
 
 @pytest.mark.parametrize("name", ["D65", "A", "FL2", "LED-B3"])
 def test_scale_to_luminance_matches_colour_luminous_flux(name):
-    rel = sp.illuminant(name, G)
+    rel = sp.spectrum(name, G)
     radiance = sp.scale_to_luminous(rel, 1000.0, G)
     # colour-science's own photometric integral (trapezoid over the SD's samples, its V(lambda))
     lv = colour.luminous_flux(_sd(radiance), K_m=KM)
@@ -54,7 +55,7 @@ def test_scale_to_luminance_matches_colour_luminous_flux(name):
 
 def test_luminance_on_a_fine_grid_agrees_with_the_coarse_one():
     fine = sp.WavelengthGrid(380, 780, 1)
-    rel = sp.illuminant("D65", G)
+    rel = sp.spectrum("D65", G)
     radiance = sp.scale_to_luminous(rel, 100.0, G)
     assert sp.luminous_value(np.interp(fine.nm, G.nm, radiance), fine) == pytest.approx(100.0, rel=5e-3)
 
@@ -64,24 +65,24 @@ def test_blackbody_is_planck_radiance_per_nm():
     lam_m = 560e-9
     h, c, kb = 6.62607015e-34, 299792458.0, 1.380649e-23
     planck = 2 * h * c ** 2 / lam_m ** 5 / math.expm1(h * c / (lam_m * kb * t)) * 1e-9    # W/(m^2 sr nm)
-    v = sp.blackbody_radiance(t, G)[np.searchsorted(G.nm, 560.0)]
+    v = sp.planck_radiance(t, G)[np.searchsorted(G.nm, 560.0)]
     assert v == pytest.approx(planck, rel=2e-4)      # colour uses c2 = 1.4388e-2 m K (ITS-90)
 
 
 def test_unknown_illuminant_suggests():
     with pytest.raises(LensrtError, match="unknown illuminant") as err:
-        sp.illuminant("D56")
+        sp.spectrum("D56", G)
     assert "D65" in str(err.value) or "D55" in str(err.value)
-    assert np.allclose(sp.illuminant("F2"), sp.illuminant("FL2"))
+    assert np.allclose(sp.spectrum("F2", G), sp.spectrum("FL2", G))
 
 
 @pytest.mark.parametrize("patch", ["dark skin", "blue", "white 9.5 (.05 D)"])
 @pytest.mark.parametrize("illum", ["D65", "A"])
 def test_reflectance_xyz_matches_colour_sd_to_xyz(patch, illum):
     cc = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"][patch]
-    refl = sp.colorchecker_reflectances("ColorChecker N Ohta", G)[sp.colorchecker_names().index(patch)]
+    refl = sp.colorchecker_reflectances(G, "ColorChecker N Ohta")[sp.colorchecker_names().index(patch)]
     assert np.allclose(refl, cc.values)                                  # same data on the same grid
-    ill = sp.illuminant(illum, G)
+    ill = sp.spectrum(illum, G)
     ours = sp.reflectance_to_xyz(refl, ill, G)
     ref = colour.sd_to_XYZ(cc, CMFS.copy().align(G.shape()), _sd(ill), method="Integration")
     # trapezoid (ours) vs rectangle (colour 'Integration') differ only by the half end weights
@@ -93,7 +94,7 @@ def test_reflectance_xyz_matches_colour_sd_to_xyz(patch, illum):
 
 def test_emissive_xyz_absolute_and_srgb_white():
     # D65 at 100 cd/m^2 -> Y = 100 and linear sRGB (1, 1, 1) * 100 (sRGB white is D65)
-    d65 = sp.scale_to_luminous(sp.illuminant("D65", G), 100.0, G)
+    d65 = sp.scale_to_luminous(sp.spectrum("D65", G), 100.0, G)
     xyz = sp.spectral_to_xyz(d65, G)
     assert xyz[1] == pytest.approx(100.0, rel=1e-9)
     rgb = sp.xyz_to_linear_srgb(xyz)
@@ -113,7 +114,7 @@ def test_mallett_basis_is_colour_sciences_recovery():
     assert refl.min() >= 0.0 and refl.max() <= 1.0 + 1e-9
     # the basis reproduces the colour: D65-lit reflectance of (r, g, b) -> linear sRGB (r, g, b)
     rgb = np.array([0.7, 0.3, 0.1])
-    xyz = sp.reflectance_to_xyz(sp.linear_rgb_to_reflectance(rgb, G), sp.illuminant("D65", G), G) / 100.0
+    xyz = sp.reflectance_to_xyz(sp.linear_rgb_to_reflectance(rgb, G), sp.spectrum("D65", G), G) / 100.0
     assert np.allclose(sp.xyz_to_linear_srgb(xyz), rgb, atol=0.01)
 
 
@@ -125,8 +126,8 @@ def test_srgb_decode_encode_roundtrip():
 
 def test_sampler_chi_square_and_pdf():
     rng = np.random.default_rng(42)
-    weight = sp.illuminant("FL11", G) * sp.cie_xyz_cmfs(G).sum(axis=0)
-    s = sp.WavelengthSampler.from_weight(G, weight, uniform_fraction=0.1)
+    weight = sp.spectrum("FL11", G) * sp.cie_xyz_cmfs(G).sum(axis=0)
+    s = WavelengthSampler.from_weight(G, weight, uniform_fraction=0.1)
     lam, pdf = s.sample(rng.random(200_000))
     assert lam.min() >= 380 and lam.max() <= 780
     counts = np.histogram(lam, bins=G.nm)[0]
@@ -141,9 +142,9 @@ def test_sampler_chi_square_and_pdf():
 
 def test_importance_sampled_estimate_is_unbiased():
     rng = np.random.default_rng(7)
-    f = sp.illuminant("LED-B3", G) * sp.cie_xyz_cmfs(G)[1]                 # a peaky integrand
+    f = sp.spectrum("LED-B3", G) * sp.cie_xyz_cmfs(G)[1]                 # a peaky integrand
     exact = sp.integrate(f, G)
-    for sampler in (sp.WavelengthSampler.uniform(G), sp.WavelengthSampler.from_weight(G, f)):
+    for sampler in (WavelengthSampler.uniform(G), WavelengthSampler.from_weight(G, f)):
         lam, pdf = sampler.sample(rng.random(100_000))
         est = G.interp(f, lam) / pdf
         z = (est.mean() - exact) / (est.std(ddof=1) / math.sqrt(est.size))

@@ -13,7 +13,8 @@ from lensrt.prescription.materials import ConstantIndex
 from lensrt.prescription.model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 from lensrt.trace import RayBatch, trace
 from lensrt.trace.aiming import FieldPoint, pupil_geometry
-from lensrt.trace.sampling import SAMPLERS, sample_unit_square, spectrum_continuous, spectrum_discrete
+from lensrt.trace.kernels.generic import sample_unit_square
+from lensrt.trace.sampling import SAMPLERS, spectrum_continuous, spectrum_discrete
 from lensrt.trace.stream import Channels, Grid, stream, stream_source
 
 DG = "codev_dblgauss_100mm_f2"

@@ -7,7 +7,7 @@ makes one side of focus soft-edged and the other bright-rimmed), its rims from
 chromatic aberration. lensrt traces it with Monte Carlo rays from an isotropic
 point source over the *real* entrance pupil (the box of the vignetted pupil,
 iris included) and over a spectrum, and bins them on the sensor plane in CIE
-XYZ (:mod:`.bokeh_spectrum`).
+XYZ (:mod:`.light`).
 
 Focus (unit focusing, Field Guide p. 12). The whole lens moves out by the
 extension e to focus at a distance s; lensrt keeps the lens frame (first

@@ -14,54 +14,29 @@ and ``k`` makes its luminous intensity ``K_m int I ybar dlambda`` equal to
   so ``E_p[t_c]`` is proportional to ``int S cbar dlambda``.
 
 Colour-matching functions: CIE 1931 2-degree standard observer, from
-colour-science (tabulated at 1 nm). Illuminants and blackbodies from
-colour-science too. :class:`BokehLight` keeps the exact expectations the
+colour-science via :mod:`lensrt.colour` (tabulated at 1 nm). Illuminants in the one syntax of
+:mod:`lensrt.colour.illuminants`. :class:`BokehLight` keeps the exact expectations the
 kernel's tables imply (``mean_t``), so the Y of a whole spot is exactly
 ``intensity_cd`` times its solid angle, whatever the table's resolution.
 """
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
+from ...colour import WavelengthGrid, cie_xyz_cmfs, parse_illuminant
 from ...errors import LensrtError
 
-__all__ = ["BokehLight", "bokeh_light", "xyz_cmfs_1nm", "SPECTRUM_HELP", "CMF_RANGE_NM"]
+__all__ = ["BokehLight", "bokeh_light", "SPECTRUM_HELP", "CMF_RANGE_NM"]
 
 #: the channel table's wavelength range (nm) and step
 CMF_RANGE_NM = (380.0, 780.0)
 _STEP_NM = 1.0
 SPECTRUM_HELP = ("D65 (default), A, E, any CIE illuminant colour-science ships (FL2, LED-B3, ...), "
-                 "blackbody:K (a Planck radiator at K kelvin), lens (the lens file's wavelengths and "
-                 "weights), or wavelengths in nm (550, or 486.1,587.6,656.3 for equal-weight lines)")
-
-
-@lru_cache(maxsize=1)
-def xyz_cmfs_1nm() -> tuple[np.ndarray, np.ndarray]:
-    """(wavelength_nm (n,), cmfs (3, n)): CIE 1931 2-degree x, y, z bar on the 1 nm grid 380-780 nm."""
-    import colour
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    nm = np.arange(CMF_RANGE_NM[0], CMF_RANGE_NM[1] + 0.5 * _STEP_NM, _STEP_NM)
-    tab = np.stack([np.interp(nm, cmfs.wavelengths, cmfs.values[:, i], left=0.0, right=0.0) for i in range(3)])
-    return nm, tab
-
-
-def _illuminant(name: str, nm: np.ndarray) -> np.ndarray:
-    import colour
-    key = {f"F{i}": f"FL{i}" for i in range(1, 13)}.get(name, name)
-    table = colour.SDS_ILLUMINANTS
-    match = [k for k in table.keys() if k.lower() == key.lower()]
-    if not match:
-        import difflib
-        close = difflib.get_close_matches(key, list(table.keys()), n=3)
-        raise LensrtError(f"unknown spectrum {name!r}",
-                          hint=("did you mean " + ", ".join(close) + "? " if close else "") + "use " + SPECTRUM_HELP)
-    sd = table[match[0]]
-    return np.interp(nm, sd.wavelengths, sd.values, left=0.0, right=0.0)
+                 "planck:3200K (a Planck radiator), daylight:5000K (CIE daylight), lines:486.1,587.6,656.3 "
+                 "(equal-weight lines in nm), or lens (the lens file's wavelengths and weights)")
 
 
 @dataclass(frozen=True)
@@ -146,7 +121,8 @@ def bokeh_light(spec: str = "D65", lens=None) -> BokehLight:
 
     ``lens`` is needed for ``"lens"`` (its wavelengths and weights).
     """
-    nm, cmf = xyz_cmfs_1nm()
+    grid = WavelengthGrid(CMF_RANGE_NM[0], CMF_RANGE_NM[1], _STEP_NM)
+    nm, cmf = grid.nm, cie_xyz_cmfs(grid)
     total = cmf.sum(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         table = np.where(total > 0, cmf / np.where(total > 0, total, 1.0), 0.0)
@@ -158,12 +134,10 @@ def bokeh_light(spec: str = "D65", lens=None) -> BokehLight:
             raise LensrtError("the 'lens' spectrum needs a lens")
         lines = np.asarray(lens.wavelengths.nm, dtype=np.float64)
         line_w = np.asarray(lens.wavelengths.weights, dtype=np.float64)
-    elif re.fullmatch(r"\s*[0-9.]+(\s*,\s*[0-9.]+)*\s*,?\s*", text):
-        try:
-            lines = np.array([float(v) for v in text.split(",") if v.strip()])
-        except ValueError:
-            raise LensrtError(f"spectrum {spec!r} is not a list of wavelengths in nm") from None
-        line_w = np.ones(len(lines))
+    else:
+        ill = parse_illuminant(text, bare_numbers="nm")   # old bare wavelengths ("550") still read as lines
+        if not ill.continuous:
+            lines, line_w = np.asarray(ill.lines_nm), np.asarray(ill.line_weights)
     if lines is not None:
         if len(lines) == 0 or np.any(~np.isfinite(lines)):
             raise LensrtError(f"spectrum {spec!r} has no wavelengths")
@@ -178,23 +152,7 @@ def bokeh_light(spec: str = "D65", lens=None) -> BokehLight:
         p = power / power.sum()
         return BokehLight(text, 0, lines, power, table, float(nm[0]), _STEP_NM, t @ p, (t * t) @ p,
                           tuple(float(v) for v in lines))
-    # a continuous shape on the 1 nm grid
-    low = text.lower()
-    if low.startswith("blackbody"):
-        _, _, kelvin = text.partition(":")
-        try:
-            temp = float(kelvin)
-        except ValueError:
-            raise LensrtError(f"spectrum {spec!r}: give the temperature as blackbody:K, e.g. blackbody:3200") from None
-        if not 100.0 <= temp <= 1.0e5:
-            raise LensrtError(f"blackbody temperature {temp:g} K is outside 100-100000 K")
-        import colour
-        sd = colour.sd_blackbody(temp, colour.SpectralShape(nm[0], nm[-1], _STEP_NM))
-        s = np.interp(nm, sd.wavelengths, sd.values)
-    elif low == "e":
-        s = np.ones_like(nm)
-    else:
-        s = _illuminant(text, nm)
+    s = ill.values(nm)   # a continuous shape on the 1 nm grid
     g = s * total
     power = 0.5 * (g[:-1] + g[1:]) * _STEP_NM
     if not np.any(power > 0):

@@ -242,6 +242,8 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
     vig = vignetting(lens, vhy, primary, rays=rays, seed=seed, device=dev)
+    if vig.ri_disagreement_note():
+        notes.append(vig.ri_disagreement_note())
     spot = []
     if spots:
         try:

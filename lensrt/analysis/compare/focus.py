@@ -29,6 +29,7 @@
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -37,15 +38,13 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
-from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z,
-                   object_field_point, paraxial_chief, plane_crossing_z, pupil_grid_rays, trace64)
+from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments
+from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64)
 
 __all__ = ["FocalLength", "real_focal_length", "LongitudinalAberration", "longitudinal_aberration", "BestFocus",
            "best_focus", "ChromaticFocalShift", "chromatic_focal_shift", "FieldCurvature", "field_curvature",
            "BEST_FOCUS_DEFINITION", "correction_name"]
 
-BEST_FOCUS_DEFINITION = ("plane of minimum RMS spot radius about the centroid, for a uniformly filled real "
-                         "(vignetted) pupil: a square grid of rays over the real pupil, equal weights")
 
 
 def correction_name(lsa_marginal_mm: float, tolerance_mm: float = 0.0) -> str:
@@ -215,26 +214,15 @@ class BestFocus:
                 "rays": self.rays, "definition": self.definition}
 
 
-def _rms_quadratic(p: np.ndarray, v: np.ndarray, w: np.ndarray, z0: float) -> tuple[float, float, float]:
-    """Minimise the weighted mean square radius about the centroid over planes z: (z_best, rms_best, rms(z0))."""
-    tx, ty = v[:, 0] / v[:, 2], v[:, 1] / v[:, 2]
-    x0, y0 = p[:, 0] + (z0 - p[:, 2]) * tx, p[:, 1] + (z0 - p[:, 2]) * ty
-    W = w / w.sum()
-
-    def centred(a: np.ndarray) -> np.ndarray:
-        return a - np.sum(W * a)
-
-    X, Y, TX, TY = centred(x0), centred(y0), centred(tx), centred(ty)
-    a = float(np.sum(W * (TX * TX + TY * TY)))
-    b = float(np.sum(W * (X * TX + Y * TY)))
-    c = float(np.sum(W * (X * X + Y * Y)))
-    dz = -b / a if a > 0 else 0.0
-    return z0 + dz, math.sqrt(max(c + 2 * b * dz + a * dz * dz, 0.0)), math.sqrt(max(c, 0.0))
+@lru_cache(maxsize=64)
+def _moments(lens: Lens, wavelength_nm: float, object_value: float, z0_mm: float, device: str | None):
+    """One wavelength's focus moments on the plane ``z0_mm`` (cached: a comparison asks for each several times)."""
+    return focus_moments(lens, wavelength_nm, fp=object_field_point(lens, object_value), z0_mm=z0_mm, device=device)
 
 
 def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weights: Sequence[float] | None = None,
-               object_value: float = 0.0, n_grid: int = 48, device: str | None = None) -> BestFocus:
-    """The plane of minimum RMS spot radius (:data:`BEST_FOCUS_DEFINITION`).
+               object_value: float = 0.0, device: str | None = None) -> BestFocus:
+    """The plane of minimum RMS spot radius (:data:`BEST_FOCUS_DEFINITION`, :mod:`lensrt.trace.focus`).
 
     ``wavelengths_nm`` default: the primary only; several wavelengths are pooled
     with ``weights`` (default the lens's weights where they match, else equal).
@@ -244,21 +232,11 @@ def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weight
     if weights is None:
         table = dict(zip(lens.wavelengths.nm, lens.wavelengths.weights))
         weights = [table.get(w, 1.0) for w in wls]
-    fp = object_field_point(lens, object_value)
     z_par = first_order(lens, lens.wavelengths.primary_nm).image_z_mm
-    ps, vs, ws = [], [], []
-    for w, wt in zip(wls, weights):
-        rays = pupil_grid_rays(lens, fp, w, n_grid, device)
-        r = trace64(lens, rays, device, clip=True)
-        ps.append(r.position_mm[r.ok])
-        vs.append(r.direction[r.ok])
-        ws.append(np.full(int(r.ok.sum()), float(wt) / max(int(r.ok.sum()), 1)))
-    p, v, w = np.concatenate(ps), np.concatenate(vs), np.concatenate(ws)
-    if len(p) < 3:
-        raise LensrtError("too few rays pass the lens to find the best focus")
-    z, rms, rms0 = _rms_quadratic(p, v, w, z_par)
-    return BestFocus(tuple(wls), tuple(float(x) for x in weights), float(object_value), z, z_par, z - z_par, rms,
-                     rms0, len(p))
+    moments = [_moments(lens, w, float(object_value), z_par, device) for w in wls]
+    plane = best_focus_plane(moments, weights)
+    return BestFocus(tuple(wls), tuple(float(x) for x in weights), float(object_value), plane.z_mm, z_par,
+                     plane.z_mm - z_par, plane.rms_radius_mm, plane.rms_radius_z0_mm, plane.rays)
 
 
 @dataclass
@@ -280,7 +258,7 @@ class ChromaticFocalShift:
 
 
 def chromatic_focal_shift(lens: Lens, wavelength_nm: Sequence[float] | None = None,
-                          best_focus_wavelengths_nm: Sequence[float] | None = None, n_grid: int = 32,
+                          best_focus_wavelengths_nm: Sequence[float] | None = None,
                           device: str | None = None) -> ChromaticFocalShift:
     """Chromatic focal shift (module docstring); default 41 wavelengths over the lens's range (at least 400-700 nm)."""
     from ...paraxial import first_order
@@ -292,7 +270,7 @@ def chromatic_focal_shift(lens: Lens, wavelength_nm: Sequence[float] | None = No
     ref = first_order(lens, lens.wavelengths.primary_nm).image_z_mm
     par = np.array([first_order(lens, float(w)).image_z_mm for w in wl]) - ref
     bw = np.asarray(nm if best_focus_wavelengths_nm is None else best_focus_wavelengths_nm, dtype=np.float64)
-    bf = np.array([best_focus(lens, [float(w)], [1.0], n_grid=n_grid, device=device).z_mm for w in bw]) - ref
+    bf = np.array([best_focus(lens, [float(w)], [1.0], device=device).z_mm for w in bw]) - ref
     return ChromaticFocalShift(wl, par, bw, bf, ref, lens.wavelengths.primary_nm)
 
 

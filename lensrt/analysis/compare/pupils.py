@@ -41,13 +41,74 @@ from ...trace import RayBatch, trace
 from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
 from ..raysets import aim_batch, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
 
-__all__ = ["PupilOutline", "pupil_outline", "RealPupils", "real_pupils", "stop_only_lens", "pupil_frame"]
+__all__ = ["PupilOutline", "pupil_outline", "RealPupils", "real_pupils", "stop_only_lens", "physical_rim_mm",
+           "pupil_frame"]
+
+
+#: surfaces may touch (a stop on a vertex, cemented faces) within this much without ending each other
+CONTACT_TOL_MM = 1e-6
+
+
+def _first_crossing_mm(gap, r_max: float, samples: int = 2049) -> float | None:
+    """Smallest r in (0, r_max] where ``gap(r)`` (the axial room between two surfaces) reaches zero."""
+    r = np.linspace(0.0, r_max, samples)
+    g = gap(r)
+    bad = np.nonzero(~(g > -CONTACT_TOL_MM))[0]
+    bad = bad[bad > 0]
+    if bad.size == 0:
+        return None
+    lo, hi = float(r[bad[0] - 1]), float(r[bad[0]])
+    for _ in range(60):  # bisection to float64 resolution of the rim
+        mid = 0.5 * (lo + hi)
+        if gap(np.array([mid]))[0] > -CONTACT_TOL_MM:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def physical_rim_mm(lens: Lens, index: int) -> float | None:
+    """The largest height at which surface ``index`` can physically be crossed by a ray, or None (no limit).
+
+    A surface ends where it meets a neighbour: where its sag meets the sag of the surface before or after
+    it across their (glass or air) gap -- the knife edge of an element, or two elements touching -- and
+    where a conic stops existing (r = 1 / (|c| sqrt(1 + k))). The image surface is no neighbour. Rays beyond
+    the rim would cross material that is not there, so a stop-only pupil must still respect it.
+    """
+    surfaces = lens.surfaces
+    s = surfaces[index]
+    rim = s.max_semi_diameter_mm
+
+    def virtual(j: int) -> bool:  # a plane with the same medium on both sides (a stop or dummy surface)
+        before = surfaces[j - 1].material if j > 0 else None
+        return surfaces[j].is_plane and (before is None or before.is_air) and surfaces[j].material.is_air
+    if virtual(index):
+        return None if math.isinf(rim) else rim
+    # search out to generous multiples of the aperture the lens already knows (or 1 m)
+    known = [x.semi_diameter_mm for x in surfaces if x.semi_diameter_mm is not None]
+    reach = min(rim, 20.0 * max(known) if known else 1000.0)
+    for j in (index - 1, index + 1):
+        if j < 0 or j >= len(surfaces) or virtual(j):
+            continue
+        a, b = (surfaces[j], s) if j < index else (s, surfaces[j])
+        r_max = min(reach, a.max_semi_diameter_mm, b.max_semi_diameter_mm) * (1.0 - 1e-12)
+        hit = _first_crossing_mm(lambda r, a=a, b=b: a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)),
+                                 r_max)
+        if hit is not None:
+            rim = min(rim, hit)
+    return None if math.isinf(rim) else rim
 
 
 def stop_only_lens(lens: Lens) -> Lens:
-    """A copy of ``lens`` with no clear aperture but the stop's (the unvignetted pupil)."""
+    """A copy of ``lens`` whose only aperture is the stop: the unvignetted pupil.
+
+    Every other surface keeps its physical rim (:func:`physical_rim_mm`) instead of its clear aperture: a ray
+    that misses every clear aperture but the stop passes, one that would cross an element beyond the edge
+    where its two faces meet does not (without the rim, such rays reach the image and inflate the pupil).
+    """
     from dataclasses import replace
-    surfaces = tuple(s if i == lens.stop_index else replace(s, semi_diameter_mm=None)
+    surfaces = tuple(s if i == lens.stop_index else replace(s, semi_diameter_mm=physical_rim_mm(lens, i),
+                                                             semi_diameter_auto=True)
                      for i, s in enumerate(lens.surfaces))
     return lens.replace(surfaces=surfaces)
 

@@ -45,12 +45,21 @@ from ...stats import Estimate, batch_means, jackknife
 from .pupils import pupil_frame, pupil_outline, stop_only_lens
 from ..raysets import chief_batch, field_spec, object_field_point, trace64
 
-__all__ = ["Vignetting", "vignetting", "mapping_factor", "relative_illumination_at", "RI_DEFINITION"]
+__all__ = ["Vignetting", "vignetting", "mapping_factor", "relative_illumination_at", "RI_DEFINITION",
+           "RI_VALIDITY"]
 
 RI_DEFINITION = ("relative illumination E(theta)/E(0) of a uniform Lambertian object: real pupil cross-section "
                  "A(theta)/A(0) (stream kernel, every aperture) times the real chief-ray mapping factor "
                  "sin(theta) y'_theta(0)^2 / (y' dy'/dtheta); the exit-pupil method is the projected solid angle of "
                  "the real exit pupil seen from the image, relative to the axis")
+#: where each relative-illumination method holds
+RI_VALIDITY = {"flux": "always (energy through the real pupil onto the image area the real chief rays map it to)",
+               "exit_pupil": "only where the image-space rays of a field point meet in one point (small aberrations "
+                             "of the pupil imaging and of the image); with field aberrations it differs from the "
+                             "flux method, which is then the one to read"}
+#: the two methods are flagged when they differ by more than this many flux standard errors plus RI_AGREE_ABS
+RI_AGREE_SIGMAS = 3.0
+RI_AGREE_ABS = 2e-3
 
 
 def mapping_factor(lens: Lens, object_values: np.ndarray, wavelength_nm: float, device: str | None = None,
@@ -100,6 +109,24 @@ class Vignetting:
     definition: str = RI_DEFINITION
     extra: dict = field(default_factory=dict)
 
+    @property
+    def ri_methods_agree(self) -> list[bool | None]:
+        """Per field: do the flux and exit-pupil methods agree within the flux estimate's error
+        (``RI_AGREE_SIGMAS`` standard errors plus ``RI_AGREE_ABS``)? None where the exit-pupil value is missing."""
+        out: list[bool | None] = []
+        for e, x in zip(self.relative_illumination, self.relative_illumination_exit_pupil):
+            out.append(None if not math.isfinite(float(x))
+                       else bool(abs(e.value - float(x)) <= RI_AGREE_SIGMAS * e.stderr + RI_AGREE_ABS))
+        return out
+
+    def ri_disagreement_note(self) -> str | None:
+        """A line naming the fields where the two relative-illumination methods disagree, or None."""
+        bad = [lab for lab, ok in zip(self.labels, self.ri_methods_agree) if ok is False]
+        if not bad:
+            return None
+        return (f"relative illumination: the exit-pupil method differs from the flux method beyond its error at "
+                f"{', '.join(bad)}; the exit-pupil method holds {RI_VALIDITY['exit_pupil']}")
+
     def values(self, name: str) -> np.ndarray:
         """Values of a list of estimates (``pupil_area``, ``relative_illumination``, ...)."""
         return np.array([e.value for e in getattr(self, name)])
@@ -118,7 +145,9 @@ class Vignetting:
                 "relative_illumination": [e.to_dict() for e in self.relative_illumination],
                 "relative_illumination_exit_pupil": self.relative_illumination_exit_pupil,
                 "cos4": self.cos4, "mapping_factor": self.mapping_factor, "image_height_mm": self.image_height_mm,
-                "rays_per_field": self.rays_per_field, "definition": self.definition}
+                "rays_per_field": self.rays_per_field, "definition": self.definition,
+                "relative_illumination_methods_agree": self.ri_methods_agree,
+                "relative_illumination_validity": RI_VALIDITY}
 
 
 def _per_batch_sums(lens: Lens, object_values: np.ndarray, wavelength_nm: float, rays: int, batches: int, seed: int,

@@ -214,21 +214,53 @@ def diffraction_psf_at(setup: PsfSetup, f: FieldSpec, device: str | None = None,
     return replace(result, seconds=time.perf_counter() - t0)
 
 
+#: the largest fine pupil grid (cells a side) an OTF is taken on: (2 x this)^2 complex FFTs per wavelength
+OTF_MAX_FINE_CELLS = 256
+
+
+def _otf_field(pupil) -> tuple[np.ndarray, int]:
+    """The complex pupil field the OTF autocorrelates, and its cells a side.
+
+    With a fine mask (:attr:`PupilFunction.fine_mask`): the cell's amplitude without its clear fraction and
+    its phase on every clear sub-cell -- a hard, supersampled edge (at most :data:`OTF_MAX_FINE_CELLS` a side).
+    Without one: the cell field itself (a soft edge where the amplitude carries clear fractions).
+    """
+    from ..wave.pupil_grid import clear_fraction
+    n = pupil.n
+    fine = pupil.fine_mask
+    if fine is None:
+        return pupil.field(), n
+    s = fine.shape[0] // n
+    while s > 1 and n * s > OTF_MAX_FINE_CELLS:  # coarsen the sub-cells (any power of two divides s here)
+        if s % 2:
+            s = 1
+            break
+        fine = fine.reshape(n * s // 2, 2, n * s // 2, 2).mean(axis=(1, 3)) >= 0.5  # majority of 2 x 2
+        s //= 2
+    if s == 1:
+        return pupil.field(), n
+    frac = clear_fraction(fine, n)
+    a_cell = np.where(frac > 0, pupil.amplitude / np.where(frac > 0, frac, 1.0), 0.0)
+    cell = a_cell * np.exp(2j * np.pi * pupil.opd_waves)
+    return np.repeat(np.repeat(cell, s, axis=0), s, axis=1) * fine, n * s
+
+
 def pupil_otf(pupil) -> tuple[np.ndarray, float]:
-    """The OTF of a pupil function on its shift grid: (C (2n, 2n) complex, cycles/mm per cell).
+    """The OTF of a pupil function on its shift grid: (C (2m, 2m) complex, cycles/mm per cell).
 
     OTF(nu) = sum_p P(p) P*(p + nu lambda / NA) / sum |P|^2 (the PSF's Fourier transform about the
-    reference point), by FFT autocorrelation with 2x padding (no wrap-around); index [n + ky, n + kx]
-    holds the shift (kx, ky) cells, +y up. One cell is 2 NA / (n lambda) cycles/mm.
+    reference point), by FFT autocorrelation with 2x padding (no wrap-around), on the pupil's fine grid of
+    m = n s cells with its hard edge where it has one (:func:`_otf_field`); index [m + ky, m + kx] holds the
+    shift (kx, ky) cells, +y up. One cell is 2 NA / (m lambda) cycles/mm.
     """
-    n = pupil.n
-    pm = np.zeros((2 * n, 2 * n), dtype=np.complex128)
-    pm[:n, :n] = np.flipud(pupil.field())  # math orientation: row index grows with +py
+    field, m = _otf_field(pupil)
+    pm = np.zeros((2 * m, 2 * m), dtype=np.complex128)
+    pm[:m, :m] = np.flipud(field)  # math orientation: row index grows with +py
     f = np.fft.fft2(pm)
     acf = np.fft.ifft2(np.abs(f) ** 2)  # acf[d] = sum_p P*(p) P(p + d) = conj(C(d)) = C(-d)
-    c = np.fft.fftshift(acf[::-1, ::-1])  # C(d) = acf[-d]; after the shift, index n is d = 0
+    c = np.fft.fftshift(acf[::-1, ::-1])  # C(d) = acf[-d]; after the shift, index m is d = 0
     c = np.roll(c, 1, axis=(0, 1))
-    return c / c[n, n].real, 2.0 * pupil.na / (n * pupil.wavelength_mm)
+    return c / c[m, m].real, 2.0 * pupil.na / (m * pupil.wavelength_mm)
 
 
 def pupil_mtf_function(pupils, weights, padding: float, reference_mm: tuple[float, float]):
@@ -242,11 +274,11 @@ def pupil_mtf_function(pupils, weights, padding: float, reference_mm: tuple[floa
     def fn(freqs: np.ndarray, angle: float) -> np.ndarray:
         f = np.asarray(freqs, dtype=np.float64)
         total = np.zeros(f.size, dtype=np.complex128)
-        for wi, (c, cell), p in zip(w, otfs, pupils):
+        for wi, (c, cell) in zip(w, otfs):
             if wi <= 0:
                 continue
-            n = p.n
-            kx, ky = f * math.cos(angle) / cell + n, f * math.sin(angle) / cell + n
+            m = c.shape[0] // 2
+            kx, ky = f * math.cos(angle) / cell + m, f * math.sin(angle) / cell + m
             coords = np.vstack([ky, kx])
             v = (map_coordinates(c.real, coords, order=3, mode="constant")
                  + 1j * map_coordinates(c.imag, coords, order=3, mode="constant"))

@@ -12,11 +12,8 @@ A focus is written ``BASE[+-SHIFT]`` or ``SHIFT`` (mm along +z):
     best focus, defined here as the plane z that minimises the RMS spot
     radius (about its centroid) of the **axial** point at the **primary**
     wavelength, over all rays through the real pupil weighted as the stream
-    kernel weights them. The one-dimensional search has a closed form: a ray
-    that meets the plane z0 at p with slopes t = (L/N, M/N) meets z0 + dz at
-    p + dz t, so the mean square radius is var(p) + 2 dz cov(p, t) +
-    dz^2 var(t), a parabola in dz with its minimum at dz* = -cov(p, t) / var(t)
-    -- exact for the traced set of rays (a 128 x 128 grid over the real pupil).
+    kernel weights them: :mod:`lensrt.trace.focus`, the one best-focus routine of every table, of
+    ``--focus best`` and of the render (closed form in z; the pupil's edge resolved by sub-sampling).
 
 ``best+0.01`` is 10 um behind best focus.
 """
@@ -26,7 +23,6 @@ import math
 import re
 from dataclasses import dataclass
 
-import numpy as np
 
 from ...errors import LensrtError
 from ...prescription.model import Lens
@@ -73,37 +69,18 @@ def parse_focus(text: str | float | None) -> FocusSpec:
 
 
 def best_focus_z_mm(lens: Lens, wavelength_nm: float | None = None, z0_mm: float | None = None,
-                    rays_per_side: int = 128, device: str | None = None) -> tuple[float, float]:
-    """Best focus (module docstring): (z of the plane (mm), RMS spot radius there (mm))."""
-    from ...trace.aiming import field_point
-    from ...trace.stream import pupil_box
-    from ..pupil_rays import pupil_grid_rays, trace_pupil_rays
+                    device: str | None = None) -> tuple[float, float]:
+    """Best focus of the axial point at one wavelength (:mod:`lensrt.trace.focus`, the one routine every
+    table uses): (z of the plane (mm), RMS spot radius there (mm))."""
+    from ...trace.focus import best_focus_plane, focus_moments
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     if z0_mm is None:
         from ...paraxial import first_order
         z0_mm = first_order(lens, wl).image_z_mm
         if not math.isfinite(z0_mm):
             z0_mm = lens.image_z_mm
-    fp = field_point(lens, 0.0, 0.0)
-    box = pupil_box(lens, fp, [wl], device=device)
-    rays = pupil_grid_rays(fp, box, rays_per_side)
-    res = trace_pupil_rays(lens, rays, wl, z0_mm, device)
-    ok = res.ok & (res.direction[:, 2] > 0)
-    if ok.sum() < 16:
-        raise LensrtError("too few axial rays reach the image to find best focus")
-    w = rays.weight[ok] / rays.weight[ok].sum()
-    p = res.position_mm[ok, :2]
-    t = res.direction[ok, :2] / res.direction[ok, 2:3]
-
-    def var(u: np.ndarray, v: np.ndarray) -> float:
-        return float(np.sum(w[:, None] * (u - w @ u) * (v - w @ v)))
-
-    vt = var(t, t)
-    if not vt > 0:  # a collimated image-side beam: every plane is equally good
-        return float(z0_mm), math.sqrt(max(var(p, p), 0.0))
-    dz = -var(p, t) / vt
-    ms = var(p, p) + 2 * dz * var(p, t) + dz * dz * vt
-    return float(z0_mm + dz), math.sqrt(max(ms, 0.0))
+    plane = best_focus_plane([focus_moments(lens, wl, z0_mm=z0_mm, device=device)])
+    return plane.z_mm, plane.rms_radius_mm
 
 
 def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | None = None) -> dict:

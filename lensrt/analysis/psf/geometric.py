@@ -288,6 +288,9 @@ def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, fre
     grid = result.grid
     t = tangential_angle_rad(result.reference_mm)
     nyq = 0.5 / grid.pitch_mm if mtf_fn is None else math.inf
+    # a diffraction PSF has unit volume over the whole plane: its MTF is normalised by that power, not by
+    # the window's sum (which the cut wings make too small)
+    total = 1.0 / grid.pixel_area_mm2 if result.kind.startswith("diffraction") else None
     for key, freqs in (("mtf", freqs_ref), ("mtf_curve", freqs_curve)):
         f_all = np.asarray(freqs, dtype=np.float64)
         if f_all.size == 0:
@@ -305,7 +308,8 @@ def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, fre
                 e = Estimate(jk[j][0], jk[j][1], int(result.samples), float(result.seconds),
                              f"jackknife over {np.shape(hist)[0]} batches", "")
             else:
-                v = mtf_fn(f, ang) if mtf_fn is not None else mtf_along(result.psf, grid, f, ang, binned=result.binned)
+                v = mtf_fn(f, ang) if mtf_fn is not None else mtf_along(result.psf, grid, f, ang,
+                                                                        binned=result.binned, total=total)
                 e = Estimate(np.asarray(v), np.zeros(f.size), result.samples, result.seconds, "deterministic", "")
             out[f"{key}_{name}"] = e
         result.metadata[f"{key}_freqs_cpmm"] = [float(v) for v in f]

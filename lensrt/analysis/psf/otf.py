@@ -146,7 +146,7 @@ def mtf_2d(psf: np.ndarray, grid: ImageGrid) -> tuple[np.ndarray, np.ndarray, np
 
 
 def otf_along(psf: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float] | np.ndarray, angle_rad: float,
-              binned: bool = False) -> np.ndarray:
+              binned: bool = False, total: float | None = None) -> np.ndarray:
     """Complex OTF at frequencies along direction ``angle_rad`` (from +x toward +y), by a direct DFT.
 
     Parameters
@@ -154,9 +154,14 @@ def otf_along(psf: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float] | np
     binned : bool
         The PSF is a histogram (each value the mean over its bin), not point
         samples: divide out the bins' own box MTF sinc(p mu_x) sinc(p mu_y).
+    total : float, optional
+        The PSF's sum over the WHOLE image plane, in the array's units (default: the window's own sum).
+        A window cuts the PSF's wings; normalised by its own sum, the MTF of what is left lies above the
+        true MTF (the Airy wings beyond 13 radii hold 1.3 % of the energy: +0.012 at low frequencies).
+        Normalised by the power that entered the pupil it lies at or below it.
     """
     a = np.asarray(psf, dtype=np.float64)
-    tot = a.sum()
+    tot = a.sum() if total is None else float(total)
     if not tot > 0:
         raise LensrtError("the PSF holds no light: no MTF")
     f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
@@ -175,9 +180,9 @@ def otf_along(psf: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float] | np
 
 
 def mtf_along(psf: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float] | np.ndarray, angle_rad: float,
-              binned: bool = False) -> np.ndarray:
+              binned: bool = False, total: float | None = None) -> np.ndarray:
     """MTF = |OTF| along a direction (see :func:`otf_along`)."""
-    return np.abs(otf_along(psf, grid, freqs_cpmm, angle_rad, binned))
+    return np.abs(otf_along(psf, grid, freqs_cpmm, angle_rad, binned, total))
 
 
 def tangential_angle_rad(image_point_mm: tuple[float, float]) -> float:

@@ -12,9 +12,9 @@ A :class:`SpectrumChoice` serves both PSF methods:
   the band, each weighted by the SPD's power in its bin (midpoint rule).
 
 Weights are relative spectral power (radiometric, as tabulated by the CIE or
-Planck's law); a detector's spectral response would multiply them. SPDs come
-from colour-science: every CIE illuminant it ships (``D65``, ``A``, ``D50``,
-``FL2``, ...) and Planck's law (``blackbody:5500`` in kelvin).
+Planck's law); a detector's spectral response would multiply them. SPDs are
+named in the one illuminant syntax of :mod:`lensrt.colour.illuminants`
+(``D65``, ``A``, ``FL2``, ``planck:5500K``, ``daylight:5000K``).
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ...colour import parse_illuminant
 from ...errors import LensrtError
 from ...prescription.model import Lens
 
@@ -110,34 +111,6 @@ def line_spectrum(wavelengths_nm: Sequence[float], weights: Sequence[float] | No
     return SpectrumChoice(", ".join(f"{v:g}" for v in nm) + " nm", nm, w)
 
 
-def _spd_values(name: str, nm: np.ndarray) -> tuple[str, np.ndarray]:
-    """SPD ``name`` evaluated at ``nm`` (colour-science), and its display name."""
-    import colour
-    key = name.strip()
-    if key.lower().startswith(("blackbody:", "bb:")):
-        try:
-            t = float(key.split(":", 1)[1].rstrip("Kk"))
-        except ValueError:
-            raise LensrtError(f"bad blackbody temperature in {name!r}", hint="e.g. blackbody:5500 (kelvin)") from None
-        if not 100.0 <= t <= 1.0e5:
-            raise LensrtError(f"blackbody temperature {t:g} K is outside 100-100000 K")
-        # Planck's law (colour.planck_law takes metres)
-        return f"blackbody {t:g} K", np.asarray(colour.colorimetry.planck_law(nm * 1e-9, t), dtype=np.float64)
-    names = {k.lower(): k for k in colour.SDS_ILLUMINANTS}
-    if key.lower() not in names:
-        import difflib
-        close = difflib.get_close_matches(key, list(colour.SDS_ILLUMINANTS), n=3)
-        raise LensrtError(f"unknown spectrum {name!r}",
-                          hint=("did you mean " + ", ".join(close) + "? " if close else "")
-                          + "use lens, D65, A, another CIE illuminant, or blackbody:<kelvin>")
-    sd = colour.SDS_ILLUMINANTS[names[key.lower()]]
-    lo, hi = float(sd.wavelengths[0]), float(sd.wavelengths[-1])
-    if nm.min() < lo or nm.max() > hi:
-        raise LensrtError(f"{names[key.lower()]} is tabulated over {lo:g}-{hi:g} nm only",
-                          hint="choose a band inside it with --band")
-    return names[key.lower()], np.interp(nm, np.asarray(sd.wavelengths), np.asarray(sd.values))
-
-
 def spd_spectrum(name: str, band_nm: tuple[float, float] = (400.0, 700.0), n_lines: int = 7) -> SpectrumChoice:
     """An SPD over ``band_nm``: 5 nm bins for the kernel, ``n_lines`` midpoint lines for diffraction."""
     lo, hi = (float(v) for v in band_nm)
@@ -148,7 +121,8 @@ def spd_spectrum(name: str, band_nm: tuple[float, float] = (400.0, 700.0), n_lin
     nbins = max(1, int(math.ceil((hi - lo) / SPD_BIN_NM - 1e-9)))
     edges = np.linspace(lo, hi, nbins + 1)
     fine = np.linspace(lo, hi, 20 * nbins + 1)  # trapezoid over 0.25 nm steps (5 nm bins)
-    label, vals = _spd_values(name, fine)
+    ill = parse_illuminant(name)
+    label, vals = ill.name, ill.values(fine, strict=True)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (vals[1:] + vals[:-1]) * np.diff(fine))])
     power = np.diff(np.interp(edges, fine, cum))
     line_edges = np.linspace(lo, hi, n_lines + 1)

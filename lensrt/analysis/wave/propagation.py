@@ -87,6 +87,11 @@ class PupilFunction:
         :mod:`~lensrt.analysis.wave.pupil_grid` shape builders return) the energy is the
         clear area, i.e. pass the mask itself: otherwise the PSF comes out
         too bright by sum(mask) / sum(mask^2) (about 0.5 % at n = 128).
+    fine_mask : array (n s, n s) of bool, optional
+        The clear aperture on s x s sub-cells of every cell: the hard edge the OTF is taken from
+        (:func:`lensrt.analysis.psf.diffraction.pupil_otf`). Without it the OTF autocorrelates the soft
+        (anti-aliased) amplitude, which acts as an apodiser and lifts the MTF (+0.004 at 0.1 of the cutoff
+        for a clear circle at n = 128).
     """
 
     amplitude: np.ndarray
@@ -95,6 +100,7 @@ class PupilFunction:
     working_f_number: float
     chief_direction: tuple[float, float, float] = (0.0, 0.0, 1.0)
     intensity: np.ndarray | None = None
+    fine_mask: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         a, w = np.asarray(self.amplitude, dtype=np.float64), np.asarray(self.opd_mm, dtype=np.float64)
@@ -112,6 +118,11 @@ class PupilFunction:
             raise LensrtError("pupil intensity must have the amplitude's shape and be >= amplitude^2 "
                               "(a cell's mean |a|^2 is at least its mean |a| squared)")
         object.__setattr__(self, "intensity", i)
+        if self.fine_mask is not None:
+            m = np.asarray(self.fine_mask, dtype=bool)
+            if m.ndim != 2 or m.shape[0] != m.shape[1] or m.shape[0] % a.shape[0]:
+                raise LensrtError(f"fine pupil mask {m.shape} must be a square multiple of the {a.shape} grid")
+            object.__setattr__(self, "fine_mask", m)
         object.__setattr__(self, "amplitude", a)
         object.__setattr__(self, "opd_mm", w)
         object.__setattr__(self, "chief_direction", tuple(float(v) for v in self.chief_direction))

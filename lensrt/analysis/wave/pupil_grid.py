@@ -37,7 +37,7 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Iris
 
-__all__ = ["pupil_coordinates", "aperture_mask", "circular_aperture", "iris_aperture",
+__all__ = ["pupil_coordinates", "aperture_mask", "aperture_fine_mask", "clear_fraction", "circular_aperture", "iris_aperture",
            "aperture_from_iris", "vignetted_aperture", "noll_to_nm", "zernike", "fit_zernike",
            "zernike_surface", "pupil_coordinates_from_directions", "enclosing_na", "defocus_opd_mm",
            "pupil_from_rays", "TriLinear"]
@@ -51,17 +51,28 @@ def pupil_coordinates(n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.meshgrid(u, -u)
 
 
+def aperture_fine_mask(n: int, inside: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                       supersample: int = 4) -> np.ndarray:
+    """The shape on the ``(n s) x (n s)`` grid of sub-cells (s = ``supersample``): True where a sub-cell's
+    centre is clear -- the hard edge a pupil's OTF is taken from (:attr:`PupilFunction.fine_mask`)."""
+    s = max(1, int(supersample))
+    px, py = pupil_coordinates(n * s)
+    return np.asarray(inside(px, py), dtype=bool)
+
+
+def clear_fraction(fine_mask: np.ndarray, n: int) -> np.ndarray:
+    """Clear fraction of each of the ``n`` x ``n`` cells of a fine mask (row r of the fine grid is in cell r // s)."""
+    s = fine_mask.shape[0] // n
+    return np.asarray(fine_mask, dtype=np.float64).reshape(n, s, n, s).mean(axis=(1, 3))
+
+
 def aperture_mask(n: int, inside: Callable[[np.ndarray, np.ndarray], np.ndarray], supersample: int = 4) -> np.ndarray:
-    """Fraction of each pupil cell inside a shape (anti-aliased by ``supersample``^2 points per cell).
+    """Fraction of each pupil cell inside a shape (anti-aliased by ``supersample**2`` points per cell).
 
     ``inside(px, py)`` returns a boolean array: True where a normalised pupil
     point is clear.
     """
-    s = max(1, int(supersample))
-    px, py = pupil_coordinates(n * s)
-    clear = np.asarray(inside(px, py), dtype=np.float64)
-    # row r of the fine grid belongs to coarse row r // s: average s x s blocks
-    return clear.reshape(n, s, n, s).mean(axis=(1, 3))
+    return clear_fraction(aperture_fine_mask(n, inside, supersample), n)
 
 
 def circular_aperture(n: int, obstruction_ratio: float = 0.0, supersample: int = 4) -> np.ndarray:

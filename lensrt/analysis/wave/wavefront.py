@@ -221,9 +221,15 @@ def trace_wavefronts(lens: Lens, fp, box, wavelengths_nm: Sequence[float], plane
     return out
 
 
-def _ray_mask(inside_value, n: int, supersample: int = 4) -> np.ndarray:
-    """Clear fraction of each pupil cell where ``inside_value(px, py) >= 1/2``, sub-sampled (s x s points) only
-    in cells at the edge (where the value at the centres of the cell and its neighbours is not all 0 or 1)."""
+#: sub-cells a side of the fine pupil grid an OTF is taken on (at most; see lensrt.analysis.psf.diffraction)
+OTF_FINE_CELLS = 256
+
+
+def _ray_mask(inside_value, n: int, supersample: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """(clear fraction of each pupil cell, the hard-edged fine mask for the OTF) where ``inside_value(px, py)
+    >= 1/2``. The fractions sub-sample (s x s points) only the cells at the edge (where the value at the centres
+    of the cell and its neighbours is not all 0 or 1); the fine mask has f x f sub-cells a cell
+    (f = OTF_FINE_CELLS // n, at least 1), the edge cells' sub-cells sampled at their centres."""
     from .pupil_grid import pupil_coordinates
     gx, gy = pupil_coordinates(n)
     v = inside_value(gx, gy)
@@ -235,6 +241,14 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> np.ndarray:
         for dc in (-1, 0, 1):
             differs |= pad[1 + dr:n + 1 + dr, 1 + dc:n + 1 + dc] != mask
     edge = np.nonzero(mixed | differs)
+    f = max(1, OTF_FINE_CELLS // n)
+    fine = np.repeat(np.repeat(mask >= 0.5, f, axis=0), f, axis=1)
+    if edge[0].size and f > 1:
+        fx, fy = pupil_coordinates(n * f)
+        k = np.arange(f)
+        rows = edge[0][:, None, None] * f + k[None, :, None]
+        cols = edge[1][:, None, None] * f + k[None, None, :]
+        fine[rows, cols] = inside_value(fx[rows, cols], fy[rows, cols]) >= 0.5
     if edge[0].size and supersample > 1:
         s = int(supersample)
         off = ((np.arange(s) + 0.5) / s - 0.5) * (2.0 / n)
@@ -242,7 +256,7 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> np.ndarray:
         qx = gx[edge][:, None] + ox[None, :]
         qy = gy[edge][:, None] + oy[None, :]
         mask[edge] = np.mean(inside_value(qx, qy) >= 0.5, axis=1)
-    return mask
+    return mask, fine
 
 
 def pupil_function_from_wavefront(wf: RayWavefront, n: int):
@@ -251,12 +265,12 @@ def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     from .pupil_grid import TriLinear
     lin = TriLinear(wf.px, wf.py)
     valid = wf.valid.astype(np.float64)
-    mask = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
+    mask, fine = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
     amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))
     a_cell = np.where(mask > 0, amp / np.where(mask > 0, mask, 1.0), 0.0)
     intensity = mask * a_cell * a_cell
     pupil = PupilFunction(amp, opd, wf.wavelength_nm, 0.5 / wf.na, tuple(wf.sphere.chief_direction),
-                          intensity=np.maximum(intensity, amp * amp))
+                          intensity=np.maximum(intensity, amp * amp), fine_mask=fine)
     return pupil, info

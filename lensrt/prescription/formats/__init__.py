@@ -107,8 +107,13 @@ def read_lens(path: str | Path, format: str | None = None, config: int | str | N
     **options
         Reader options named ``<format>_<option>`` (e.g. ``pbrt_thickness="next"``,
         ``pbrt_field_deg=20``); ``None`` values are ignored. An option for
-        another format than the file's is an error.
+        another format than the file's is an error. The glass options of every
+        format: ``glass_substitute``, ``glass_model_fallback`` (bool) and
+        ``glass_catalog`` (paths of ``.agf`` files or folders), see
+        :mod:`lensrt.prescription.glass_lookup`.
 
+    Notes
+    -----
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """
@@ -134,6 +139,8 @@ def read_any(path: str | Path, format: str | None = None, **options: Any) -> Len
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
+    glass = {k: options.pop(k) for k in ("glass_substitute", "glass_model_fallback", "glass_catalog")
+             if k in options}
     for key, value in options.items():
         if value is None:
             continue
@@ -144,4 +151,10 @@ def read_any(path: str | Path, format: str | None = None, **options: Any) -> Len
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens | MultiConfigLens] = getattr(import_module(f"{__name__}.{module}"), func)
-    return reader(path, text=text, **kwargs)
+    if not any(v for v in glass.values()):
+        return reader(path, text=text, **kwargs)
+    from ..glass_lookup import glass_policy
+    paths = glass.get("glass_catalog") or ()
+    with glass_policy(bool(glass.get("glass_substitute")), bool(glass.get("glass_model_fallback")),
+                      [paths] if isinstance(paths, (str, Path)) else list(paths)):
+        return reader(path, text=text, **kwargs)

@@ -7,14 +7,28 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from typing import Sequence
 
 from ...errors import PrescriptionError, UnknownGlassError
 from ..materials import CatalogGlass, find_glass
-from ..model import Lens
+from ..model import Lens, LoadWarning
 
 __all__ = ["parse_number", "sniff_format", "reject_other_format", "fmt_list", "FORMAT_HINTS", "make_lens",
-           "lookup_glass", "substitution_note"]
+           "lookup_glass", "substitution_note", "LensFileWarning", "emit_load_warnings"]
+
+
+class LensFileWarning(UserWarning):
+    """An approximation a reader made (each is also in ``Lens.warnings``)."""
+
+
+def emit_load_warnings(path: str | None, found: Sequence[LoadWarning],
+                       model_category: type[LensFileWarning] = LensFileWarning) -> None:
+    """One Python warning per :class:`LoadWarning` (``glass_model`` ones as ``model_category``)."""
+    for w in found:
+        where = f"{path}:{w.line}: " if path and w.line else (f"{path}: " if path else "")
+        cat = model_category if w.code == "glass_model" else LensFileWarning
+        warnings.warn(where + w.text, cat, stacklevel=4)
 
 #: what to tell a user whose file holds another format than its extension says
 FORMAT_HINTS = {

@@ -15,17 +15,25 @@ starts a comment, ``&`` continues a line):
 * zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
   codes), ``PIM`` and other solves/pickups (the value on the S line is the
-  solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end).
+  solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
+  non-optical commands of :data:`~lensrt.prescription.formats.keywords.CODEV_NON_OPTICAL`
+  (``DOR``, ``UID``, ...).
 
 A thickness on ``SI`` is a defocus of the image surface from where the last
 thickness puts it; it is added to the last surface's thickness. An object
 thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
-a catalog suffix (``NSK16_SCHOTT``); a number ``nnn.vvv`` is CODE V's
-fictitious glass code (n_d = 1.nnn, V_d = vv.v; ``517.642`` is 1.517/64.2).
+a catalog suffix (``NSK16_SCHOTT``) and are looked up as
+:mod:`lensrt.prescription.glass_lookup` says; fictitious glasses (``1.55:55.8``,
+``517642``, ``517.642``) and ``PRV`` private catalogs are read
+(:mod:`~lensrt.prescription.formats.codev_glass`). Without ``RDM`` the S lines
+hold curvatures, without ``STO`` the stop is surface 1, a vignetting list
+shorter than the fields is padded with 0 -- each an ``assumed_default``
+warning. Commands lensrt does not know are ignored with a ``keyword_unknown``
+warning.
 
 Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
-decentred apertures, special surface types and private catalogs are
-errors naming the file, the line and the command.
+decentred apertures and special surface types are errors naming the
+file, the line and the command.
 """
 from __future__ import annotations
 
@@ -36,11 +44,14 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, deg_to_rad
-from ..materials import AIR, Material, ModelGlass, find_glass
-from ..model import Aperture, Fields, Lens, Surface, Wavelengths
 from ..configurations import MultiConfigLens
-from ._common import fmt_list, make_lens, parse_number, reject_other_format, substitution_note
+from ..glass_lookup import GlassRequest, resolve_glass
+from ..materials import AIR, Material
+from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
+from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
+from .codev_glass import PrivateCatalog, fictitious_glass
 from .codev_zoom import ZoomReader
+from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
 
 __all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
 
@@ -72,7 +83,7 @@ UNSUPPORTED = {
     "REG": "a general aperture", "ELG": "a general aperture", "ADX": "a decentred aperture",
     "ADY": "a decentred aperture", "ARO": "a rotated aperture",
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
-    "NSO": "a non-sequential object", "PRV": "a private glass catalog", "PWL": "a private glass catalog",
+    "NSO": "a non-sequential object",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
     "KC": "a conic variable code", "CUF": "a Fresnel/base curvature",
 }
@@ -83,7 +94,6 @@ _KNOWN = set(IGNORED) | set(UNSUPPORTED) | {"ZOO", "POS", "RDM", "TIT", "DIM", "
                                             "PRE", "STO", "CIR", "ASP", "CON", "SLB", "RDY", "CUY", "THI", "GLA",
                                             "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM",
                                             "XRI", "YRI"}
-_FICTITIOUS = re.compile(r"^(\d{3,})\.(\d+)$")
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -122,8 +132,10 @@ def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
                 cur += ch
         if cur:
             tokens.append(cur)
-        if tokens and tokens[-1] == "&":
-            tokens.pop()
+        if tokens and tokens[-1].endswith("&"):  # '650.0&' continues as well as '650.0 &'
+            tokens[-1] = tokens[-1][:-1]
+            if not tokens[-1]:
+                tokens.pop()
             cont = True
         if cont:
             pending, pending_line = pending + tokens, cmd_start
@@ -139,8 +151,13 @@ def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
 class _Seq:
     def __init__(self, path: str | None) -> None:
         self.path = path
-        self.radius_mode = True
+        self.radius_mode = False   # CODE V reads curvatures until RDM (see the docs' glass page)
+        self.rdm_given = False
         self.dim = "mm"
+        self.warnings: list[LoadWarning] = []
+        self.keywords = KeywordPolicy("CODE V", dict(CODEV_NON_OPTICAL))
+        self.prv: PrivateCatalog | None = None
+        self.private: dict[str, Material] = {}
         self.rows: list[dict] = []          # SO, S..., SI as dicts
         self.spec: dict[str, tuple[list[str], int]] = {}
         self.title = ""
@@ -187,6 +204,14 @@ class _Seq:
         """Apply one command; returns False at GO."""
         name = toks[0].upper()
         args = toks[1:]
+        if self.prv is not None:
+            if not self.prv.command(toks, line):
+                self.private.update(self.prv.glasses())
+                self.prv = None
+            return True
+        if name == "PRV":
+            self.prv = PrivateCatalog(self.path)
+            return True
         if len(name) > 3 and name not in ("TITLE",) and name[:3] in _KNOWN:
             name = name[:3]  # CODE V reads the first three letters: STOP = STO
         if name in ("SO", "S", "SI"):
@@ -196,6 +221,7 @@ class _Seq:
             return False
         if name == "RDM":
             self.radius_mode = not (args and args[0].upper().startswith("N"))
+            self.rdm_given = True
             return True
         if name in ("TIT", "TITLE"):
             self.title = " ".join(a.strip("'\"") for a in args)
@@ -260,26 +286,41 @@ class _Seq:
                            "lensrt models rotationally symmetric, sequential, refractive lenses only")
         if name in IGNORED:
             return True
-        raise self.err(f"unknown command {toks[0]!r}", line,
-                       "lensrt cannot tell whether it changes the optics; remove it or report it")
+        if not re.match(r"^[A-Z][A-Z0-9]*$", name):
+            raise self.err(f"cannot read {toks[0]!r}: not a command", line,
+                           "a CODE V command starts with letters; a number belongs on the line before (& continues)")
+        self.keywords.unread(toks[0], line)
+        return True
 
     # -- assembly -----------------------------------------------------------
-    def material(self, glass: str | None, line: int) -> Material:
+    def material(self, glass: str | None, line: int, surface: int | None = None) -> Material:
+        """The medium named on an S line: air, a fictitious glass, a private or catalog glass."""
         if glass is None or glass.upper() == "AIR":
             return AIR
-        m = _FICTITIOUS.match(glass)
-        if m:
-            nd = 1.0 + int(m.group(1)) / 10 ** len(m.group(1))
-            vd = int(m.group(2)) / 10.0 ** (len(m.group(2)) - 2)
-            with located(self.path, line):
-                return ModelGlass(nd, vd, name=glass)
-        name = glass.strip("'\"")
         with located(self.path, line):
-            found = find_glass(name)
+            model = fictitious_glass(glass)
+        if model is not None:
+            self.warnings.append(LoadWarning("glass_model", f"fictitious glass {glass}: model glass n_d = "
+                                             f"{model.nd:g}, V_d = {model.vd:g}", surface, line))
+            return model
+        name = glass.strip("'\"")
+        req = GlassRequest(name, None, None, None, surface, line, self.primary_nm(), self.private)
+        with located(self.path, line):
+            found, warns = resolve_glass(req)
+        self.warnings += warns
         base = re.sub(r"[_:][A-Za-z]+$", "", name) if "_" in name or ":" in name else name
-        if found.name.replace("-", "").upper() != base.replace("-", "").upper():
+        if found.name.replace("-", "").upper() != base.replace("-", "").upper() and name.upper() not in self.private:
             self.subs[name] = found.describe()
         return found
+
+    def primary_nm(self) -> float:
+        """The reference wavelength (nm) as far as the file has given it."""
+        try:
+            wl = [float(a) for a in self.spec.get("WL", ([], 0))[0]]
+            ref = int(float(self.spec["REF"][0][0])) - 1 if "REF" in self.spec else len(wl) // 2
+            return wl[ref] if 0 <= ref < len(wl) else 587.5618
+        except (ValueError, IndexError):
+            return 587.5618
 
     def build(self) -> Lens:
         f = MM_PER_UNIT[self.dim]
@@ -300,6 +341,7 @@ class _Seq:
             if img["curv"] != 0.0:
                 raise self.err("curved image surface (SI)", img["line"], "lensrt's image surface is a plane")
             defocus = img["thick"]
+        self.assumed_defaults(body)
         surfaces = []
         for k, r in enumerate(body):
             with located(self.path, r["line"]):
@@ -308,13 +350,40 @@ class _Seq:
                 thick = r["thick"] + (defocus if k == len(body) - 1 else 0.0)
                 surfaces.append(Surface(
                     curvature_per_mm=r["curv"] / f, thickness_mm=thick * f,
-                    material=self.material(r["glass"], r["line"]),
+                    material=self.material(r["glass"], r["line"], k),
                     semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=r["conic"], asphere=asph,
                     is_stop=r["stop"], label=r["label"], line=r["line"]))
         if defocus:
             self.notes.append(("image_defocus_mm", f"{defocus * f:.12g} (SI thickness, added to the last "
                                                    "surface's thickness)"))
         return self.system(surfaces, obj, f)
+
+    def assumed_defaults(self, body: list[dict]) -> None:
+        """CODE V's defaults for what the file leaves out: curvature mode without RDM, the stop on S1."""
+        if not self.rdm_given:
+            self.warnings.append(LoadWarning("assumed_default", "no RDM command: the S lines' first values are "
+                                             "read as curvatures (CODE V's default; RDM switches to radii)", None,
+                                             None))
+        if not any(r["stop"] for r in self.rows):
+            body[0]["stop"] = True
+            self.warnings.append(LoadWarning("assumed_default", "no STO command: the stop is surface 1 "
+                                             "(CODE V's default)", 0, body[0]["line"]))
+
+    def vignetting(self, n: int) -> None:
+        """VUX/VLX/VUY/VLY into lens.notes; a list shorter than the fields is padded with 0 (CODE V's default)."""
+        for key in ("VUX", "VLX", "VUY", "VLY"):
+            v = self.values(key, "vignetting factor")
+            if v is None or not any(v[0]):
+                continue
+            vals, line = v
+            if len(vals) != n:
+                self.warnings.append(LoadWarning(
+                    "assumed_default", f"{key} gives {len(vals)} values for {n} fields: "
+                    + ("the rest are 0 (no vignetting)" if len(vals) < n else f"values after the {n}th ignored"),
+                    None, line))
+                vals = (vals + [0.0] * n)[:n]
+            if any(vals):
+                self.notes.append((f"vignetting_{key.lower()}", fmt_list(vals)))
 
     def values(self, key: str, what: str) -> tuple[list[float], int] | None:
         if key not in self.spec:
@@ -357,12 +426,7 @@ class _Seq:
             fields = Fields()
             n = 1
             self.notes.append(("fields", "the file gives no field points: on-axis only"))
-        for key in ("VUX", "VLX", "VUY", "VLY"):
-            v = self.values(key, "vignetting factor")
-            if v is not None and any(v[0]):
-                if len(v[0]) != n:
-                    raise self.err(f"{key} gives {len(v[0])} values for {n} fields", v[1])
-                self.notes.append((f"vignetting_{key.lower()}", fmt_list(v[0])))
+        self.vignetting(n)
         # wavelengths
         wl = self.values("WL", "wavelength")
         if wl is None:
@@ -393,10 +457,14 @@ class _Seq:
         if dist <= 0.0:
             raise self.err(f"object distance {dist:g} must be positive", obj["line"],
                            "SO's thickness is the distance from the object to surface 1")
+        if self.prv is not None:
+            raise self.err("PRV without END", None, "close the private catalog with END")
+        found = tuple(self.warnings + self.keywords.warnings)
+        emit_load_warnings(path, found)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
-                         notes=tuple(self.notes))
+                         notes=tuple(self.notes), warnings=found)
 
 
 def _looks_number(tok: str) -> bool:

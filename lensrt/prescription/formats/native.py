@@ -46,10 +46,12 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from ...errors import PrescriptionError, located
-from ..materials import AIR, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
+from ...errors import PrescriptionError, UnknownGlassError, located
 from ..configurations import MultiConfigLens
 from ..focusing import UNIT_FOCUS
+from ..glass_lookup import lookup_any, user_catalogs
+from ..limits import check_asphere_power, check_catalog_names
+from ..materials import AIR, CATALOGS, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 from .native_config import dumps_configurations, dumps_focus, parse_configurations, parse_focus
 
@@ -110,6 +112,19 @@ def _number(value: Any, what: str) -> float:
     return float(value)
 
 
+def _material_spec(spec: object, catalogs: list[str] | None) -> Material:
+    """:func:`parse_material`, and for a glass name no vendor catalog holds: the same name (exactly, or an
+    alias such as ``CAF2``, ``F_SILICA``, ``GERMANIUM``) in the refractiveindex.info database or a user .agf."""
+    try:
+        return parse_material(spec, catalogs)
+    except UnknownGlassError:
+        name = spec if isinstance(spec, str) else spec.get("glass") if isinstance(spec, dict) else None
+        found = lookup_any(str(name), user_catalogs()) if name else None
+        if found is None:
+            raise
+        return found
+
+
 def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface:
     if "radius_mm" in row and "curvature_per_mm" in row:
         raise PrescriptionError("give radius_mm or curvature_per_mm, not both")
@@ -130,6 +145,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
         m = _ASPH_KEY.match(key)
         if not m or int(m.group(1)) < 2 or int(m.group(1)) % 2:
             raise PrescriptionError(f"aspheric coefficient key {key!r} is not A2, A4, A6, ...")
+        check_asphere_power(int(m.group(1)), f"asphere key {key}")
         coeffs[int(m.group(1))] = _number(val, key)
     asphere = tuple(coeffs.get(p, 0.0) for p in range(2, 2 + 2 * (max(coeffs) // 2), 2)) if coeffs else ()
     stop = row.get("stop", False)
@@ -139,7 +155,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
     return Surface(
         curvature_per_mm=c,
         thickness_mm=_number(row["thickness_mm"], "thickness_mm"),
-        material=parse_material(row.get("material", "air"), catalogs),
+        material=_material_spec(row.get("material", "air"), catalogs),
         semi_diameter_mm=None if sd is None else _number(sd, "semi_diameter_mm"),
         conic=_number(row.get("conic", 0.0), "conic"),
         asphere=asphere,
@@ -178,7 +194,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
     except tomllib.TOMLDecodeError as err:
         m = re.search(r"line (\d+)", str(err))
         raise PrescriptionError(f"not valid TOML: {err}", path=spath, line=int(m.group(1)) if m else None,
-                                hint="see the native format in the README") from None
+                                hint="see the native format in docs/reference/lens-format.md") from None
     sections, surface_lines = _section_lines(text)
     _check_keys(doc, "", None, spath)
     _check_format(doc, text, spath)
@@ -194,6 +210,9 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
     catalogs = sys_t.get("catalogs")
     if catalogs is not None and (not isinstance(catalogs, list) or not all(isinstance(c, str) for c in catalogs)):
         raise PrescriptionError("catalogs must be a list of catalog names", path=spath, line=sections.get("system"))
+    if catalogs is not None:
+        with located(spath, sections.get("system")):
+            check_catalog_names(catalogs, CATALOGS)
 
     rows = doc["surface"]
     if not isinstance(rows, list) or not rows:
@@ -241,7 +260,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
                                   primary)
     with located(spath, sections.get("system")):
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
-        obj_mat = parse_material(sys_t.get("object_material", "air"), catalogs)
+        obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
@@ -299,14 +318,20 @@ def _s(text: str) -> str:
 def _material(m: Material) -> str:
     if m.is_air and not isinstance(m, ConstantIndex):
         return '"air"'
+    if isinstance(m, CatalogGlass) and not m.source.startswith("opticalglass") and m.source:
+        # a glass of the database, a user .agf or a CODE V PRV block: its packed formula travels with the lens
+        rng = "" if m.range_nm is None else f", range_nm = [{_f(m.range_nm[0])}, {_f(m.range_nm[1])}]"
+        return (f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)}, source = {_s(m.source)}, "
+                f"formula = {_s(m.formula)}, coefficients = [{', '.join(repr(float(c)) for c in m.coefficients)}]"
+                f"{rng}, range_is_limit = {'true' if m.range_is_limit else 'false'} }}")
     if isinstance(m, CatalogGlass):
         return f"{{ glass = {_s(m.name)}, catalog = {_s(m.catalog)} }}"
     if isinstance(m, ModelGlass):
         name = "" if m.name == ModelGlass(m.nd, m.vd).name else f", name = {_s(m.name)}"
         return f"{{ nd = {_f(m.nd)}, vd = {_f(m.vd)}{name} }}"
     if isinstance(m, ConstantIndex):
-        name = "" if m.name == ConstantIndex(m.n).name else f", name = {_s(m.name)}"
-        return f"{{ index = {_f(m.n)}{name} }}"
+        name = "" if m.name == ConstantIndex(m.n, exotic=m.exotic).name else f", name = {_s(m.name)}"
+        return f"{{ index = {_f(m.n)}{name}{', exotic = true' if m.exotic else ''} }}"
     raise PrescriptionError(f"cannot write material {m!r} in the native format")
 
 

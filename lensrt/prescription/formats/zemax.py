@@ -1,6 +1,6 @@
 """Zemax OpticStudio ``.zmx`` reader: the sequential, rotationally symmetric subset.
 
-Supported (see the README's table): ``UNIT`` (MM, CM, IN, M; lengths are
+Supported (see the table in docs/how-to/import-zemax-codev-pbrt.md): ``UNIT`` (MM, CM, IN, M; lengths are
 converted to mm), ``SURF`` with ``TYPE STANDARD`` or ``EVENASPH``, ``CURV``,
 ``DISZ`` (``INFINITY`` on the object surface), ``GLAS``, ``CONI``, ``PARM``
 (EVENASPH: PARM 1 is the r^2 coefficient, PARM 2 r^4, ...), ``DIAM``
@@ -10,12 +10,14 @@ system data ``ENPD``/``FNUM``/``OBNA``/``FLOA``, ``FTYP``, ``XFLN``/``YFLN``/
 (micrometres), ``PWAV``, ``GCAT``, ``NAME``, ``NOTE``, vignetting factors
 ``VDXN``/``VDYN``/``VCXN``/``VCYN`` (kept in ``lens.notes``).
 
-Glass: the name is looked up in the catalogs ``GCAT`` names, in that order
-(those lensrt ships: Schott, Ohara, Hoya, CDGM, Hikari, Sumita). Only when the
-name is in none of them are the n_d/V_d written on the ``GLAS`` line used, as a
-:class:`~lensrt.prescription.materials.ModelGlass`, with a
-:class:`GlassFallbackWarning`. ``GLAS ___BLANK`` (OpticStudio's model glass) is
-a model glass by definition.
+Glass: looked up as :mod:`lensrt.prescription.glass_lookup` says -- the
+catalogs ``GCAT`` names first, then every catalog lensrt has (vendor sheets,
+the refractiveindex.info database, user ``.agf`` catalogs, aliases such as
+``F_SILICA``); a successor only with ``--glass-substitute``, the line's n_d/V_d
+only with ``--glass-model-fallback``; else one error. ``GLAS ___BLANK``
+(OpticStudio's model glass) is a model glass by definition. Every
+approximation is a :class:`~lensrt.prescription.model.LoadWarning` in
+``lens.warnings`` (and a Python warning).
 
 Display, optimisation and tolerancing data are ignored explicitly
 (:data:`IGNORED`); merit-function operands after the last surface are
@@ -23,7 +25,10 @@ ignored. Everything that changes the optics but lies outside lensrt's model
 (mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
 other surface types, unsupported multi-configuration operands, non-circular or decentred apertures,
 curved object/image surfaces, ...) is an error naming the file, the line and
-the construct. Nothing is dropped silently.
+the construct. A keyword lensrt does not know is ignored with a
+``keyword_unknown`` warning naming it and its line
+(:mod:`~lensrt.prescription.formats.keywords`). ``FLOA`` floats on the stop's
+semi-diameter, or where the stop has none on the file's other aperture.
 """
 from __future__ import annotations
 
@@ -32,19 +37,22 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...errors import PrescriptionError, UnknownGlassError, located
+from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
-from ..materials import AIR, CATALOGS, Material, ModelGlass
-from ..model import Aperture, Fields, Lens, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ..configurations import MultiConfigLens
-from ._common import fmt_list, lookup_glass, make_lens, parse_number, reject_other_format, substitution_note
+from ..glass_lookup import GlassRequest, resolve_glass
+from ..limits import MAX_ZEMAX_PARM
+from ..materials import AIR, Material, ModelGlass
+from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
+from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
+from .keywords import ZemaxKeywordPolicy
 from .zemax_mce import MultiConfigReader
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
 
-class GlassFallbackWarning(UserWarning):
-    """A glass name found in no catalog: the n_d/V_d of the file are used instead."""
+class GlassFallbackWarning(LensFileWarning):
+    """A model glass: the n_d/V_d of the file are used (``GLAS ___BLANK`` or ``--glass-model-fallback``)."""
 
 
 #: keywords that never change the optics of a sequential lens, ignored on purpose
@@ -86,7 +94,6 @@ _TYPE_NAMES = {
     "BINARY_2": "a binary optic", "GRID_SAG": "a grid sag surface", "TILTSURF": "a tilted surface",
     "NONSEQCO": "a non-sequential component", "USERSURF": "a user-defined surface", "QED_TYPE": "a Q-type asphere",
 }
-_CATALOG_NAMES = {c.upper(): c for c in CATALOGS}
 _UNITS = {"MM": "mm", "CM": "cm", "IN": "in", "INCH": "in", "INCHES": "in", "M": "m", "METER": "m",
           "METERS": "m", "METR": "m"}
 _FIELD_TYPES = {0: "angle", 1: "object_height", 2: "paraxial_image_height", 3: "real_image_height"}
@@ -133,6 +140,9 @@ class _Reader:
         self.notes: list[tuple[str, str]] = []
         self.note_text: list[str] = []
         self.subs: dict[str, str] = {}
+        self.warnings: list[LoadWarning] = []
+        self.keywords = ZemaxKeywordPolicy()
+        self.floa_line: int | None = None
         self.mce: MultiConfigReader | None = None  # multi-configuration rows (zemax_mce)
         self.in_mce = False
 
@@ -176,7 +186,10 @@ class _Reader:
             return
         handler = getattr(self, "kw_" + kw, None)
         if handler is not None:
-            handler(args, no, raw)
+            try:
+                handler(args, no, raw)
+            except IndexError:  # a keyword without its values ("CURV" alone)
+                raise self.err(f"{kw} without a value", no, f"give {kw} its value(s), or delete the line") from None
             return
         if kw in UNSUPPORTED:
             raise self.err(f"{kw}: {UNSUPPORTED[kw]} is not supported", no,
@@ -185,8 +198,7 @@ class _Reader:
             return
         if after_last_surf and not raw[:1].isspace() and len(kw) == 4 and kw.isalnum():
             return  # a merit-function or tolerance operand: optimisation data, not optics
-        raise self.err(f"unknown keyword {toks[0]!r}", no,
-                       "lensrt cannot tell whether it changes the optics; remove it or report it")
+        self.keywords.unread(toks[0], no, len(self.surfs) - 2 if raw[:1].isspace() and self.surfs else None)
 
     # -- system data ---------------------------------------------------------
     def kw_UNIT(self, args, no, raw):
@@ -218,7 +230,7 @@ class _Reader:
         self._set_aperture("object_na", self.num(args[0], "object-space NA", no), no)
 
     def kw_FLOA(self, args, no, raw):
-        self._set_aperture("float_by_stop", 0.0, no)
+        self.floa_line = no  # resolved in _aperture: the stop's semi-diameter, else the other aperture given
 
     def kw_FTYP(self, args, no, raw):
         self.ftyp, self.ftyp_line = args, no
@@ -330,10 +342,17 @@ class _Reader:
         v = self.num(args[1], f"PARM {i}", no) if len(args) > 1 else 0.0
         if i < 1:
             raise self.err(f"PARM {i}: parameter numbers start at 1", no)
+        if i > MAX_ZEMAX_PARM:
+            raise self.err(f"PARM {i}: parameter numbers of an even asphere stop at {MAX_ZEMAX_PARM}", no,
+                           "PARM n is the r^(2n) coefficient; check the number")
         s.parm[i] = (v, no)
 
     def kw_DIAM(self, args, no, raw):
-        self.cur("DIAM", no).diam = self.num(args[0], "semi-diameter", no)
+        d = self.num(args[0], "semi-diameter", no)
+        if d < 0.0:
+            raise self.err(f"DIAM {args[0]}: a negative semi-diameter", no,
+                           "give the clear semi-diameter as a positive number (0: computed on load)")
+        self.cur("DIAM", no).diam = d
 
     def kw_CLAP(self, args, no, raw):
         s = self.cur("CLAP", no)
@@ -363,43 +382,40 @@ class _Reader:
             raise self.err("XDAT: extra surface data is not supported for STANDARD/EVENASPH surfaces", no)
 
     # -- glass -----------------------------------------------------------------
-    def material(self, s: _Surf) -> Material:
+    def primary_nm(self) -> float:
+        """The primary wavelength (nm) as far as the file has given it (for substitution messages)."""
+        um = [self.waves[i][0] for i in sorted(self.waves)] if self.waves else \
+            (self.wavl[0] if self.wavl is not None else [0.5875618])
+        k = self.pwav[0] - 1 if self.pwav is not None else 0
+        return (um[k] if 0 <= k < len(um) else um[0]) * NM_PER_UM
+
+    def material(self, s: _Surf, surface: int | None = None) -> Material:
+        """The medium after ``s`` (the GLAS line), found as :mod:`~lensrt.prescription.glass_lookup` says."""
         if s.glass is None:
             return AIR
         toks, no = s.glass, s.glass_line
         name = toks[0]
-
-        def model(reason: str) -> ModelGlass:
-            if len(toks) < 5:
-                raise self.err(f"glass {name!r}: {reason}, and the GLAS line gives no n_d/V_d", no,
-                               "name a catalog glass or give 'GLAS ___BLANK 1 0 nd vd'")
-            nd = self.num(toks[3], "n_d", no)
-            vd = self.num(toks[4], "V_d", no)
+        nd = self.num(toks[3], "n_d", no) if len(toks) > 4 else 0.0
+        vd = self.num(toks[4], "V_d", no) if len(toks) > 4 else 0.0
+        real = nd >= 1.0 and vd > 0.0
+        if name.upper() in ("___BLANK", "MODEL"):
+            if not real:
+                raise self.err(f"GLAS {name}: a model glass needs n_d >= 1 and V_d > 0 on the line "
+                               f"(found {nd:g}, {vd:g})", no, "give 'GLAS ___BLANK 1 0 nd vd'")
             with located(self.path, no):
-                return ModelGlass(nd, vd, name="" if name.upper() == "___BLANK" else name)
-
-        if name.upper() == "___BLANK":
-            return model("a model glass")
-        ours = [_CATALOG_NAMES[c] for c in (self.gcat or []) if c in _CATALOG_NAMES]
-        if self.gcat is None:
-            ours = list(CATALOGS)
-        others = [c for c in (self.gcat or []) if c not in _CATALOG_NAMES]
-        if ours:
-            try:
-                glass = lookup_glass(name, ours)
-            except UnknownGlassError:
-                pass
-            else:
-                if glass.name.replace("-", "").upper() != name.replace("-", "").upper():
-                    self.subs[name] = glass.describe()
-                return glass
-        glass = model("not in the GCAT catalogs")
-        where = ", ".join(ours) if ours else "none"
-        extra = f"; lensrt does not ship {', '.join(others)}" if others else ""
-        warnings.warn(f"{self.path}:{no}: glass {name!r} is in no GCAT catalog lensrt has (searched: {where}"
-                      f"{extra}): using the GLAS line's n_d = {glass.nd:g}, V_d = {glass.vd:g} as a model glass",
-                      GlassFallbackWarning, stacklevel=3)
-        self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); not in GCAT catalogs"))
+                glass = ModelGlass(nd, vd)
+            self.warnings.append(LoadWarning("glass_model", f"model glass n_d = {nd:g}, V_d = {vd:g} (GLAS {name}): "
+                                             "a two-term Cauchy law through n_d and V_d", surface, no))
+            return glass
+        req = GlassRequest(name, self.gcat, nd if real else None, vd if real else None, surface, no,
+                           self.primary_nm())
+        with located(self.path, no):
+            glass, warns = resolve_glass(req)
+        self.warnings += warns
+        if isinstance(glass, ModelGlass):
+            self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); in no catalog"))
+        elif _norm_name(glass.name) != _norm_name(name):
+            self.subs[name] = glass.describe()
         return glass
 
     # -- assemble --------------------------------------------------------------
@@ -416,7 +432,7 @@ class _Reader:
             if s.stop:
                 raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
         surfaces = []
-        for s in body:
+        for k, s in enumerate(body):
             with located(self.path, s.line):
                 asph: tuple[float, ...] = ()
                 if s.type == "EVENASPH":
@@ -430,18 +446,39 @@ class _Reader:
                     sd = None  # DIAM 0: no semi-diameter given (computed on load)
                 surfaces.append(Surface(
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
-                    material=self.material(s), semi_diameter_mm=None if sd is None else sd * f,
+                    material=self.material(s, k), semi_diameter_mm=None if sd is None else sd * f,
                     conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line))
         return self._system(surfaces, obj, f)
 
-    def _system(self, surfaces: list[Surface], obj: _Surf, f: float) -> Lens:
-        path, notes = self.path, list(self.notes)
+    def _aperture(self, surfaces: list[Surface], f: float) -> Aperture:
+        """The system aperture; FLOA floats on the stop's semi-diameter, or, where the stop has none, on the
+        other aperture the file gives (ENPD, FNUM, OBNA), with a warning."""
+        stop_sd = next((s.semi_diameter_mm for s in surfaces if s.is_stop), None)
+        if self.floa_line is not None:
+            if stop_sd is not None:
+                if self.aperture is not None:
+                    self.warnings.append(LoadWarning(
+                        "keyword_ignored", f"FLOA: the aperture floats on the stop's semi-diameter "
+                        f"({stop_sd:g} mm); the {self.aperture[0]} on line {self.aperture[2]} is not used", None,
+                        self.aperture[2]))
+                return Aperture("float_by_stop", 0.0)
+            if self.aperture is None:
+                raise self.err("FLOA: the aperture floats on the stop's semi-diameter, but the stop surface has "
+                               "no DIAM/CLAP and the file gives no other aperture", self.floa_line,
+                               "give the stop a 'DIAM <semi-diameter>' or the system an 'ENPD <diameter>'")
+            self.warnings.append(LoadWarning(
+                "assumed_default", f"FLOA without a stop semi-diameter: the stop is sized by the "
+                f"{self.aperture[0]} on line {self.aperture[2]}", None, self.floa_line))
         if self.aperture is None:
             raise self.err("no system aperture (ENPD, FNUM, OBNA or FLOA)", None,
                            "add e.g. 'ENPD 10' (entrance pupil diameter in lens units)")
         kind, value, ap_line = self.aperture
-        with located(path, ap_line):
-            aperture = Aperture(kind, value * f if kind == "epd" else value)
+        with located(self.path, ap_line):
+            return Aperture(kind, value * f if kind == "epd" else value)
+
+    def _system(self, surfaces: list[Surface], obj: _Surf, f: float) -> Lens:
+        path, notes = self.path, list(self.notes)
+        aperture = self._aperture(surfaces, f)
         # fields
         ftyp = self.ftyp or []
         ftype_code = int(self.num(ftyp[0], "field type", self.ftyp_line)) if ftyp else 0
@@ -504,9 +541,16 @@ class _Reader:
         if obj.disz <= 0.0:
             raise self.err(f"object distance DISZ {obj.disz:g} must be positive", obj.line,
                            "SURF 0's DISZ is the distance from the object to surface 1 (or INFINITY)")
+        found = tuple(self.warnings + self.keywords.warnings)
+        emit_load_warnings(path, found, GlassFallbackWarning)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
-                         source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes))
+                         source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes),
+                         warnings=found)
+
+
+def _norm_name(name: str) -> str:
+    return "".join(ch for ch in name.upper() if ch not in " -_.")
 
 
 def _vignetting_notes(fields: dict[str, tuple[list[float], int | None]], n: int) -> list[tuple[str, str]]:

@@ -1,6 +1,6 @@
 """Scene files (TOML) -> :class:`~lensrt.render.scene.model.Scene`, every key checked.
 
-The format, frame and units are documented in the README ("Scenes") and in
+The format, frame and units are documented in docs/reference/scene-format.md and in
 :mod:`lensrt.render.scene.model`. In short: positions and sizes in the unit of
 ``[scene] units`` (m, cm, mm), converted to mm here; the scene origin is the
 first lens vertex, light travels toward +z, the scene lies at z < 0, +y is up;
@@ -23,9 +23,9 @@ from ...library import scenes_dir
 from ...units import MM_PER_M, MM_PER_UNIT
 from .model import (CameraSpec, MeshObject, Plane, PointLight, RenderSettings, Scene, SensorSpec,
                           SpectralSettings, SphereLight, Spectrum)
-from .parse import INTENSITY, IRRADIANCE, RADIANCE, Section, parse_emission, parse_reflectance
+from ...colour import WavelengthGrid, colorchecker_names
 from ...sensor.formats import parse_sensor_format
-from ..spectra import WavelengthGrid
+from .parse import INTENSITY, IRRADIANCE, RADIANCE, Section, parse_emission, parse_reflectance
 from .textures import TEXTURE_KINDS, Texture, load_image_linear
 
 __all__ = ["load_scene", "loads_scene", "resolve_scene_path", "builtin_scenes", "SCENE_UNITS"]
@@ -83,7 +83,7 @@ def load_scene(source: str | Path | None = None) -> Scene:
     """Load a scene file (or a built-in scene by name; ``None`` = the default scene)."""
     path = resolve_scene_path(source)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a UTF-8 BOM is accepted, as in lens files
     except OSError as err:
         raise LensrtError(f"cannot read scene file: {err.strerror}", path=path) from None
     except UnicodeDecodeError as err:
@@ -290,7 +290,6 @@ def _texture(sec: Section, kind: str, w: float, h: float) -> Texture:
         lw = sec.number("line_width", 0.06, lo=0.0, hi=1.0)
         return Texture(kind, (cw, ch, 0.5 * lw * min(cw, ch), 0.0), low, high)
     if kind == "colorchecker":
-        from ..spectra import colorchecker_names
         chart = sec.string("chart", "ColorChecker N Ohta")
         try:
             n_patches = len(colorchecker_names(chart))

@@ -1,6 +1,6 @@
 """The scene model: immutable records that :func:`lensrt.render.scene.load.load_scene` fills in.
 
-Frame and units (README "Scenes"): lengths in mm (converted from the scene
+Frame and units (docs/reference/scene-format.md): lengths in mm (converted from the scene
 file's unit at load), the lens's optical axis is z, light travels toward +z,
 the scene's origin is the vertex of the lens's first surface (in its focused
 position), the scene lies at z < 0, +y is up and +x is to the right as the
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..spectra import WavelengthGrid
+from ...colour import Illuminant, WavelengthGrid
 from .textures import Texture
 
 __all__ = ["Spectrum", "CameraSpec", "SensorSpec", "SpectralSettings", "RenderSettings", "PointLight",
@@ -39,12 +39,16 @@ class Spectrum:
         What it is, for people ("D65 at 1000 cd/m^2").
     line_nm : float or None
         Wavelength of a monochromatic line; ``None`` for continuous spectra.
+    illuminant : Illuminant or None
+        The spectrum's shape as the scene file named it (CIE table, Planck, daylight, line, table):
+        what later stages take (the ISP white-balances for it), never parsed back from ``label``.
     """
 
     values: np.ndarray = field(repr=False)
     unit: str
     label: str
     line_nm: float | None = None
+    illuminant: Illuminant | None = field(default=None, repr=False)
 
     def at(self, grid: WavelengthGrid, wavelength_nm: float | np.ndarray) -> np.ndarray:
         """Value at ``wavelength_nm`` (linear between grid points; a line's value everywhere)."""

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from ...colour import colorchecker_reflectances, integrate, mallett2019_basis
 from ...device import resolve_device, warp
 from ...units import MM_PER_M
 from .model import Scene, Spectrum
-from ..spectra import colorchecker_reflectances, integrate, mallett2019_basis
 from .textures import TEXTURE_KINDS
 
 __all__ = ["PackedScene", "pack_scene", "light_powers_w", "evaluate_radiance", "evaluate_irradiance"]
@@ -94,7 +94,7 @@ def pack_scene(scene: Scene, device: str | None = None) -> PackedScene:
     for p in pl:
         base, w, h = -1, 0, 0
         if p.texture.kind == "colorchecker":
-            cc = colorchecker_reflectances(p.texture.chart, g)
+            cc = colorchecker_reflectances(g, p.texture.chart)
             base = len(rows)
             rows.extend(cc)
             rows.append(cc[23])                      # the frame: the chart's black patch

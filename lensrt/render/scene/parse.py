@@ -3,16 +3,18 @@ from __future__ import annotations
 
 import difflib
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ...errors import LensrtError
+from ...colour import (Illuminant, WavelengthGrid, colorchecker_names, colorchecker_reflectances,
+                       linear_rgb_to_reflectance, lines, parse_illuminant, photopic_v, planck, scale_to_luminous,
+                       srgb_decode, tabulated)
+from ...errors import LensrtDeprecationWarning, LensrtError
 from ...units import LUMINOUS_EFFICACY_LM_PER_W
 from .model import Spectrum
-from ..spectra import (WavelengthGrid, blackbody_radiance, colorchecker_names, colorchecker_reflectances,
-                      illuminant, linear_rgb_to_reflectance, photopic_v, scale_to_luminous, srgb_decode)
 
 __all__ = ["Section", "parse_emission", "parse_reflectance", "parse_spectrum_shape", "RADIANCE", "INTENSITY",
            "IRRADIANCE"]
@@ -162,44 +164,52 @@ def _table_spectrum(sec: Section, key: str, value: dict, grid: WavelengthGrid, h
     return np.interp(grid.nm, wl, vals, left=0.0, right=0.0), label
 
 
-def parse_spectrum_shape(sec: Section, key: str, grid: WavelengthGrid) -> tuple[np.ndarray, str, float | None]:
-    """A relative emission spectrum: ``(values on grid, label, line_nm or None)``.
+def parse_spectrum_shape(sec: Section, key: str, grid: WavelengthGrid) -> Illuminant:
+    """A relative emission spectrum, as the :class:`~lensrt.colour.Illuminant` the stages share.
 
-    Forms: an illuminant name (``"D65"``, ``"A"``, ``"FL2"``/``"F2"``,
-    ``"LED-B3"``, ``"HP1"``, ``"E"``), ``{blackbody_K = 3200}`` (Planck
-    radiance in W/(m^2 sr nm)), ``{gaussian_nm = 589, fwhm_nm = 10}``,
-    ``{line_nm = 532}``, ``{nm = [...], values = [...]}``, ``{file = "x.csv"}``.
+    Forms: the one illuminant syntax of :mod:`lensrt.colour.illuminants` (``"D65"``, ``"A"``,
+    ``"FL2"``/``"F2"``, ``"LED-B3"``, ``"E"``, ``"planck:3200K"`` (Planck radiance in
+    W/(m^2 sr nm)), ``"daylight:5000K"``, ``"lines:532"`` (one line)); ``{gaussian_nm = 589,
+    fwhm_nm = 10}``, ``{line_nm = 532}``, ``{nm = [...], values = [...]}``, ``{file = "x.csv"}``;
+    and, for one release, the old ``{blackbody_K = 3200}`` (a deprecation warning names ``"planck:3200K"``).
     """
     v = sec.raw(key)
     if isinstance(v, str):
         try:
-            return illuminant(v, grid), f"CIE {v}", None
+            ill = parse_illuminant(v)
         except LensrtError as err:
             raise sec.error(err.message, key, err.hint) from None
+        if not ill.continuous and (len(ill.lines_nm) != 1 or not grid.min_nm <= ill.lines_nm[0] <= grid.max_nm):
+            raise sec.error(f"{v!r}: a scene light holds one spectral line, inside the scene's "
+                            f"{grid.min_nm:g}-{grid.max_nm:g} nm", key, "give one line, e.g. lines:532")
+        return ill
     if not isinstance(v, dict):
         raise sec.error(f"must be an illuminant name or a table, not {v!r}", key)
     forms = [k for k in ("blackbody_K", "gaussian_nm", "line_nm", "nm", "file") if k in v]
     if len(forms) != 1:
-        raise sec.error("give exactly one of blackbody_K, gaussian_nm (with fwhm_nm), line_nm, nm/values, file", key)
+        raise sec.error("give exactly one of gaussian_nm (with fwhm_nm), line_nm, nm/values, file, "
+                        "or a name such as \"planck:3200K\"", key)
     form = forms[0]
     inner = Section(v, sec.name, sec.path, sec.line, f"{sec.label} {key}")
     if form == "blackbody_K":
         inner.check_keys({"blackbody_K"})
-        t = inner.number("blackbody_K", lo=100.0, hi=1.0e5)
-        return blackbody_radiance(t, grid), f"blackbody {t:g} K", None
+        ill = planck(inner.number("blackbody_K", lo=100.0, hi=1.0e5))
+        warnings.warn(f"{sec.path or 'scene'}: {sec.label} {key} = {{ blackbody_K = {ill.kelvin:g} }} is an old "
+                      f"spelling (it goes in the next release): write {key} = \"{ill.name}\"",
+                      LensrtDeprecationWarning, stacklevel=2)
+        return ill
     if form == "gaussian_nm":
         inner.check_keys({"gaussian_nm", "fwhm_nm"})
         mu = inner.number("gaussian_nm", lo=grid.min_nm, hi=grid.max_nm)
         fwhm = inner.number("fwhm_nm", positive=True)
         sigma = fwhm / (2.0 * math.sqrt(2.0 * math.log(2.0)))
-        return np.exp(-0.5 * ((grid.nm - mu) / sigma) ** 2), f"gaussian {mu:g} nm, FWHM {fwhm:g} nm", None
+        return tabulated(grid.nm, np.exp(-0.5 * ((grid.nm - mu) / sigma) ** 2), f"gaussian {mu:g} nm, FWHM {fwhm:g} nm")
     if form == "line_nm":
         inner.check_keys({"line_nm"})
-        lam = inner.number("line_nm", lo=grid.min_nm, hi=grid.max_nm)
-        return np.ones(grid.n), f"line {lam:g} nm", lam
+        return lines([inner.number("line_nm", lo=grid.min_nm, hi=grid.max_nm)])
     inner.check_keys({"nm", "values"} if form == "nm" else {"file"})
     vals, label = _table_spectrum(sec, key, v, grid, hold_edges=False)
-    return vals, label, None
+    return tabulated(grid.nm, vals, label)
 
 
 def parse_emission(sec: Section, kind: tuple[str, dict], grid: WavelengthGrid, *,
@@ -222,7 +232,9 @@ def parse_emission(sec: Section, kind: tuple[str, dict], grid: WavelengthGrid, *
     if len(given) != 1:
         raise sec.error(f"give exactly one of {', '.join(keys)}" + (f" (found {', '.join(given)})" if given else ""))
     key = given[0]
-    rel, label, line_nm = parse_spectrum_shape(sec, spectrum_key, grid)
+    shape = parse_spectrum_shape(sec, spectrum_key, grid)
+    label, line_nm = shape.label, (None if shape.continuous else shape.lines_nm[0])
+    rel = shape.values(grid) if line_nm is None else np.ones(grid.n)
     amount = sec.number(key, positive=True)
     if key == "flux_lm":
         photometric = amount / (math.pi * flux_area_m2) if flux_area_m2 is not None else amount / flux_solid_angle_sr
@@ -240,7 +252,7 @@ def parse_emission(sec: Section, kind: tuple[str, dict], grid: WavelengthGrid, *
                 raise sec.error(f"a line at {line_nm:g} nm is invisible (V = 0), so {key} cannot set its power",
                                 key, "use a *_scale key")
             amount = photometric / (LUMINOUS_EFFICACY_LM_PER_W * v)
-        return Spectrum(np.full(grid.n, amount), unit, text, line_nm)
+        return Spectrum(np.full(grid.n, amount), unit, text, line_nm, shape)
     if photometric is not None:
         try:
             values = scale_to_luminous(rel, photometric, grid, f"{sec.label} {spectrum_key}")
@@ -250,7 +262,7 @@ def parse_emission(sec: Section, kind: tuple[str, dict], grid: WavelengthGrid, *
             text += f" ({photometric:.4g} {pname})"
     else:
         values = rel * amount
-    return Spectrum(values, unit, text)
+    return Spectrum(values, unit, text, illuminant=shape)
 
 
 def parse_reflectance(sec: Section, key: str, grid: WavelengthGrid) -> Spectrum:
@@ -284,7 +296,7 @@ def parse_reflectance(sec: Section, key: str, grid: WavelengthGrid) -> Spectrum:
         else:
             raise inner.error(f"{patch!r} is not a patch number 1-{len(names)} or a name", "colorchecker",
                               "patch names: " + ", ".join(names))
-        return Spectrum(colorchecker_reflectances(chart, grid)[idx], "1", f"{chart} {names[idx]!r}")
+        return Spectrum(colorchecker_reflectances(grid, chart)[idx], "1", f"{chart} {names[idx]!r}")
     if "srgb" in v or "linear_rgb" in v:
         which = "srgb" if "srgb" in v else "linear_rgb"
         inner.check_keys({which})

@@ -9,6 +9,7 @@ multiplies the plane's emission spectrum (white = 1).
 Procedural kinds (levels ``low``/``high`` are spectrally flat factors that
 multiply the plane's ``tint`` spectrum):
 
+================  ==============================================================
 ``uniform``        everywhere ``high`` (1 by default; the tint is the reflectance)
 ``slanted_edge``   ISO 12233 e-SFR style: a dark square (``low``) of side
                    ``square`` x the shorter plane side, rotated by ``angle_deg``
@@ -23,6 +24,7 @@ multiply the plane's ``tint`` spectrum):
                    chart's black patch as frame
 ``image``          a PNG/JPEG (PIL), sRGB-decoded to linear RGB and turned into
                    reflectance by the Mallett-Yuksel (2019) basis; bilinear
+================  ==============================================================
 """
 from __future__ import annotations
 
@@ -32,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ...colour import WavelengthGrid, colorchecker_reflectances, mallett2019_basis, srgb_decode
 from ...errors import LensrtError
-from ..spectra import WavelengthGrid, colorchecker_reflectances, mallett2019_basis, srgb_decode
 
 __all__ = ["TEXTURE_KINDS", "TEX_UNIFORM", "TEX_SLANTED_EDGE", "TEX_SIEMENS_STAR", "TEX_GRID",
            "TEX_COLORCHECKER", "TEX_IMAGE", "Texture", "load_image_linear", "pattern_level",
@@ -178,8 +180,8 @@ def texture_value_ref(tex: Texture, size_mm: tuple[float, float], s_mm: np.ndarr
     t = np.asarray(t_mm, dtype=np.float64)
     lam = np.asarray(wavelength_nm, dtype=np.float64)
     if tex.kind == "colorchecker":
-        table = np.vstack([colorchecker_reflectances(tex.chart, grid),
-                           colorchecker_reflectances(tex.chart, grid)[23:24]])
+        table = np.vstack([colorchecker_reflectances(grid, tex.chart),
+                           colorchecker_reflectances(grid, tex.chart)[23:24]])
         idx = _colorchecker_index(tex, s, t)
         return np.array([np.interp(lv, grid.nm, table[i]) for i, lv in
                          zip(np.ravel(idx), np.ravel(np.broadcast_to(lam, idx.shape)))]).reshape(idx.shape)

@@ -87,6 +87,29 @@ def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+def plot_through_focus_spots(path: str | Path, spots, title: str = "") -> Path:
+    """A row of spot diagrams (``lensrt.analysis.psf.focus_spots.FocusSpots``), one per focus shift, on one um
+    scale, each with its RMS radius about its centroid; wavelengths in colour."""
+    k = len(spots.focus_mm)
+    fig = new_figure(min(2.0 * k + 0.6, 18.0), 2.6)
+    axes = np.atleast_1d(fig.subplots(1, k, sharex=True, sharey=True))
+    lim = max(float(np.max(np.abs(np.concatenate([np.concatenate(x) for x in spots.x_mm] +
+                                                   [np.concatenate(y) for y in spots.y_mm])))), 1e-6) * UM_PER_MM
+    for i, ax in enumerate(axes):
+        for j, wl in enumerate(spots.wavelengths_nm):
+            ax.scatter(spots.x_mm[i][j] * UM_PER_MM, spots.y_mm[i][j] * UM_PER_MM, s=0.5, color=f"C{j % 10}",
+                       label=f"{wl:g} nm" if i == 0 else None)
+        ax.set(xlim=(-lim, lim), ylim=(-lim, lim), aspect="equal")
+        ax.set_title(f"{spots.focus_mm[i] * UM_PER_MM:+.0f} um\nRMS {spots.rms_radius_mm[i] * UM_PER_MM:.3g} um",
+                     fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0].set_ylabel("y about centroid (um)", fontsize=8)
+    if len(spots.wavelengths_nm) > 1:
+        axes[0].legend(fontsize=6, markerscale=8, loc="lower left")
+    fig.suptitle(title or f"Through-focus spot diagrams, {spots.label}", fontsize=9)
+    return save_figure(fig, path)
+
+
 def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> None:
     g = result.grid
     l, r, b, t = g.extent_mm

@@ -118,3 +118,42 @@ def test_relative_illumination_json_and_bad_input():
     from lensrt.errors import LensrtError
     with pytest.raises(LensrtError):
         vignetting(lens, object_values=[-0.1], rays=1 << 10, device="cpu")
+
+
+def test_stop_only_pupil_respects_element_rims():
+    """The Cooke triplet does not vignette with its computed clear apertures (a deterministic 801 x 801 grid
+    gives the same pupil area with every aperture as with the stop alone), so the unvignetted fraction is 1
+    within its error at every field -- with a stop-only lens that keeps each element's physical rim. Its
+    front element's faces meet at 11.3 mm: a stop-only pupil without that rim let rays through at 20 mm."""
+    from lensrt.analysis.compare.pupils import physical_rim_mm
+    from lensrt.analysis.raysets import object_field_point
+    from lensrt.trace.pupil_boxes import pupil_box
+    lens = library_lens("cooke_triplet_50mm_f5")
+    rim = physical_rim_mm(lens, 0)
+    a, b = lens.surfaces[0], lens.surfaces[1]
+    assert a.thickness_mm + b.sag(rim) - a.sag(rim) == pytest.approx(0.0, abs=2e-6)   # the two faces meet there
+    assert 11.0 < rim < 11.6
+    v = vignetting(lens, [0.1, 0.4, 1.0], rays=1 << 15, exit_pupil=False, device="cpu")
+    for frac in v.vignetting_fraction:
+        assert abs(frac.value - 1.0) < 3.0 * frac.stderr + 2e-4, frac
+    # the Monte Carlo box of the stop-only pupil stays close to the pupil (was 895 mm^2 for a 79 mm^2 pupil)
+    stop_lens = stop_only_lens(lens)
+    for theta, area in zip(v.object_value, v.stop_pupil_area):
+        box = pupil_box(stop_lens, object_field_point(stop_lens, float(theta)), device="cpu")
+        assert box.area_mm2 <= 1.5 * area.value, (theta, box.area_mm2, area.value)
+
+
+
+def test_relative_illumination_methods_are_flagged_where_they_part():
+    """On the f/1.4 Petzval at 7 deg the exit-pupil method (valid only where a field's rays meet in a point)
+    gives 0.937 against the flux method's 0.964 +- 0.001: the comparison flags it and says which to read; on
+    the thin f/100 lens (cos^4) the two agree and nothing is flagged."""
+    lens = library_lens("petzval_51mm_f1.4")
+    v = vignetting(lens, object_values=[math.radians(7.0)], rays=1 << 14, device="cpu")
+    flux, xp = v.relative_illumination[0], v.relative_illumination_exit_pupil[0]
+    assert abs(flux.value - xp) > 10 * flux.stderr
+    assert v.ri_methods_agree == [False]
+    assert "7.00 deg" in v.ri_disagreement_note() and "flux" in v.ri_disagreement_note()
+    assert v.to_dict()["relative_illumination_methods_agree"] == [False]
+    good = vignetting(thin_lens(), object_values=[math.radians(20.0)], rays=1 << 14, device="cpu")
+    assert good.ri_methods_agree == [True] and good.ri_disagreement_note() is None

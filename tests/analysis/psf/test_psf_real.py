@@ -295,3 +295,19 @@ def test_small_fresnel_number_uses_huygens_and_still_gives_the_airy_pattern():
     x, y = r.grid.mesh_mm()
     ref = mtf.airy_psf(np.hypot(x - r.reference_mm[0], y - r.reference_mm[1]), WL, n_w)
     assert np.max(np.abs(r.psf - ref)) < 0.01 * ref.max()
+
+
+def test_through_focus_spots_follow_a_pure_defocus():
+    """The stigmatic plano-hyperbolic lens on axis: a ray of slope t lands dz t from the focus, so the RMS
+    radius about the centroid is |dz| times the RMS slope of the pupil's rays -- linear, zero at focus."""
+    from pathlib import Path
+    from lensrt.analysis.fields import FieldSpec
+    from lensrt.analysis.psf.focus_spots import through_focus_spots
+    from lensrt.loading import load_lens
+    lens = load_lens(Path(__file__).resolve().parents[2] / "data" / "plano_hyperbolic_f5.toml")
+    setup = make_setup(lens, focus="paraxial", device="cpu")
+    sp = through_focus_spots(setup, FieldSpec(0.0, 0.0, "axis"), [-0.2, -0.1, 0.0, 0.1, 0.2], device="cpu")
+    assert sp.rms_radius_mm[2] < 1e-9
+    assert sp.rms_radius_mm[1] == pytest.approx(0.5 * sp.rms_radius_mm[0], rel=1e-6)
+    assert sp.rms_radius_mm[3] == pytest.approx(sp.rms_radius_mm[1], rel=1e-6)
+    assert np.allclose(sp.centroid_mm, 0.0, atol=1e-12)

@@ -242,3 +242,76 @@ def test_bad_pupils_are_refused():
         PupilFunction(np.ones((8, 8)), np.zeros((8, 9)), LAM, NW)
     with pytest.raises(LensrtError):
         PupilFunction(np.ones((8, 8)), np.full((8, 8), np.nan), LAM, NW)
+
+
+def test_clear_pupil_otf_is_the_closed_form_with_a_hard_edge():
+    """The pupil autocorrelation of a clear circle against 2/pi (acos x - x sqrt(1 - x^2)): within 0.001 with
+    the hard, supersampled edge; the soft (anti-aliased) edge alone apodises and lifts the MTF (+0.004)."""
+    from lensrt.analysis.psf.diffraction import pupil_mtf_function
+    from lensrt.analysis.wave.pupil_grid import aperture_fine_mask
+    n = 128
+    mask = circular_aperture(n)
+    fine = aperture_fine_mask(n, lambda x, y: np.hypot(x, y) <= 1.0, 2)   # 256 sub-cells a side, as traced pupils
+    hard = PupilFunction.from_waves(mask, np.zeros((n, n)), LAM, NW, intensity=mask, fine_mask=fine)
+    soft = clear_pupil(n)
+    f = np.linspace(0.0, 1.0, 41)[:-1] / LAM_NW_MM
+    want = M.diffraction_mtf(f, LAM, NW)
+    for angle in (0.0, 0.7, 0.5 * math.pi):
+        got = pupil_mtf_function([hard], [1.0], 4, (0.0, 0.0))(f, angle)
+        assert np.abs(got - want).max() < 1e-3
+    lifted = pupil_mtf_function([soft], [1.0], 4, (0.0, 0.0))(f, 0.0) - want
+    assert lifted[4] > 2e-3    # what the hard edge removes: the soft edge's apodisation at 0.1 of the cutoff
+
+
+@pytest.mark.parametrize("method", ["fft", pytest.param("huygens", marks=pytest.mark.slow)])
+def test_diffraction_limited_lens_mtf_never_exceeds_the_limit(method):
+    """A diffraction-limited f/40 singlet on axis at best focus (lensrt mtf --method diffraction): the lens MTF
+    stays within 0.002 of the diffraction limit from above, by pupil autocorrelation (FFT/MFT) and by the
+    Huygens window (normalised by the power that entered the pupil, not by the window's sum)."""
+    from lensrt.analysis.fields import FieldSpec
+    from lensrt.analysis.psf.diffraction import diffraction_psf_at
+    from lensrt.analysis.psf.mtf_curves import mtf_curves
+    from lensrt.analysis.psf.setup import make_setup
+    from lensrt.loading import complete_lens
+    from lensrt.prescription.formats.native import loads_native
+    lens = complete_lens(loads_native(F40_SINGLET))
+    freqs = tuple(float(v) for v in np.linspace(0.0, 200.0, 52))   # lensrt mtf's default axis (2 x Nyquist)
+    setup = make_setup(lens, focus="best", method="diffraction", device="cpu", mtf_curve_cpmm=freqs,
+                       max_pitch_um=0.45e3 / 200.0)
+    axis = FieldSpec(0.0, 0.0, "axis")
+    if method == "huygens":
+        setup = setup.with_(pixels=48)
+    r = diffraction_psf_at(setup, axis, "cpu", method=method)
+    c = mtf_curves(r, lens)
+    lim = np.asarray(c["diffraction_limit"])
+    for key in ("lens_sagittal", "lens_tangential"):
+        v = np.asarray(c[key], dtype=np.float64)
+        ok = np.isfinite(v)
+        assert ok.sum() > 10
+        assert np.max(v[ok] - lim[ok]) <= 2e-3, (method, key, np.max(v[ok] - lim[ok]))
+
+
+F40_SINGLET = """
+[lens]
+name = "Plano-convex f/40 (diffraction limited on axis)"
+[system]
+object_distance_mm = inf
+[aperture]
+type = "epd"
+value = 2.5
+[fields]
+type = "angle"
+y = [0.0, 0.5]
+[wavelengths]
+nm = [587.6]
+primary_nm = 587.6
+[[surface]]
+radius_mm = 51.68
+thickness_mm = 3.0
+material = { index = 1.5168 }
+stop = true
+[[surface]]
+radius_mm = inf
+thickness_mm = 98.0
+material = "air"
+"""

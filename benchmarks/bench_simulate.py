@@ -1,0 +1,68 @@
+"""Speed of ``lensrt simulate``: a picture with a depth map through the 50 mm f/2 double Gauss.
+
+Runs the simulation twice -- cold (PSF grid and optics traced, then cached) and warm (from the
+cache) -- and prints the seconds of each stage and the rate in megapixels per second of the
+warm run (what a second picture with the same lens, focus, aperture and depth layers costs).
+The issue's target is a 12 MP image with 8 depth layers on a GPU; on the CPU the default is
+smaller (``--pixels``).
+
+    python benchmarks/bench_simulate.py [--pixels 640x480] [--layers 8] [--bands 4] [--grid 5x7]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import tempfile
+import time
+
+import numpy as np
+
+
+def scene(rows: int, cols: int, layers: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A textured picture and a depth map of ``layers`` vertical slabs from 0.8 m to 20 m."""
+    from scipy.ndimage import gaussian_filter
+    rng = np.random.default_rng(seed)
+    img = np.clip(gaussian_filter(rng.random((rows, cols, 3)), (1.5, 1.5, 0)) * 1.6 - 0.3, 0, 1).astype(np.float32)
+    depth = np.empty((rows, cols))
+    edges = np.linspace(0, cols, layers + 1).astype(int)
+    for k, d in enumerate(np.geomspace(0.8, 20.0, layers)):
+        depth[:, edges[k]:edges[k + 1]] = d
+    return img, depth
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pixels", default="640x480")
+    ap.add_argument("--layers", type=int, default=8)
+    ap.add_argument("--bands", type=int, default=4)
+    ap.add_argument("--grid", default="5x7")
+    ap.add_argument("--rays", type=int, default=1 << 14)
+    ap.add_argument("--sensor", default="24x18")
+    ap.add_argument("--device", default="cpu")
+    args = ap.parse_args()
+    from lensrt import load_lens
+    from lensrt.simulate.pipeline import SimulateOptions, simulate
+    cols, rows = (int(v) for v in args.pixels.split("x"))
+    gr, gc = (int(v) for v in args.grid.split("x"))
+    img, depth = scene(rows, cols, args.layers)
+    lens = load_lens("dgauss_50mm_f2")
+    with tempfile.TemporaryDirectory() as cache:
+        opts = SimulateOptions(sensor=args.sensor, focus_m=2.0, bands=args.bands, layers=args.layers, grid=(gr, gc),
+                               rays=args.rays, cache_dir=cache, device=args.device)
+        runs = {}
+        for name in ("cold", "warm"):
+            t0 = time.perf_counter()
+            sim = simulate(img, lens, depth, opts)
+            runs[name] = {"wall_s": time.perf_counter() - t0, **{k: round(v, 3) for k, v in sim.seconds.items()}}
+    mp = rows * cols / 1e6
+    out = {"machine": platform.processor() or platform.machine(), "device": args.device, "pixels": [cols, rows],
+           "megapixels": mp, "layers": len(sim.layers), "bands": args.bands, "grid": [gr, gc],
+           "rays_per_psf": args.rays, "psf_px": [int(p.shape[-1]) for p in sim.psf_grid.psf], "runs": runs,
+           "warm_megapixels_per_s": mp / runs["warm"]["wall_s"],
+           "warm_convolution_megapixels_per_s": mp / runs["warm"]["convolution"]}
+    print(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,210 @@
+"""``simulate``: an image (and its depth map) through a real lens onto the sensor plane.
+
+Order (each step in its module): read the image as linear sRGB (:mod:`.inputs`);
+bands of the Mallett-Yuksel spectrum (:mod:`.spectral`); the camera -- focus,
+f-number, pixel frame (:mod:`.optics`); depth layers and, per layer, the real
+chief-ray mapping and relative illumination (:mod:`.optics`); the PSF grid per
+layer and band (:mod:`.psf_grid`, cached); per layer the warp (:mod:`.compose`);
+per band the blurred layers composited back to front (:mod:`.compose`,
+:mod:`.convolve`); XYZ -> linear sRGB. The output is *relative* sensor-plane
+irradiance: a white (1, 1, 1) input on the axis, in focus, gives 1 (absolute:
+times ``Simulation.reference_gain_sr`` x the scene's white radiance, see :mod:`.optics`).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.model import Lens
+from .compose import assign_layers, composite_layers, layer_depths_mm, warp_layer
+from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
+from .psf_grid import cache_dir
+from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
+from .spectral import Bands, make_bands, round_trip_matrix
+
+__all__ = ["SimulateOptions", "Simulation", "simulate", "memory_bytes", "memory_limit_bytes", "MEMORY_LIMIT_BYTES"]
+
+#: working memory a simulation may take where the machine's memory cannot be read (bytes)
+MEMORY_LIMIT_BYTES = 8 << 30
+
+
+def memory_limit_bytes() -> int:
+    """Working memory a simulation may take: 60 % of the machine's physical memory (else
+    :data:`MEMORY_LIMIT_BYTES`); beyond it, one clear error."""
+    import os
+    try:
+        return int(0.6 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return MEMORY_LIMIT_BYTES
+
+
+@dataclass(frozen=True)
+class SimulateOptions:
+    """Settings of a simulation (lengths in the unit their names say)."""
+
+    sensor: str = "full-frame"
+    focus_m: float = math.inf
+    f_number: float | None = None
+    bands: int = 4
+    layers: int = 8
+    grid: tuple[int, int] = (5, 7)
+    rays: int = 1 << 15
+    ri_rays: int = 1 << 16
+    seed: int = 0
+    cache_dir: str | None = None
+    use_cache: bool = True
+    device: str | None = None
+
+
+@dataclass
+class Simulation:
+    """The simulated image and how it was made.
+
+    ``rgb`` (H, W, 3) linear sRGB of the relative sensor irradiance; ``coefficients`` (K, H, W, 3) the blurred
+    Mallett-Yuksel coefficients per band (the spectrum, :func:`lensrt.simulate.spectral.spectral_basis`);
+    ``y_stderr`` (H, W) the standard error of Y from the PSFs' Monte Carlo rays.
+    """
+
+    rgb: np.ndarray
+    coefficients: np.ndarray
+    y_stderr: np.ndarray
+    camera: Camera
+    bands: Bands
+    layers: list
+    psf_grid: PsfGrid
+    seconds: dict
+    notes: list = field(default_factory=list)
+    depth_error_per_m: float = 0.0
+    outside_fraction: float = 0.0
+
+    #: on-axis gain (sr) at the focus distance: the output's unit (absolute irradiance = rgb x this x radiance)
+    reference_gain_sr: float = 0.0
+
+    def errors(self) -> dict:
+        """The error estimates of the sidecar."""
+        y = self.rgb @ np.array([0.2126, 0.7152, 0.0722])
+        lit = y > 0.05 * max(float(np.percentile(y, 99)), 1e-30)
+        rel = self.y_stderr[lit] / np.maximum(y[lit], 1e-30)
+        checks = self.psf_grid.checks
+        return {
+            "psf_monte_carlo": {
+                "what": "per-pixel standard error of Y from the rays behind each PSF (ray-sampling variance of the "
+                        "PSF-weighted mean, propagated through the compositing; an upper bound for Sobol' rays)",
+                "rel_stderr_rms_lit": float(np.sqrt(np.mean(rel ** 2))) if rel.size else 0.0,
+                "rel_stderr_max_lit": float(rel.max()) if rel.size else 0.0,
+                "rays_per_psf": self.psf_grid.rays, "rays_landed_min": int(self.psf_grid.rays_landed.min()),
+                "off_window_max": float(self.psf_grid.off_window.max())},
+            "interpolation": {
+                "what": "bilinear blend of the 4 node PSFs against a PSF traced directly at cell centres: total-"
+                        "variation distance (fraction of the light misplaced); 'direct_vs_direct' is the Monte Carlo "
+                        "floor of two independent direct PSFs",
+                "checks": checks,
+                "tv_max": max((c["tv_interpolated_vs_direct"] for c in checks), default=None),
+                "tv_excess_max": max((max(0.0, c["tv_interpolated_vs_direct"] - c["tv_direct_vs_direct"])
+                                      for c in checks), default=None)},
+            "relative_illumination_stderr_max": float(max(float(o.ri_stderr.max()) for o in self.layers)),
+            "depth_quantisation_max_per_m": self.depth_error_per_m,
+            "spectral_round_trip_max": float(np.abs(round_trip_matrix(self.bands) - np.eye(3)).max()),
+            "pixels_beyond_input_frame": self.outside_fraction,
+        }
+
+    def to_dict(self) -> dict:
+        return {"camera": self.camera.to_dict(), "bands": self.bands.to_dict(),
+                "reference_gain_sr": self.reference_gain_sr,
+                "layers": [o.to_dict() for o in self.layers], "psf_grid": self.psf_grid.summary(),
+                "seconds": self.seconds, "errors": self.errors(), "notes": self.notes,
+                "scheme": {"convolution": "source-side bilinear interpolation of node PSFs (Nagy & O'Leary 1998), "
+                                          "FFT per node tile", "occlusion": "layers blurred premultiplied and "
+                                          "composited back to front with 'over', renormalised by the coverage "
+                                          "(Kraus & Strengert 2007; Lee et al. 2010)",
+                           "spectrum": "Mallett & Yuksel 2019 basis x D65, one PSF per band"}}
+
+
+def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
+    """Working memory of a simulation of ``shape`` (bytes; float32: 4 channels per layer, the all-band blur,
+    compositing accumulators and temporaries, 18 channels per band, and float64 warp temporaries)."""
+    return int(shape[0] * shape[1] * 4 * (4 * layers + 18 * bands + 32))
+
+
+def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
+    """(layer depths mm far first, layer index image or None, dioptre error)."""
+    if depth_m is None:
+        d = cam.focus.distance_mm
+        return np.array([d if math.isfinite(d) else far_depth_mm(cam.lens)]), None, 0.0
+    depths = layer_depths_mm(depth_m, n_layers)
+    idx, err = assign_layers(depth_m, depths)
+    return depths, idx, err
+
+
+def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
+             options: SimulateOptions = SimulateOptions()) -> Simulation:
+    """Simulate ``image`` (H, W, 3 linear sRGB, pinhole view) through ``lens`` (module docstring)."""
+    t0 = time.perf_counter()
+    shape = image.shape[:2]
+    need = memory_bytes(shape, options.bands, options.layers if depth_m is not None else 1)
+    limit = memory_limit_bytes()
+    if need > limit:
+        raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {need / 2**30:.1f} GiB of working memory, "
+                          f"more than the {limit / 2**30:.1f} GiB allowed (60 % of this machine's)",
+                          hint="use a smaller image, fewer --bands or fewer --layers")
+    if depth_m is not None and depth_m.shape != shape:
+        raise LensrtError(f"the depth map is {depth_m.shape[1]} x {depth_m.shape[0]}, the image {shape[1]} x {shape[0]}")
+    bands = make_bands(options.bands)
+    cam = make_camera(lens, shape, options.sensor, options.focus_m, options.f_number, options.device)
+    depths, idx, derr = _depth_plan(cam, depth_m, options.layers)
+    f_pin = pinhole_focal_mm(cam)
+    where = cache_dir(options.cache_dir) if options.use_cache else None
+    optics = [cached_layer_optics(cam, float(d), f_pin, options.ri_rays, options.seed, where) for d in depths]
+    ref = _reference_gain(cam, optics, depths, f_pin, options, where)
+    t1 = time.perf_counter()
+    grid = compute_psf_grid(cam, bands, depths, options.grid, options.rays, options.seed, options.cache_dir,
+                            options.use_cache)
+    t2 = time.perf_counter()
+    sharp, outside = [], 0.0
+    for li, opt in enumerate(optics):
+        mask = None if idx is None else (idx == li)
+        s, a, out = warp_layer(cam, opt, image, mask, opt.axis_gain_sr / ref)
+        sharp.append((s, a))
+        outside = max(outside, out)
+    wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
+    psfs = [grid.psf[li] for li in range(len(depths))]
+    rays = grid.rays_landed.reshape(len(depths), bands.count, -1).mean(axis=2).astype(np.float64)
+    coef, var_y = composite_layers(sharp, psfs, bands.xyz_matrix[:, 1, :], rays, wr, wc, grid.node_rows,
+                                   grid.node_cols)
+    coef = coef.astype(np.float32)
+    from ..colour import xyz_to_linear_srgb
+    xyz = np.einsum("bkc,bhwc->hwk", bands.xyz_matrix, coef.astype(np.float64))
+    rgb = xyz_to_linear_srgb(xyz).astype(np.float32)
+    t3 = time.perf_counter()
+    sim = Simulation(rgb, coef, np.sqrt(var_y).astype(np.float32), cam, bands, optics, grid,
+                     {"optics": t1 - t0, "psf_grid": t2 - t1, "convolution": t3 - t2, "total": t3 - t0},
+                     [], derr, outside)
+    sim.reference_gain_sr = ref
+    sim.notes += _notes(cam, depths, derr, grid)
+    return sim
+
+
+def _reference_gain(cam: Camera, optics: list[LayerOptics], depths: np.ndarray, f_pin: float,
+                    options: SimulateOptions, where) -> float:
+    """The on-axis gain (sr) at the focus distance: the output's unit (white in focus on the axis = 1)."""
+    fd = cam.focus.distance_mm if math.isfinite(cam.focus.distance_mm) else far_depth_mm(cam.lens)
+    for d, o in zip(depths, optics):
+        if abs(d - fd) <= 1e-9 * fd:
+            return o.axis_gain_sr
+    return cached_layer_optics(cam, float(fd), f_pin, options.ri_rays, options.seed, where).axis_gain_sr
+
+
+def _notes(cam: Camera, depths: np.ndarray, derr: float, grid: PsfGrid) -> list[str]:
+    notes = []
+    if grid.off_window.max() > 0.01:
+        notes.append(f"up to {100 * grid.off_window.max():.1f} % of a PSF's light fell outside its "
+                     f"{grid.psf[0].shape[-1]}-pixel window (cut)")
+    if derr > 0:
+        notes.append(f"depths quantised to {len(depths)} layers: at most {derr:.3g} 1/m from a pixel's depth")
+    notes.append("one PSF per band (its centroid wavelength); relative illumination at the primary wavelength")
+    return notes

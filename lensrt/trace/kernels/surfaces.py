@@ -1,0 +1,375 @@
+"""Warp ``@wp.func`` surface code: index, intersection, apertures, refraction, the trace loop.
+
+One generic source serves float32 and float64 (Warp generics: ``typing.Any`` arguments, the
+scalar type of a constant taken from an argument, ``type(x)(0.5)``); Warp instantiates each
+function for the precision of the kernel that calls it (:mod:`.generic`). The mathematics is
+that of :mod:`lensrt.trace.reference` (read it there; the comments here only mark the steps),
+in the vertex frame of each surface and in the cancellation-free forms, so that nearly flat
+surfaces and long transfers keep their digits in float32.
+
+Packed data (:mod:`lensrt.trace.pack`): ``surf`` rows per surface (and one for the image
+surface), ``media`` rows per medium, ``iris`` the stop's shape.
+"""
+# No ``from __future__ import annotations`` here: Warp reads the annotations as objects.
+
+from typing import Any
+
+import warp as wp
+
+from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
+                    IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_KIND, S_KP1, S_NASPH, S_SD2,
+                    S_THICK)
+from ..reference import NEWTON_MAX_ITER
+from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
+from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
+
+__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "inside_iris",
+           "trace_ray", "write_ray"]
+
+wp.set_module_options({"enable_backward": False})
+
+
+# the Newton step that ends the iteration on an aspheric sag, per precision (overloads by type)
+@wp.func
+def newton_tol_mm(x: wp.float64) -> wp.float64:
+    return wp.float64(NEWTON_TOL_F64_MM)
+
+
+@wp.func
+def newton_tol_mm(x: wp.float32) -> wp.float32:  # noqa: F811 -- a Warp overload
+    return wp.float32(NEWTON_TOL_F32_MM)
+
+
+@wp.func
+def medium_index(media: wp.array2d(dtype=Any), m: int, w2: Any):
+    # general dispersion formula of materials.index_from_packed; w2 = wavelength^2 in um^2
+    if media[m, 0] == type(w2)(MEDIUM_CONSTANT):
+        return media[m, 1]
+    n2 = media[m, 1] + w2 * (media[m, 2] + w2 * media[m, 3])
+    inv = type(w2)(1.0) / w2
+    acc = inv
+    for k in range(6):
+        n2 = n2 + media[m, 4 + k] * acc
+        acc = acc * inv
+    for j in range(3):
+        b = media[m, 10 + j]
+        if b != type(w2)(0.0):
+            n2 = n2 + b * w2 / (w2 - media[m, 13 + j])
+    if n2 > type(w2)(0.0):
+        return wp.sqrt(n2)
+    return type(w2)(-1.0)
+
+
+@wp.func
+def conic_t(c: Any, kp1: Any, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
+    # roots t1 = F / q, t2 = q / A with q = B + sign(B) sqrt(B^2 - A F); the vertex-branch one
+    # (1 - c (1 + k) z > 0); when both are, the one where the ray crosses toward the surface's
+    # +z side (d . n = sign(B) sqrt(disc) at t1: t1 when B >= 0); ok = 0 when there is none
+    F = c * (x * x + y * y) + c * kp1 * z * z - type(c)(2.0) * z
+    B = N - c * (x * L + y * M + kp1 * z * N)
+    A = c * (L * L + M * M + kp1 * N * N)
+    disc = B * B - A * F
+    t = type(c)(0.0)
+    ok = int(0)
+    if disc >= type(c)(0.0):
+        root = wp.sqrt(disc)
+        q = B + root
+        if B < type(c)(0.0):
+            q = B - root
+        ok1 = int(0)
+        t1 = type(c)(0.0)
+        if q != type(c)(0.0):
+            t1 = F / q
+            if c * kp1 * (z + t1 * N) < type(c)(1.0):
+                ok1 = int(1)
+        ok2 = int(0)
+        t2 = type(c)(0.0)
+        if A != type(c)(0.0):
+            t2 = q / A
+            if c * kp1 * (z + t2 * N) < type(c)(1.0):
+                ok2 = int(1)
+        if ok1 != 0 and (ok2 == 0 or B >= type(c)(0.0)):
+            t = t1
+            ok = int(1)
+        elif ok2 != 0:
+            t = t2
+            ok = int(1)
+    return ok, t
+
+
+@wp.func
+def sag_slope(surf: wp.array2d(dtype=Any), i: int, c: Any, kp1: Any, r2: Any):
+    # sag z(r) and dz/d(r^2); ok = 0 beyond the conic's extent
+    q = type(c)(1.0) - kp1 * c * c * r2
+    sag = type(c)(0.0)
+    slope = type(c)(0.0)
+    ok = int(0)
+    if q > type(c)(0.0):
+        root = wp.sqrt(q)
+        sag = c * r2 / (type(c)(1.0) + root)
+        slope = c / (type(c)(2.0) * root)
+        nasph = int(surf[i, S_NASPH])
+        poly = type(c)(0.0)
+        dpoly = type(c)(0.0)
+        for jj in range(nasph):
+            j = nasph - 1 - jj
+            a = surf[i, S_ASPH + j]
+            poly = poly * r2 + a
+            dpoly = dpoly * r2 + type(c)(j + 1) * a
+        sag = sag + poly * r2
+        slope = slope + dpoly
+        ok = int(1)
+    return ok, sag, slope
+
+
+@wp.func
+def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
+    # returns status, t, unit normal (nx, ny, nz) toward +z
+    c = surf[i, S_C]
+    kp1 = surf[i, S_KP1]
+    kind = int(surf[i, S_KIND])
+    status = int(OK)
+    t = type(x)(0.0)
+    nx = type(x)(0.0)
+    ny = type(x)(0.0)
+    nz = type(x)(1.0)
+    if kind < 2:
+        ok, t = conic_t(c, kp1, x, y, z, L, M, N)
+        if ok == 0:
+            status = int(MISSED)
+        else:
+            px = x + t * L
+            py = y + t * M
+            pz = z + t * N
+            nx = -c * px
+            ny = -c * py
+            nz = type(x)(1.0) - c * kp1 * pz
+    else:
+        ok, t = conic_t(c, kp1, x, y, z, L, M, N)
+        if ok == 0:
+            if N == type(x)(0.0):
+                status = int(MISSED)
+            else:
+                t = -z / N
+        converged = int(0)
+        it = int(0)
+        while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
+            px = x + t * L
+            py = y + t * M
+            pz = z + t * N
+            oks, sag, slope = sag_slope(surf, i, c, kp1, px * px + py * py)
+            if oks == 0:
+                status = int(MISSED)
+            else:
+                df = N - type(x)(2.0) * slope * (px * L + py * M)
+                if df == type(x)(0.0):
+                    status = int(NO_CONVERGE)
+                else:
+                    dt = (pz - sag) / df
+                    t = t - dt
+                    if wp.abs(dt) <= newton_tol_mm(x):
+                        converged = int(1)
+            it = it + 1
+        if status == int(OK):
+            if converged == 0:
+                status = int(NO_CONVERGE)
+            else:
+                px = x + t * L
+                py = y + t * M
+                oks, sag, slope = sag_slope(surf, i, c, kp1, px * px + py * py)
+                if oks == 0:
+                    status = int(MISSED)
+                nx = type(x)(-2.0) * slope * px
+                ny = type(x)(-2.0) * slope * py
+                nz = type(x)(1.0)
+    inv = type(x)(1.0) / wp.sqrt(nx * nx + ny * ny + nz * nz)
+    return status, t, nx * inv, ny * inv, nz * inv
+
+
+@wp.func
+def refract(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, n1: Any, n2: Any, angles: int):
+    # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when
+    # asked), min(cos I, cos I') (near 90 deg either way the ray is ill-conditioned)
+    cos_i = L * nx + M * ny + N * nz
+    sx = nx
+    sy = ny
+    sz = nz
+    if cos_i < type(L)(0.0):
+        sx = -nx
+        sy = -ny
+        sz = -nz
+        cos_i = -cos_i
+    mu = n1 / n2
+    k = type(L)(1.0) - mu * mu * (type(L)(1.0) - cos_i * cos_i)
+    status = int(OK)
+    L2 = L
+    M2 = M
+    N2 = N
+    ang_i = type(L)(0.0)
+    ang_r = type(L)(0.0)
+    sin_i = type(L)(0.0)
+    if angles != 0:
+        cx = M * sz - N * sy
+        cy = N * sx - L * sz
+        cz = L * sy - M * sx
+        sin_i = wp.sqrt(cx * cx + cy * cy + cz * cz)
+        ang_i = wp.atan2(sin_i, cos_i)
+    cos_min = cos_i
+    if k < type(L)(0.0):
+        status = int(TIR)
+    else:
+        cos_r = wp.sqrt(k)
+        cos_min = wp.min(cos_i, cos_r)
+        g = cos_r - mu * cos_i
+        L2 = mu * L + g * sx
+        M2 = mu * M + g * sy
+        N2 = mu * N + g * sz
+        inv = type(L)(1.0) / wp.sqrt(L2 * L2 + M2 * M2 + N2 * N2)
+        L2 = L2 * inv
+        M2 = M2 * inv
+        N2 = N2 * inv
+        if angles != 0:
+            ang_r = wp.atan2(mu * sin_i, cos_r)
+    return status, L2, M2, N2, ang_i, ang_r, cos_min
+
+
+@wp.func
+def inside_iris(iris: wp.array(dtype=Any), x: Any, y: Any) -> int:
+    # circle or regular N-gon (vertex at the rotation angle), roundness, central obstruction
+    r = wp.sqrt(x * x + y * y)
+    limit = iris[IRIS_RADIUS]
+    inside = int(1)
+    if r < iris[IRIS_OBSTRUCTION]:
+        inside = int(0)
+    blades = iris[IRIS_BLADES]
+    if blades == type(x)(0.0):
+        if r > limit:
+            inside = int(0)
+    elif r > limit:
+        inside = int(0)
+    elif r > limit * iris[IRIS_COS_HALF]:  # only the ring between the in- and circumcircle needs the angle
+        half = iris[IRIS_HALF]
+        phi = wp.atan2(y, x) - iris[IRIS_ROTATION]
+        phi = phi - type(x)(2.0) * half * wp.floor(phi / (type(x)(2.0) * half))
+        rho = limit * iris[IRIS_COS_HALF] / wp.cos(phi - half)
+        rho = rho + iris[IRIS_ROUNDNESS] * (limit - rho)
+        if r > rho:
+            inside = int(0)
+    return inside
+
+
+@wp.func
+def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: wp.array(dtype=Any),
+              n_surfaces: int, x0: Any, y0: Any, z0: Any, L0: Any, M0: Any, N0: Any, w2: Any,
+              index_table: wp.array2d(dtype=Any), table_row: int, end: int, clip: int, plane_dz: Any,
+              record: int, rec: wp.array3d(dtype=Any), ray: int):
+    """Trace one ray; returns status, surface, x, y, z (frame of the last surface met), L, M, N, opl,
+    and the smallest cos of the angles of incidence and refraction met (grazing rays are
+    ill-conditioned).
+
+    Refracts at surfaces 0 .. end-1 and stops on surface ``end`` (``end = n_surfaces``:
+    the plane ``plane_dz`` behind the image surface). ``table_row >= 0`` takes indices
+    from ``index_table`` instead of the dispersion formula.
+    """
+    x = x0
+    y = y0
+    z = z0
+    L = L0
+    M = M0
+    N = N0
+    norm = wp.sqrt(L * L + M * M + N * N)
+    status = int(OK)
+    where = int(-1)
+    opl = type(x0)(0.0)
+    min_cos = type(x0)(1.0)
+    if not (norm > type(x0)(0.0)) or not wp.isfinite(norm) or not wp.isfinite(x + y + z):
+        status = int(INVALID)
+        where = int(0)
+    else:
+        L = L / norm
+        M = M / norm
+        N = N / norm
+    n1 = type(x0)(0.0)
+    if table_row >= 0:
+        n1 = index_table[table_row, 0]
+    else:
+        n1 = medium_index(media, 0, w2)
+    if status == int(OK) and not (n1 > type(x0)(0.0)):
+        status = int(INVALID)
+        where = int(0)
+    i = int(0)
+    while status == int(OK) and i <= end:
+        if i == n_surfaces:
+            z = z - plane_dz  # the plane may stand apart from the image surface
+        st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+        if st == int(OK) and L * nx + M * ny + N * nz < type(x0)(0.0):
+            st = int(MISSED)  # met from behind (from the medium after it): no sequential path
+        if st != int(OK):
+            status = st
+            where = i
+        else:
+            x = x + t * L
+            y = y + t * M
+            z = z + t * N
+            opl = opl + n1 * t
+            ang_i = type(x0)(0.0)
+            ang_r = type(x0)(0.0)
+            if i < end:
+                if clip != 0:
+                    passed = int(1)
+                    if i == int(iris[IRIS_STOP]):
+                        if iris[IRIS_RADIUS] > type(x0)(0.0):
+                            passed = inside_iris(iris, x, y)
+                    else:
+                        sd2 = surf[i, S_SD2]
+                        if sd2 >= type(x0)(0.0) and x * x + y * y > sd2:
+                            passed = int(0)
+                    if passed == 0:
+                        status = int(VIGNETTED)
+                        where = i
+                if status == int(OK):
+                    n2 = type(x0)(0.0)
+                    if table_row >= 0:
+                        n2 = index_table[table_row, i + 1]
+                    else:
+                        n2 = medium_index(media, i + 1, w2)
+                    if not (n2 > type(x0)(0.0)):
+                        status = int(INVALID)
+                        where = i
+                    else:
+                        st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
+                        min_cos = wp.min(min_cos, cos_ir)
+                        if st != int(OK):
+                            status = st
+                            where = i
+                        n1 = n2
+            if record != 0:
+                rec[ray, i, 0] = x
+                rec[ray, i, 1] = y
+                rec[ray, i, 2] = z
+                rec[ray, i, 3] = L
+                rec[ray, i, 4] = M
+                rec[ray, i, 5] = N
+                rec[ray, i, 6] = ang_i
+                rec[ray, i, 7] = ang_r
+                rec[ray, i, 8] = t
+            if status == int(OK) and i < end:
+                z = z - surf[i, S_THICK]  # into the next vertex frame
+        i = i + 1
+    return status, where, x, y, z, L, M, N, opl, min_cos
+
+
+@wp.func
+def write_ray(out: wp.array2d(dtype=Any), status: wp.array(dtype=wp.int32), surface: wp.array(dtype=wp.int32), r: int,
+              st: int, where: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any, opl: Any, min_cos: Any):
+    """A traced ray's end state into the store kernels' outputs (``RAY_OUT_COLS`` columns)."""
+    out[r, 0] = x
+    out[r, 1] = y
+    out[r, 2] = z
+    out[r, 3] = L
+    out[r, 4] = M
+    out[r, 5] = N
+    out[r, 6] = opl
+    out[r, 7] = min_cos
+    status[r] = st
+    surface[r] = where

@@ -1,0 +1,171 @@
+"""The render integrator: determinism (same seed, same bits; any tiling or executor), Jobs, progressive
+stopping and region estimates with their standard errors."""
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lensrt.render.integrator import render
+from lensrt.render.setup import RenderOptions
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "oracles"))
+
+pytestmark = pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
+
+# ---- determinism, Jobs, stopping ---------------------------------------------------------------
+
+def _small_default(**kw):
+    from lensrt.render.scene.load import load_scene
+    return load_scene("default"), RenderOptions(width=48, samples_per_pixel=4, spp_per_pass=2, device="cpu", **kw)
+
+
+def test_same_seed_same_image_bit_for_bit(monkeypatch):
+    from lensrt.render import pupil_table
+    scene, opts = _small_default()
+    a = render(scene, options=opts)
+    b = render(scene, options=opts)
+    monkeypatch.setattr(pupil_table, "_cpu_workers", lambda device, n: 3)   # another launch split
+    c = render(scene, options=opts)
+    for other in (b, c):
+        assert np.array_equal(a.irradiance, other.irradiance)
+        assert np.array_equal(a.xyz, other.xyz) and np.array_equal(a.xyz_stderr, other.xyz_stderr)
+    d = render(scene, options=dataclasses.replace(opts, seed=99))
+    assert not np.array_equal(a.irradiance, d.irradiance)
+
+
+def _same_estimates(a, b, rel: float = 1e-12) -> None:
+    """Region and through-the-lens estimates of two renders of the same passes agree to ``rel``."""
+    assert a.regions.keys() == b.regions.keys() and len(a.regions) == 6
+    for name in a.regions:
+        for f in ("value", "stderr"):
+            x, y = getattr(a.regions[name], f), getattr(b.regions[name], f)
+            assert abs(x - y) <= rel * abs(x), (name, f, x, y)
+    assert a.through.value == b.through.value and a.through.stderr == b.through.stderr
+    assert a.through_fraction == b.through_fraction
+
+
+def test_fixed_samples_on_an_executor_run_tiles_with_the_same_bits():
+    """A fixed sample count on two devices: one Job of row-band tiles; the image bits of one device (3
+    passes: the mean is times 1/6), its per-pass hits, and region means to 1e-12 (tile sums, other order)."""
+    from lensrt.parallel import LocalExecutor
+    scene, opts = _small_default()
+    opts = dataclasses.replace(opts, samples_per_pixel=6)
+    a = render(scene, options=opts)
+    seen = []
+    with LocalExecutor("cpu,cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex,
+                   progress=lambda *p: seen.append(p))
+    assert b.executor_items == "tiles" and b.executor_item_count == 6 and a.executor_items is None
+    assert b.summary()["executor_items"] == "tiles"
+    for f in ("irradiance", "xyz", "xyz_stderr"):
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    assert b.passes == a.passes == 3 and b.samples == a.samples and b.stop_reason == "samples"
+    _same_estimates(a, b)
+    assert len(b.history) == 1 and b.history[0]["passes"] == 3
+    assert b.history[0]["rel_error"] == a.history[-1]["rel_error"]
+    assert seen and seen[-1][:2] == (3, 3) and seen[-1][3] == 0.0
+
+
+def test_tiles_with_a_window_equal_one_device():
+    from lensrt.parallel import LocalExecutor
+    scene, opts = _small_default(window=(3, 20, 5, 40))
+    a = render(scene, options=opts)
+    with LocalExecutor("cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex)
+    assert b.executor_items == "tiles" and b.executor_item_count == 3
+    assert np.array_equal(a.irradiance, b.irradiance) and np.array_equal(a.xyz_stderr, b.xyz_stderr)
+    _same_estimates(a, b)
+
+
+def test_progressive_runs_on_an_executor_keep_pass_rounds():
+    """A target error needs a decision after every pass: rounds of one pass per device, one history row
+    per pass, and the same passes and bits as one device (the error measure is computed from the same sums)."""
+    from lensrt.parallel import LocalExecutor
+    scene, opts = _small_default()
+    opts = dataclasses.replace(opts, samples_per_pixel=None, target_rel_error=0.3)
+    a = render(scene, options=opts)
+    with LocalExecutor("cpu,cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex)
+    assert b.executor_items == "passes" and b.executor_item_count == b.passes
+    assert b.stop_reason == a.stop_reason == "target_error" and b.passes == a.passes >= 4
+    assert len(b.history) == b.passes
+    assert np.array_equal(a.irradiance, b.irradiance) and np.array_equal(a.xyz_stderr, b.xyz_stderr)
+    _same_estimates(a, b, rel=0.0)
+
+
+def test_tile_region_sums_add_up_to_the_region_sums():
+    """Any split of the pixels into ranges (row-aligned or not): the tiles' region sums add up to the sums
+    over each region; the span a tile copies covers every region pixel it holds."""
+    from lensrt.render.jobs import tile_region_span, tile_region_sums
+    from lensrt.render.passes import region_slices
+    shape = (23, 17)
+    y = np.random.default_rng(1).random(shape)
+    want = [y[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
+    cuts = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
+    got = np.zeros(len(want))
+    for p0, p1 in zip(cuts[:-1], cuts[1:]):
+        span = tile_region_span(p0, p1, shape)
+        if span is not None:
+            got += tile_region_sums(y.reshape(-1)[span[0]:span[1]], span[0], span[1], shape)
+    assert np.allclose(got, want, rtol=1e-13, atol=0)
+
+
+def test_render_job_workload_reduces_in_pass_order():
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.workloads import get_workload
+    job = get_workload("render")("tiny", 5)
+    one = LocalExecutor("cpu").run(job).value
+    two = LocalExecutor("cpu,cpu").run(job).value
+    assert np.array_equal(one.spec_sum, two.spec_sum) and np.array_equal(one.xyz_stderr, two.xyz_stderr)
+    assert one.passes == 4 and np.all(np.isfinite(one.xyz_stderr))
+
+
+def test_tiled_render_job_equals_the_pass_job_and_the_in_process_render():
+    """Tiles with all their passes summed on the device: the same bits as items of one pass each (any
+    number of tiles, one or two devices) and as the one-device render's irradiance."""
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.workloads import get_workload
+    passes = LocalExecutor("cpu").run(get_workload("render")("tiles=0", 3)).value
+    for tiles, devices in ((1, "cpu"), (5, "cpu,cpu")):
+        job = get_workload("render")(f"tiles={tiles}", 3)
+        assert len(job.items) == tiles
+        v = LocalExecutor(devices).run(job).value
+        for f in ("spec_sum", "xyz", "xyz_stderr", "passes", "samples_per_pixel", "hits"):
+            assert np.array_equal(getattr(passes, f), getattr(v, f)), (tiles, f)
+    setup = job.context
+    scene = setup.scene
+    r = render(scene, options=RenderOptions(width=64, spp_per_pass=2, samples_per_pixel=8, seed=3, device="cpu"))
+    assert np.array_equal(r.irradiance, v.irradiance(setup.shape, setup.n_bands))
+
+
+def test_stop_rules_samples_time_and_target_error():
+    scene, opts = _small_default()
+    r = render(scene, options=opts)
+    assert r.stop_reason == "samples" and r.samples_per_pixel == 4 and r.samples == 4 * 48 * 32
+    r = render(scene, options=dataclasses.replace(opts, samples_per_pixel=None, time_budget_s=1e-3))
+    assert r.stop_reason == "time_budget" and r.passes == 4          # the rule waits for 4 passes
+    target = 0.3
+    r = render(scene, options=dataclasses.replace(opts, samples_per_pixel=None, target_rel_error=target))
+    assert r.stop_reason == "target_error" and r.history[-1]["rel_error"] <= target
+    assert all(h["rel_error"] > target for h in r.history[3:-1])
+    # error against run time: the error falls as passes are added
+    errs = [h["rel_error"] for h in r.history if h["rel_error"] is not None]
+    assert errs[-1] < errs[0]
+    for h in r.history:
+        assert {"passes", "samples", "seconds"} <= set(h)
+
+
+def test_regions_carry_stderr_samples_seconds():
+    scene, opts = _small_default()
+    r = render(scene, options=dataclasses.replace(opts, samples_per_pixel=8))
+    for name in ("image", "centre", "bottom left", "bottom right"):
+        est = r.regions[name]
+        assert est.value > 0 and 0 < est.stderr < est.value and est.samples == r.samples and est.seconds > 0
+    assert 0.3 < r.through_fraction <= 1.0
+
+
+# ---- light splat ------------------------------------------------------------------------------
