@@ -50,17 +50,16 @@ class FocusSolution:
                             if i in self.lens.focus.gaps or (self.lens.focus.is_unit and i == self.lens.n_surfaces - 1)}}
 
 
-def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
-                      n_grid: int = 32) -> float:
+def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None) -> float:
     """Real best focus minus the image surface's z (mm) for an axial object at ``distance_mm``."""
     from .compare.focus import best_focus
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     at = lens if distance_mm == lens.object_distance_mm else lens.replace(object_distance_mm=float(distance_mm))
-    return best_focus(at, [wl], [1.0], 0.0, n_grid).z_mm - lens.image_z_mm
+    return best_focus(at, [wl], [1.0], 0.0).z_mm - lens.image_z_mm
 
 
 def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None, tol_mm: float = 1e-9,
-             max_iter: int = 40, n_grid: int = 32) -> FocusSolution:
+             max_iter: int = 40) -> FocusSolution:
     """Focus ``lens`` at ``distance_mm`` (in front of the first vertex; ``inf``) with its own mechanism.
 
     Raises :class:`LensrtError` when the mechanism cannot bring the real best focus
@@ -69,7 +68,7 @@ def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
     d = float(distance_mm)
     if math.isnan(d) or d <= 0.0:
         raise LensrtError(f"focus distance {distance_mm!r} mm must be positive (inf for infinity)")
-    t, r, it, unit = solve_travel(lens, d, lambda moved: focus_residual_mm(moved, d, wavelength_nm, n_grid),
+    t, r, it, unit = solve_travel(lens, d, lambda moved: focus_residual_mm(moved, d, wavelength_nm),
                                   tol_mm, max_iter)
     moved = move_mechanism(lens, t).replace(object_distance_mm=d)
     return FocusSolution(moved, d, float(t), unit, float(r), it, lens.focus.describe())

@@ -39,7 +39,7 @@ def _rear_group(lens):
 
 
 def _on_sensor(sol) -> float:
-    return best_focus(sol.lens, [sol.lens.wavelengths.primary_nm], [1.0], 0.0, 32).z_mm - sol.lens.image_z_mm
+    return best_focus(sol.lens, [sol.lens.wavelengths.primary_nm], [1.0], 0.0).z_mm - sol.lens.image_z_mm
 
 
 def test_unit_focus_puts_the_real_best_focus_on_the_sensor(lens) -> None:
