@@ -1,10 +1,12 @@
-"""Load counts of the two peer corpora: rayoptics' 41 lens files and optiland's sample lenses.
+"""Load counts of the peer corpora (rayoptics' 41 lens files, optiland's sample lenses) and of lensrt's own corpus.
 
 optiland's samples are exported to ``.zmx`` with ``optiland.fileio.save_zemax_file`` (optiland is a
 test-only oracle; this script is run by hand). Prints one line per file (``ok`` or the error's first
-line) and the totals; ``--json`` writes the per-file results.
+line) and the totals; ``--json`` writes the per-file results. ``--corpus own`` loads ``tests/data/corpus``
+(sources in its SOURCES.md) and prints, as markdown, the refusal reasons (the rules of
+``tests/prescription/test_corpus.py``) and the focal lengths against ``expected.toml``.
 
-    PYTHONPATH=. python benchmarks/corpus_load.py [--glass-substitute] [--glass-model-fallback]
+    PYTHONPATH=. python benchmarks/corpus_load.py [--corpus peers|own|all] [--glass-substitute] [--glass-model-fallback]
 """
 from __future__ import annotations
 
@@ -69,8 +71,107 @@ def try_load(path: Path, **options) -> str:
         return f"TRACEBACK {type(err).__name__}: {err}"[:160]
 
 
+OWN = Path(__file__).resolve().parent.parent / "tests" / "data" / "corpus"
+
+
+def _corpus_test_module():
+    """tests/prescription/test_corpus.py, for its refusal rules (one list, kept with the test)."""
+    import importlib.util
+    path = OWN.parent.parent / "prescription" / "test_corpus.py"
+    spec = importlib.util.spec_from_file_location("corpus_rules", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def own_corpus_report(opts: dict) -> dict:
+    """Load every file of tests/data/corpus; print the markdown tables docs/guide/corpus.md quotes."""
+    import tomllib
+    from collections import Counter
+    from lensrt.loading import load_lens
+    from lensrt.paraxial import first_order
+    rules = _corpus_test_module()
+    expected = tomllib.loads((OWN / "expected.toml").read_text())
+    files = sorted(p for p in OWN.iterdir() if p.suffix.lower() in (".zmx", ".seq", ".dat"))
+    res, efl = {}, {}
+    for path in files:
+        res[path.name] = try_load(path, **opts)
+        if res[path.name] == "ok":
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                efl[path.name] = first_order(load_lens(path, **opts)).efl_mm
+    ok = sum(r == "ok" for r in res.values())
+    tb = sum(r.startswith("TRACEBACK") for r in res.values())
+    print(f"\n**{ok}/{len(res)} load ({ok / len(res):.0%}), {tb} tracebacks.**\n")
+    reasons = Counter(rules.refusal_rule(r) or f"no named rule: {r.split(': ', 1)[-1][:60]}"
+                      for r in res.values() if r != "ok")
+    print("| refusal reason | files |\n| --- | --- |")
+    for reason, count in reasons.most_common():
+        names = ", ".join(f"`{n}`" for n, r in res.items()
+                          if r != "ok" and (rules.refusal_rule(r) or f"no named rule: {r.split(': ', 1)[-1][:60]}") == reason)
+        print(f"| {reason} | {count}: {names} |")
+    print("\n| file | stated EFL (mm) | lensrt EFL (mm) | difference |\n| --- | --- | --- | --- |")
+    for name, entry in sorted(expected.items()):
+        got = efl.get(name)
+        diff = f"{(got - entry['efl_mm']) / entry['efl_mm']:+.2%}" if got is not None else "not loaded"
+        print(f"| `{name}` | {entry['efl_mm']:g} | {'' if got is None else f'{got:.4f}'} | {diff} |")
+    return res
+
+
+def line_nd_efl_mm(path: Path) -> float:
+    """Independent paraxial EFL of a Zemax file from its CURV/DISZ and the n_d written on each GLAS line
+    (y-nu trace, object at infinity; no lensrt code). For files whose GLAS lines carry real n_d values."""
+    surfaces, current = [], None
+    for line in path.read_text(errors="replace").splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "SURF":
+            current = {"c": 0.0, "t": 0.0, "n": 1.0}
+            surfaces.append(current)
+        elif words[0] == "CURV":
+            current["c"] = float(words[1])
+        elif words[0] == "DISZ" and words[1] != "INFINITY":
+            current["t"] = float(words[1])
+        elif words[0] == "GLAS":
+            current["n"] = float(words[4])
+            if current["n"] < 1.0:
+                raise ValueError(f"{path.name}: a GLAS line without n_d")
+    y, nu, n_before = 1.0, 0.0, 1.0
+    inner = surfaces[1:-1]
+    for i, s in enumerate(inner):
+        nu = nu - y * s["c"] * (s["n"] - n_before)
+        if i < len(inner) - 1:
+            y += s["t"] * nu / s["n"]
+        n_before = s["n"]
+    return -1.0 / nu
+
+
+def own_corpus_oracles() -> None:
+    """lensrt's EFL of each loaded .zmx of the own corpus against optiland's paraxial trace, or where optiland
+    cannot read the file, against ``line_nd_efl_mm``."""
+    import optiland.backend as be
+    from optiland.fileio import load_zemax_file
+    from lensrt.loading import load_lens
+    from lensrt.paraxial import first_order
+    print("\n| file | lensrt EFL (mm) | oracle | oracle EFL (mm) | relative difference |\n| --- | --- | --- | --- | --- |")
+    for path in sorted(OWN.glob("*.zmx")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            if try_load(path) != "ok":
+                continue
+            mine = first_order(load_lens(path)).efl_mm
+            try:
+                ref, how = float(be.to_numpy(load_zemax_file(str(path)).paraxial.f2())), "optiland"
+            except Exception:  # noqa: BLE001 - optiland cannot read every file; fall back to the line's n_d
+                ref, how = line_nd_efl_mm(path), "y-nu, line n_d"
+        print(f"| `{path.name}` | {mine:.5f} | {how} | {ref:.5f} | {(mine - ref) / ref:+.1e} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
+    ap.add_argument("--corpus", choices=("peers", "own", "all"), default="peers")
+    ap.add_argument("--oracles", action="store_true", help="own corpus: compare EFLs with optiland / a y-nu trace")
     ap.add_argument("--glass-substitute", action="store_true")
     ap.add_argument("--glass-model-fallback", action="store_true")
     ap.add_argument("--json", metavar="PATH")
@@ -81,6 +182,16 @@ def main() -> None:
     if args.glass_model_fallback:
         opts["glass_model_fallback"] = True
     results = {}
+    if args.corpus in ("own", "all"):
+        results["own"] = own_corpus_report(opts)
+        for name, r in results["own"].items():
+            print(f"own       {name:40s} {r}")
+    if args.oracles:
+        own_corpus_oracles()
+    if args.corpus == "own":
+        if args.json:
+            Path(args.json).write_text(json.dumps(results, indent=1))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         for corpus, files in (("rayoptics", rayoptics_files()), ("optiland", optiland_files(Path(tmp)))):
             res = {p.name: try_load(p, **opts) for p in files}

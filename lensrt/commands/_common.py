@@ -38,6 +38,10 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
                              "from the previous one (unscaled 'axpos' tables); default: detected")
     parser.add_argument("--pbrt-field-deg", type=float, default=None, metavar="DEG",
                         help="pbrt tables: largest field half-angle (default: the paraxial chief-ray limit)")
+    parser.add_argument("--aperture-rule", choices=["every_surface", "opticstudio"], default=None,
+                        help="which semi-diameters vignette: every_surface (every element's clear aperture, the "
+                             "photographic reading of pbrt's tables; the default) or opticstudio (only "
+                             "user-defined semi-diameters and surface apertures)")
     add_glass_options(parser)
 
 
@@ -55,7 +59,8 @@ def add_glass_options(parser: argparse.ArgumentParser) -> None:
 def reader_options(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments for :func:`lensrt.loading.load_lens` from :func:`add_reader_options`' options."""
     opts: dict[str, Any] = {"format": getattr(args, "format", None)}
-    for key in ("pbrt_thickness", "pbrt_field_deg", "glass_catalog", "glass_substitute", "glass_model_fallback"):
+    for key in ("pbrt_thickness", "pbrt_field_deg", "aperture_rule", "glass_catalog", "glass_substitute",
+                "glass_model_fallback"):
         if getattr(args, key, None) is not None:
             opts[key] = getattr(args, key)
     return opts

@@ -50,6 +50,17 @@ def cmd_info(args: argparse.Namespace) -> int:
     obj = "infinity" if d["object_distance_mm"] is None else f"{d['object_distance_mm']:g} mm from the first vertex"
     emit(lens.name or str(lens.path))
     emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
+    if d["afocal"]:
+        emit(f"afocal (no power): angular magnification {d['angular_magnification']:.6g}; entrance pupil "
+             f"z = {d['entrance_pupil_z_mm']:.6g} mm, diameter {d['entrance_pupil_diameter_mm']:.6g} mm; exit pupil "
+             f"z = {d['exit_pupil_z_mm']:.6g} mm, diameter {d['exit_pupil_diameter_mm']:.6g} mm")
+        return 0
+    if d.get("unfolded_axis"):
+        emit("the lens has tilts/decenters: these are the paraxial data of its unfolded axis (exact for tilted flat "
+             "fold mirrors, not for genuinely decentred systems)")
+    if lens.has_mirrors:
+        emit("mirrors: z is along the unfolded axis; after an odd number of mirrors light travels toward -z "
+             "(negative thicknesses, f' = n'/Phi with n' < 0)")
     if d["image_virtual"]:
         emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
              f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "

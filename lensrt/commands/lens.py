@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..views.lens import describe_aperture, describe_fields, lens_table
+from ..views.lens import APERTURE_RULE_TEXT, describe_aperture, describe_fields, lens_table
 from ._common import add_lens_argument, add_reader_options, emit, lens_config, print_json, reader_options
 
 __all__ = ["register"]
@@ -44,7 +44,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                     "wavelengths_nm": list(lens.wavelengths.nm), "primary_nm": lens.wavelengths.primary_nm,
                     "fields": {"type": lens.fields.kind, "y": list(lens.fields.y), "x": list(lens.fields.x)},
                     "iris": {"blades": lens.iris.blades, "rotation_rad": lens.iris.rotation_rad},
-                    "notes": lens.meta,
+                    "notes": lens.meta, "aperture_rule": lens.aperture_rule,
                     "warnings": [w.to_dict() for w in lens.warnings],
                     "surfaces": [dict(zip(headers, r)) for r in rows]})
         return 0
@@ -61,6 +61,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                                      for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
     if lens.iris.blades:
         emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
+    emit(f"aperture rule: {APERTURE_RULE_TEXT[lens.aperture_rule]}")
     emit(format_table(rows, headers))
     emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
     if any(s.semi_diameter_auto for s in lens.surfaces):

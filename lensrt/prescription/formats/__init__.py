@@ -10,7 +10,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, located
 from ..configurations import MultiConfigLens, single_configuration
 from ..model import Lens
 
@@ -110,7 +110,8 @@ def read_lens(path: str | Path, format: str | None = None, config: int | str | N
         another format than the file's is an error. The glass options of every
         format: ``glass_substitute``, ``glass_model_fallback`` (bool) and
         ``glass_catalog`` (paths of ``.agf`` files or folders), see
-        :mod:`lensrt.prescription.glass_lookup`.
+        :mod:`lensrt.prescription.glass_lookup`. ``aperture_rule`` (any format)
+        sets :attr:`Lens.aperture_rule`: which semi-diameters vignette.
 
     Notes
     -----
@@ -136,6 +137,7 @@ def read_any(path: str | Path, format: str | None = None, **options: Any) -> Len
     multi-configuration file. Options as for :func:`read_lens`."""
     text = read_text(path)
     fmt = format or detect_format(path, text)
+    rule = options.pop("aperture_rule", None)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
@@ -151,6 +153,17 @@ def read_any(path: str | Path, format: str | None = None, **options: Any) -> Len
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
     reader: Callable[..., Lens | MultiConfigLens] = getattr(import_module(f"{__name__}.{module}"), func)
+    lens = _read_with_glass_policy(reader, path, text, kwargs, glass)
+    if rule is not None:
+        with located(path):
+            if isinstance(lens, MultiConfigLens):
+                return lens.with_base(lens.base.replace(aperture_rule=rule)).validate()
+            lens = lens.replace(aperture_rule=rule)
+    return lens
+
+
+def _read_with_glass_policy(reader: Callable[..., Lens], path: str | Path, text: str, kwargs: dict,
+                            glass: dict) -> Lens:
     if not any(v for v in glass.values()):
         return reader(path, text=text, **kwargs)
     from ..glass_lookup import glass_policy

@@ -54,6 +54,8 @@ from ..limits import check_asphere_power, check_catalog_names
 from ..materials import AIR, CATALOGS, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 from .native_config import dumps_configurations, dumps_focus, parse_configurations, parse_focus
+from .native_geometry import (SURFACE_KEYS, SYSTEM_KEYS, read_surface_geometry, read_system_geometry,
+                              write_surface_geometry, write_system_geometry)
 
 __all__ = ["read_native", "loads_native", "write_native", "dumps_native"]
 
@@ -61,13 +63,13 @@ _KEYS = {
     "": {"format", "version", "lens", "system", "aperture", "iris", "fields", "wavelengths", "surface",
          "focus", "configuration"},
     "lens": {"name", "source", "notes"},
-    "system": {"object_distance_mm", "object_material", "catalogs"},
+    "system": {"object_distance_mm", "object_material", "catalogs"} | SYSTEM_KEYS,
     "aperture": {"type", "value"},
     "iris": {"blades", "rotation_deg", "roundness", "obstruction_ratio"},
     "fields": {"type", "y", "x", "weights"},
     "wavelengths": {"nm", "weights", "primary_nm"},
     "surface": {"radius_mm", "curvature_per_mm", "thickness_mm", "material", "semi_diameter_mm",
-                "conic", "asphere", "stop", "label"},
+                "conic", "asphere", "stop", "label"} | SURFACE_KEYS,
 }
 _ASPH_KEY = re.compile(r"^A(\d+)$")
 #: the native format's name and version, as written in every file
@@ -162,6 +164,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
         is_stop=stop,
         label=str(row.get("label", "")),
         line=line,
+        **read_surface_geometry(row),
     )
 
 
@@ -261,6 +264,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
     with located(spath, sections.get("system")):
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
         obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
+        geometry = read_system_geometry(sys_t)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
@@ -270,7 +274,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
         lens = Lens(surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                     object_distance_mm=dist, object_material=obj_mat, iris=iris,
                     name=str(lens_t.get("name", "")), source=str(lens_t.get("source", "")),
-                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath, focus=focus)
+                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath, focus=focus, **geometry)
     if "configuration" not in doc:
         return lens
     with located(spath, None):
@@ -353,6 +357,7 @@ def dumps_native(lens: Lens | MultiConfigLens) -> str:
     out += ["", "[system]", f"object_distance_mm = {_f(lens.object_distance_mm)}"]
     if lens.object_material != AIR:
         out.append(f"object_material = {_material(lens.object_material)}")
+    out += write_system_geometry(lens)
     out += ["", "[aperture]", f"type = {_s(lens.aperture.kind)}", f"value = {_f(lens.aperture.value)}"]
     ir = lens.iris
     out += ["", "[iris]", f"blades = {ir.blades}", f"rotation_deg = {_deg(ir.rotation_rad)}"]
@@ -392,6 +397,7 @@ def dumps_native(lens: Lens | MultiConfigLens) -> str:
             out.append("stop = true")
         if s.label:
             out.append(f"label = {_s(s.label)}")
+        out += write_surface_geometry(s)
     out += dumps_focus(lens.focus, _f)
     if family is not None:
         out += dumps_configurations(family, _f, _deg, _material)
