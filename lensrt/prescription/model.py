@@ -23,6 +23,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..errors import PrescriptionError
+from .focusing import UNIT_FOCUS, FocusMechanism
 from .geometry import CoordinateTransform, SurfaceAperture
 from .materials import AIR, Material
 
@@ -322,6 +323,8 @@ class Lens:
     warnings: tuple[LoadWarning, ...] = field(default=(), compare=False)
     #: file the lens was read from (not part of equality)
     path: str | None = field(default=None, compare=False)
+    #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default
+    focus: FocusMechanism = UNIT_FOCUS
 
     def __post_init__(self) -> None:
         if self.image_transform is not None and self.image_transform.is_identity:
@@ -356,6 +359,7 @@ class Lens:
             raise PrescriptionError("the aperture floats by stop size but the stop has no semi-diameter",
                                     surface=stops[0], hint="give the stop's semi-diameter")
         object.__setattr__(self, "notes", tuple((str(k), str(v)) for k, v in self.notes))
+        self.focus.check_against(len(surfaces))
         self._check_mirrors(surfaces)
 
     def _check_mirrors(self, surfaces: tuple[Surface, ...]) -> None:

@@ -11,9 +11,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ...errors import PrescriptionError, located
+from ..configurations import MultiConfigLens, single_configuration
 from ..model import Lens
 
-__all__ = ["FORMATS", "read_lens", "read_text", "detect_format"]
+__all__ = ["FORMATS", "read_lens", "read_text", "detect_format", "read_any", "read_configurations"]
 
 #: format name -> (module, reader function, file extensions)
 FORMATS: dict[str, tuple[str, str, tuple[str, ...]]] = {
@@ -89,8 +90,13 @@ def detect_format(path: str | Path, text: str | None = None) -> str:
                                  "or pass --format")
 
 
-def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Lens:
+def read_lens(path: str | Path, format: str | None = None, config: int | str | None = None,
+              **options: Any) -> Lens:
     """Read a lens file of any supported format into a :class:`Lens`.
+
+    A multi-configuration file (zoom or focus positions) gives configuration
+    ``config`` (a name or a 1-based number; default the file's current one);
+    :func:`read_configurations` gives them all.
 
     Parameters
     ----------
@@ -112,6 +118,23 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """
+    found = read_any(path, format, **options)
+    if isinstance(found, MultiConfigLens):
+        return found.configuration(config)
+    if config is not None:
+        single_configuration(found).index_of(config)  # only "1" names the one configuration
+    return found
+
+
+def read_configurations(path: str | Path, format: str | None = None, **options: Any) -> MultiConfigLens:
+    """Every configuration of a lens file (a plain lens file has one)."""
+    found = read_any(path, format, **options)
+    return found if isinstance(found, MultiConfigLens) else single_configuration(found)
+
+
+def read_any(path: str | Path, format: str | None = None, **options: Any) -> Lens | MultiConfigLens:
+    """What the format's reader gives: a :class:`Lens`, or a :class:`MultiConfigLens` for a
+    multi-configuration file. Options as for :func:`read_lens`."""
     text = read_text(path)
     fmt = format or detect_format(path, text)
     rule = options.pop("aperture_rule", None)
@@ -129,10 +152,12 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
                                     hint="options are named after the format they apply to (pbrt-thickness)")
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
-    reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
+    reader: Callable[..., Lens | MultiConfigLens] = getattr(import_module(f"{__name__}.{module}"), func)
     lens = _read_with_glass_policy(reader, path, text, kwargs, glass)
     if rule is not None:
         with located(path):
+            if isinstance(lens, MultiConfigLens):
+                return lens.with_base(lens.base.replace(aperture_rule=rule)).validate()
             lens = lens.replace(aperture_rule=rule)
     return lens
 

@@ -12,6 +12,7 @@ starts a comment, ``&`` continues a line):
   (nm), ``REF``, ``WTW``, ``XAN``/``YAN``, ``XOB``/``YOB``, ``XIM``/``YIM``,
   ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
+* zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
   codes), ``PIM`` and other solves/pickups (the value on the S line is the
   solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
@@ -33,7 +34,7 @@ warning.
 Mirrors (``REFL``), decenters and tilts (``XDE`` .. ``CDE``, ``DAR``, ``REV``,
 ``BEN``) and apertures (``CIR ... OBS/HOL``, ``REX``/``REY``, ``ELX``/``ELY``,
 ``ADX``/``ADY``/``ARO``) are read by :mod:`.codev_geometry`. ``RET``,
-diffractive surfaces, special surface types, zooms and private catalogs are
+diffractive surfaces, special surface types, private catalogs are
 errors naming the file, the line and the command.
 """
 from __future__ import annotations
@@ -45,11 +46,13 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, deg_to_rad
+from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..materials import AIR, Material
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
 from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 from .codev_glass import PrivateCatalog, fictitious_glass
+from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
 from .codev_geometry import GEOMETRY_COMMANDS, geometry_command, image_transform, new_row_geometry, row_geometry
 
@@ -79,7 +82,7 @@ UNSUPPORTED = {
     "CYL": "a cylinder", "SPS": "a special surface", "ZRN": "a Zernike surface", "ZFR": "a Zernike surface",
     "XYP": "an XY polynomial surface", "UDS": "a user-defined surface", "CUX": "a toroidal curvature",
     "RDX": "a toroidal radius", "CIG": "a general aperture",
-    "REG": "a general aperture", "ELG": "a general aperture", "ZOO": "zoom data", "POS": "zoom positions",
+    "REG": "a general aperture", "ELG": "a general aperture",
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
     "NSO": "a non-sequential object",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
@@ -89,7 +92,7 @@ _ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
 _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
 _KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
-    "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
+    "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
     "RDY", "CUY", "THI", "GLA", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
 
 
@@ -160,6 +163,7 @@ class _Seq:
         self.title = ""
         self.notes: list[tuple[str, str]] = []
         self.subs: dict[str, str] = {}
+        self.zoom = ZoomReader(path)  # ZOO / POS data (codev_zoom)
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -278,6 +282,9 @@ class _Seq:
             else:
                 v = self.num(args[0], name, line)
                 row["curv"] = v if name == "CUY" else (0.0 if v == 0.0 else 1.0 / v)
+            return True
+        if name in ("ZOO", "POS"):
+            self.zoom.command(name, args, line)
             return True
         if name in UNSUPPORTED:
             raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
@@ -477,8 +484,9 @@ def _looks_number(tok: str) -> bool:
         return False
 
 
-def loads_seq(text: str, path: str | Path | None = None) -> Lens:
-    """Parse CODE V sequence text into a :class:`Lens`."""
+def loads_seq(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse CODE V sequence text into a :class:`Lens` (a :class:`MultiConfigLens` for zoom data,
+    :mod:`lensrt.prescription.formats.codev_zoom`)."""
     spath = str(path) if path is not None else None
     reject_other_format(text, "codev", spath)
     seq = _Seq(spath)
@@ -486,10 +494,10 @@ def loads_seq(text: str, path: str | Path | None = None) -> Lens:
         with located(spath, line):
             if not seq.command(line, toks):
                 break
-    return seq.build()
+    return seq.zoom.build(seq.build(), MM_PER_UNIT[seq.dim], seq.material)
 
 
-def read_seq(path: str | Path, text: str | None = None) -> Lens:
+def read_seq(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a CODE V ``.seq`` file into a :class:`Lens`."""
     if text is None:
         from . import read_text

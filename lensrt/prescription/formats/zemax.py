@@ -24,7 +24,7 @@ Display, optimisation and tolerancing data are ignored explicitly
 (:data:`IGNORED`); merit-function operands after the last surface are
 ignored. Everything that changes the optics but lies outside lensrt's model
 (mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
-other surface types, multi-configuration, non-circular or decentred apertures,
+other surface types, unsupported multi-configuration operands, non-circular or decentred apertures,
 curved object/image surfaces, ...) is an error naming the file, the line and
 the construct. A keyword lensrt does not know is ignored with a
 ``keyword_unknown`` warning naming it and its line
@@ -40,6 +40,7 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
+from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..limits import MAX_ZEMAX_PARM
 from ..materials import AIR, Material, ModelGlass
@@ -47,6 +48,7 @@ from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  #
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
 from .keywords import ZemaxKeywordPolicy
 from .zemax_geometry import aperture_entry, coordbrk_transform, surface_apertures
+from .zemax_mce import MultiConfigReader
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
@@ -72,7 +74,7 @@ IGNORED: dict[str, str] = {
     "EFFL": "settings", "TCED": "settings", "CONF": "configuration settings",
     "DBDT": "settings", "PWFN": "settings", "OPDX": "merit operand", "ENVD": "checked: 20 C, 1 atm",
     "PUPD": "checked: uniform apodization", "OBDC": "checked: zero aperture decenter",
-    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter", "MNUM": "checked: 1 configuration",
+    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter",
     "NOTE": "kept in lens.notes", "NAME": "lens name", "COMM": "surface label", "VANN": "checked: zero",
     "TRAC": "merit operand", "GLCB": "merit operand",
 }
@@ -146,6 +148,8 @@ class _Reader:
         self.warnings: list[LoadWarning] = []
         self.keywords = ZemaxKeywordPolicy()
         self.floa_line: int | None = None
+        self.mce: MultiConfigReader | None = None  # multi-configuration rows (zemax_mce)
+        self.in_mce = False
 
     # -- helpers -------------------------------------------------------------
     def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
@@ -165,6 +169,11 @@ class _Reader:
 
     # -- one line ------------------------------------------------------------
     def line(self, raw: str, no: int, after_last_surf: bool) -> None:
+        if self.in_mce:
+            if self.mce.accepts(raw):  # type: ignore[union-attr]
+                self.mce.add(raw, no)  # type: ignore[union-attr]
+                return
+            self.in_mce = False
         toks = raw.split()
         kw = toks[0].upper()
         args = toks[1:]
@@ -292,9 +301,14 @@ class _Reader:
             raise self.err("PUPD: pupil apodization is not supported", no, "use uniform apodization")
 
     def kw_MNUM(self, args, no, raw):
-        if args and int(self.num(args[0], "configuration count", no)) > 1:
-            raise self.err(f"MNUM {args[0]}: multi-configuration files are not supported", no,
-                           "export the configuration you want as its own .zmx file")
+        count = int(self.num(args[0], "configuration count", no)) if args else 1
+        if count != 1:
+            current = int(self.num(args[1], "current configuration", no)) if len(args) > 1 else 1
+            self.mce, self.in_mce = MultiConfigReader(self.path, count, current, no), True
+
+    def glass(self, name: str, no: int) -> Material:
+        """The material a multi-configuration GLSS row names (looked up as a GLAS line is)."""
+        return self.material(_Surf(number=-1, line=no, glass=[name], glass_line=no))
 
     # -- surface data --------------------------------------------------------
     def kw_TYPE(self, args, no, raw):
@@ -592,8 +606,9 @@ def _vignetting_notes(fields: dict[str, tuple[list[float], int | None]], n: int)
     return out
 
 
-def loads_zmx(text: str, path: str | Path | None = None) -> Lens:
-    """Parse ``.zmx`` text (already decoded) into a :class:`Lens`."""
+def loads_zmx(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse ``.zmx`` text (already decoded) into a :class:`Lens` (a :class:`MultiConfigLens`
+    for a multi-configuration file, :mod:`lensrt.prescription.formats.zemax_mce`)."""
     spath = str(path) if path is not None else None
     reject_other_format(text, "zemax", spath)
     lines = text.splitlines()
@@ -613,10 +628,13 @@ def loads_zmx(text: str, path: str | Path | None = None) -> Lens:
             after = True
         with located(spath, i + 1):
             reader.line(raw, i + 1, after)
-    return reader.build()
+    lens = reader.build()
+    if reader.mce is None:
+        return lens
+    return reader.mce.build(lens, MM_PER_UNIT[reader.unit], reader.glass)
 
 
-def read_zmx(path: str | Path, text: str | None = None) -> Lens:
+def read_zmx(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a Zemax ``.zmx`` file (UTF-16 with BOM, UTF-8 or ASCII) into a :class:`Lens`.
 
     Semi-diameters come from ``DIAM`` (or ``CLAP``); surfaces without one are
