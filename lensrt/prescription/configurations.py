@@ -9,23 +9,23 @@ every analysis works on it unchanged.
 
 Operand kinds (:data:`OPERAND_KINDS`; ``index`` is 0-based):
 
-=================  ==========================================  =====================
-kind               index                                       value
-=================  ==========================================  =====================
-thickness          surface (its thickness to the next one)     mm
-object_distance    (unused, -1)                                mm (``inf`` allowed)
-curvature          surface                                     1/mm
-conic              surface                                     conic constant
-material           surface (the medium after it)               ``Material``
-semi_diameter      surface                                     mm
-stop_surface       (unused, -1)                                0-based surface index
-aperture           (unused, -1)                                the lens aperture kind's value (mm, f-number, NA)
-field_y, field_x   field point                                 rad or mm (the lens's field kind)
-field_weight       field point                                 weight
-wavelength         wavelength                                  nm
-wavelength_weight  wavelength                                  weight
-primary_wavelength (unused, -1)                                0-based wavelength index
-=================  ==========================================  =====================
+==================  ==========================================  ==================================================
+kind                index                                       value
+==================  ==========================================  ==================================================
+thickness           surface (its thickness to the next one)     mm
+object_distance     (unused, -1)                                mm (``inf`` allowed)
+curvature           surface                                     1/mm
+conic               surface                                     conic constant
+material            surface (the medium after it)               ``Material``
+semi_diameter       surface                                     mm
+stop_surface        (unused, -1)                                0-based surface index
+aperture            (unused, -1)                                the lens aperture kind's value (mm, f-number, NA)
+field_y, field_x    field point                                 rad or mm (the lens's field kind)
+field_weight        field point                                 weight
+wavelength          wavelength                                  nm
+wavelength_weight   wavelength                                  weight
+primary_wavelength  (unused, -1)                                0-based wavelength index
+==================  ==========================================  ==================================================
 """
 from __future__ import annotations
 
