@@ -33,7 +33,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))  # the test workload; Dask's spawned workers inherit sys.path
+sys.path.insert(0, str(ROOT / "tests" / "oracles"))  # the test workload; Dask's spawned workers inherit sys.path
 
 
 def _digest(value: object) -> str:

@@ -10,14 +10,15 @@ from pathlib import Path
 from typing import Any
 
 from .errors import located
-from .prescription.formats import read_lens
+from .prescription.configurations import MultiConfigLens, single_configuration
+from .prescription.formats import read_any
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
 from .paraxial.aperture_check import check_aperture
 from .paraxial.crossing import check_axial_beam_crossing
 from .library import resolve_lens_path
 
-__all__ = ["load_lens", "complete_lens"]
+__all__ = ["load_lens", "complete_lens", "load_configurations"]
 
 
 def complete_lens(lens: Lens) -> Lens:
@@ -43,12 +44,50 @@ def complete_lens(lens: Lens) -> Lens:
     return lens
 
 
-def load_lens(source: str | Path | Lens | None = None, **options: Any) -> Lens:
+def load_lens(source: str | Path | Lens | None = None, config: int | str | None = None, **options: Any) -> Lens:
     """A complete :class:`Lens` from a file path, a library name, or ``None`` (the default lens).
 
-    ``options`` go to the format reader (see :func:`lensrt.prescription.formats.read_lens`).
+    ``config`` picks a configuration of a multi-configuration file (a name or a
+    1-based number; default the file's current one). ``options`` go to the format
+    reader (see :func:`lensrt.prescription.formats.read_lens`).
     """
     if isinstance(source, Lens):
         return complete_lens(source)
-    path = resolve_lens_path(source)
-    return complete_lens(read_lens(path, **options))
+    family = load_configurations(source, **options)
+    return family.configuration(config) if config is not None or family.count > 1 else family.base
+
+
+def load_configurations(source: str | Path | Lens | MultiConfigLens | None = None,
+                        **options: Any) -> MultiConfigLens:
+    """Every configuration of a lens file, complete (a plain lens file gives one).
+
+    Clear semi-diameters the file does not give are computed in every
+    configuration and the largest is kept for all of them (a zoom's elements
+    have one size); the geometry of every configuration is then checked.
+    """
+    if isinstance(source, MultiConfigLens):
+        found: Lens | MultiConfigLens = source
+    elif isinstance(source, Lens):
+        found = source
+    else:
+        found = read_any(resolve_lens_path(source), **options)
+    if isinstance(found, Lens):
+        return single_configuration(complete_lens(found))
+    return _complete_family(found)
+
+
+def _complete_family(family: MultiConfigLens) -> MultiConfigLens:
+    from dataclasses import replace
+    done = [complete_lens(c) for c in family.configurations()]
+    base = family.base
+    surfaces = list(base.surfaces)
+    for i, s in enumerate(surfaces):
+        if s.semi_diameter_mm is None:
+            sd = max(c.surfaces[i].semi_diameter_mm or 0.0 for c in done)
+            surfaces[i] = replace(s, semi_diameter_mm=sd, semi_diameter_auto=True)
+    notes = tuple((k, v) for k, v in done[family.current].notes if k != "configuration")
+    completed = family.with_base(base.replace(surfaces=tuple(surfaces), notes=notes))
+    with located(base.path):
+        for lens in completed.configurations():
+            check_geometry(lens)
+    return completed

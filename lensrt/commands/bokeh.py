@@ -5,7 +5,7 @@ import argparse
 import math
 from typing import Any
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, emit, print_json, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer
 from ._limits import add_max_memory_argument, add_max_rays_argument, parse_seed
 from ._psf_options import parse_count
@@ -163,12 +163,16 @@ def _focus(args: argparse.Namespace, lens: Any):
     if len(given) > 1:
         raise LensrtError("give one of --focus-m, --focus-mm, --extension-mm, --sensor-z-mm")
     if args.extension_mm is not None:
-        return focus_lens(lens, extension_mm=args.extension_mm)
+        return lens, focus_lens(lens, extension_mm=args.extension_mm)
     if args.sensor_z_mm is not None:
-        return focus_lens(lens, sensor_z_mm=args.sensor_z_mm)
-    if args.focus_mm is not None:
-        return focus_lens(lens, args.focus_mm)
-    return focus_lens(lens, (2.0 if args.focus_m is None else args.focus_m) * MM_PER_M)
+        return lens, focus_lens(lens, sensor_z_mm=args.sensor_z_mm)
+    d = args.focus_mm if args.focus_mm is not None else (2.0 if args.focus_m is None else args.focus_m) * MM_PER_M
+    if lens.focus.is_unit:
+        return lens, focus_lens(lens, d)
+    # a focus group / floating groups: move them (real best focus on the fixed sensor)
+    from ..analysis.focusing import focus_at
+    moved = focus_at(lens, d).lens
+    return moved, focus_lens(moved, sensor_z_mm=moved.image_z_mm)
 
 
 def _iris(args: argparse.Namespace, lens: Any):
@@ -192,8 +196,8 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
     from ..loading import load_lens
     from ..paraxial.photographic import sensor_format
     from ..units import MM_PER_M
-    lens = load_lens(args.file)
-    focus = _focus(args, lens)
+    lens = load_lens(args.file, config=lens_config(args))
+    lens, focus = _focus(args, lens)
     iris = _iris(args, lens)
     if args.f_number is not None:
         from ..paraxial.fnumber import check_f_number

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, emit, print_json, lens_config
 
 __all__ = ["register", "compare_report"]
 
@@ -59,7 +59,7 @@ def compare_report(lens, fields_in_lens_unit=(), wavelengths_nm=(), rays: int = 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from ..loading import load_lens
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, config=lens_config(args))
     c = compare_report(lens, args.field, args.wavelength_nm, args.rays, args.spot_rays, args.seed, args.device)
     written = []
     if args.plot:

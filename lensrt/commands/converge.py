@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, emit, print_json, lens_config
 
 __all__ = ["register", "cmd_converge", "QUANTITIES", "build_quantity", "converge_table"]
 
@@ -110,12 +110,12 @@ def build_quantity(args: argparse.Namespace):
         from ..studies.convergence.render import RenderRegion
         from ..render.scene.load import load_scene
         scene = load_scene(args.scene)
-        lens = load_lens(args.file) if args.file else None
+        lens = load_lens(args.file, config=lens_config(args)) if args.file else None
         window = tuple(int(v) for v in _ints(args.window, 4, "--window")) if args.window else None
         if not 1 <= args.width <= 4096:
             raise LensrtError("--width must be 1-4096 pixels")
         return RenderRegion(scene, lens, args.width, window, dev)
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, config=lens_config(args))
     if args.quantity == "bokeh":
         from ..analysis.bokeh.entry import focus_lens, spot_source
         if not (args.source_m > 0 and args.focus_m > 0 and 0 < args.region <= 1):

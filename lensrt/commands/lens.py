@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..views.lens import describe_aperture, describe_fields, lens_table
-from ._common import add_lens_argument, add_reader_options, emit, print_json, reader_options
+from ..views.lens import APERTURE_RULE_TEXT, describe_aperture, describe_fields, lens_table
+from ._common import add_lens_argument, add_reader_options, emit, lens_config, print_json, reader_options
 
 __all__ = ["register"]
 
@@ -35,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_show(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    lens = load_lens(args.file, **reader_options(args))
+    lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
     rows, headers = lens_table(lens)
     if args.json:
         print_json({"name": lens.name, "source": lens.source, "path": lens.path,
@@ -44,11 +44,15 @@ def cmd_show(args: argparse.Namespace) -> int:
                     "wavelengths_nm": list(lens.wavelengths.nm), "primary_nm": lens.wavelengths.primary_nm,
                     "fields": {"type": lens.fields.kind, "y": list(lens.fields.y), "x": list(lens.fields.x)},
                     "iris": {"blades": lens.iris.blades, "rotation_rad": lens.iris.rotation_rad},
-                    "notes": lens.meta,
+                    "notes": lens.meta, "aperture_rule": lens.aperture_rule,
                     "warnings": [w.to_dict() for w in lens.warnings],
                     "surfaces": [dict(zip(headers, r)) for r in rows]})
         return 0
     emit(f"{lens.name or lens.path}")
+    if "configuration" in lens.meta:
+        emit(f"configuration {lens.meta['configuration']} (--config picks another; lensrt info --config all)")
+    if not lens.focus.is_unit:
+        emit(f"focus: {lens.focus.describe()}")
     if lens.source:
         emit(f"source: {lens.source}")
     obj = "infinity" if math.isinf(lens.object_distance_mm) else f"{lens.object_distance_mm:g} mm"
@@ -57,6 +61,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                                      for i, w in enumerate(lens.wavelengths.nm)) + " nm (* primary)")
     if lens.iris.blades:
         emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
+    emit(f"aperture rule: {APERTURE_RULE_TEXT[lens.aperture_rule]}")
     emit(format_table(rows, headers))
     emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
     if any(s.semi_diameter_auto for s in lens.surfaces):
@@ -69,7 +74,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 def cmd_convert(args: argparse.Namespace) -> int:
     from pathlib import Path
     from ..errors import LensrtError
-    from ..prescription.formats import read_lens
+    from ..prescription.formats import read_configurations
     from ..prescription.formats.native import write_native
     from ..io.paths import output_file
     from ..library import resolve_lens_path
@@ -77,10 +82,12 @@ def cmd_convert(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix.lower() != ".toml":
         raise LensrtError(f"output {out} must be a .toml file (the native format)")
-    lens = read_lens(resolve_lens_path(args.input), **reader_options(args))  # a file or a library lens name
-    complete_lens(lens)  # fail on impossible geometry before writing anything
-    write_native(lens, output_file(out))
-    emit(f"wrote {out} ({lens.n_surfaces} surfaces)")
+    family = read_configurations(resolve_lens_path(args.input), **reader_options(args))  # file or library name
+    for lens in family.configurations():
+        complete_lens(lens)  # fail on impossible geometry before writing anything
+    write_native(family if family.count > 1 else family.base, output_file(out))
+    more = f", {family.count} configurations" if family.count > 1 else ""
+    emit(f"wrote {out} ({family.base.n_surfaces} surfaces{more})")
     return 0
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ._common import emit, print_json
+from ._common import emit, print_json, lens_config
 from ._psf_options import add_psf_options, fields_from_args, host_device, setup_from_args
 
 __all__ = ["register", "cmd_mtf", "default_mtf_fields"]
@@ -73,7 +73,7 @@ def cmd_mtf(args: argparse.Namespace) -> int:
     if not (fmax > 0 and math.isfinite(fmax)) or args.n_freqs < 3:
         raise LensrtError("--freq-max must be positive and --n-freqs at least 3")
     dz = _through_focus_arg(args.through_focus) if args.through_focus else None
-    lens = load_lens(args.file, **reader_options(args))
+    lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
     dev = host_device(args)
     freqs = np.linspace(0.0, fmax, args.n_freqs)
     setup = setup_from_args(args, lens, dev, mtf_curve_cpmm=tuple(float(v) for v in freqs),

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import emit, print_json
+from ._common import emit, print_json, lens_config
 from ._psf_options import add_psf_options, fields_from_args, host_device, print_psf_table, setup_from_args
 
 __all__ = ["register", "cmd_psf"]
@@ -33,7 +33,7 @@ def cmd_psf(args: argparse.Namespace) -> int:
     from ..analysis.psf.map import run_psf_map
     if args.device and not args.devices:
         args.devices = args.device
-    lens = load_lens(args.file, **reader_options(args))
+    lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
     dev = host_device(args)
     setup = setup_from_args(args, lens, dev)
     fields, shape = fields_from_args(args, lens, setup.plane_z_mm, dev)

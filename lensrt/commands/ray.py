@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_lens_argument, emit, print_json
+from ._common import add_lens_argument, emit, print_json, lens_config
 
 __all__ = ["register", "ray_report"]
 
@@ -77,7 +77,7 @@ def ray_report(lens, hx: float, hy: float, px: float, py: float, wavelength_nm: 
 def cmd_ray(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_lens
-    lens = load_lens(args.file)
+    lens = load_lens(args.file, config=lens_config(args))
     rep = ray_report(lens, args.hx, args.hy, args.px, args.py, args.wavelength_nm, args.aim, args.precision,
                      args.device, not args.no_clip)
     if args.json:

@@ -7,7 +7,7 @@ import math
 import shlex
 import sys
 
-from ._common import add_lens_argument, add_reader_options, emit, reader_options
+from ._common import add_lens_argument, add_reader_options, emit, reader_options, lens_config
 
 __all__ = ["register", "cmd_report", "EXIT_SECTION_FAILED"]
 
@@ -79,7 +79,12 @@ def cmd_report(args: argparse.Namespace) -> int:
                             time_budget_s=args.time_budget, device=args.device, precision=args.precision,
                             seed=args.seed, command_line=" ".join(
                                 ["lensrt"] + [shlex.quote(a) for a in getattr(args, "argv", sys.argv[1:])]))
-    lens = load_lens(args.file, **reader_options(args))
+    config = lens_config(args, allow_all=True)
+    if config is not None and config.lower() == "all":
+        from ..loading import load_configurations
+        lens = load_configurations(args.file, **reader_options(args))
+    else:
+        lens = load_lens(args.file, config=config, **reader_options(args))
     if not args.quiet:
         sys.stderr.write(f"lensrt report: {lens.name or lens.path} -> {args.out}/ (quality {args.quality}; "
                          "a first run also compiles the Warp kernels)\n")

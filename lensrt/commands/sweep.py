@@ -10,7 +10,7 @@ from typing import Any
 
 from ..core.budget import MAX_SWEEP_ROWS
 from ._limits import parse_seed, positive_int
-from ._common import add_lens_argument, emit
+from ._common import add_lens_argument, emit, lens_config
 from ._parallel import add_parallel_arguments, executor_from_args, progress_printer, run_summary_line
 
 __all__ = ["register", "parse_values", "FULL_STOPS"]
@@ -125,7 +125,6 @@ def _as_csv(rows: list[dict], keys: list[str]) -> str:
 def cmd_sweep(args: argparse.Namespace) -> int:
     from ..errors import LensrtError
     from ..io.table import dumps_json, format_table
-    from ..loading import load_lens
     from ..paraxial import photographic as ph
     from ..studies.sweep import QUANTITIES, SweepSetup, sweep_job
 
@@ -139,26 +138,31 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise LensrtError(f"--coc-mm {args.coc_mm:g} must be a positive diameter in mm")
     fmt = ph.sensor_format(args.sensor)
     columns = _columns(args.quantity)
-    lens = load_lens(args.file)
+    variants = _lenses(args)
+    lens = variants[0][1]
     if args.wavelength_nm is not None:
         lens.check_wavelengths(args.wavelength_nm)  # an ExtrapolationWarning where a glass is extrapolated
     focus = parse_values(args.focus_distance_mm, "--focus-distance-mm", args.max_rows) if args.focus_distance_mm \
         else list(DEFAULT_FOCUS_MM)
-    fnums = parse_values(args.f_number, "--f-number", args.max_rows) if args.f_number \
-        else _default_f_numbers(lens, args.wavelength_nm)
-    _check_rows(len(focus) * len(fnums), f"{len(focus)} focus distances x {len(fnums)} f-numbers", args.max_rows)
-    if args.f_number:
-        from ..paraxial.fnumber import check_f_number
-        for n in fnums:  # as render and bokeh: never wider than the lens opens
-            check_f_number(lens, n)
-    setup = SweepSetup(lens, args.wavelength_nm, args.sensor, args.coc_mm)
-    job = sweep_job(setup, focus, fnums, args.seed)
-    with executor_from_args(args, uses_device=job.uses_device) as ex:
-        result = ex.run(job, progress=progress_printer(args, "variants"))
-    rows = result.value
-    keys = ["focus_distance_mm", "f_number"] + [c for c in columns if c != "f_number"]
+    rows = []
+    for name, one in variants:
+        fnums = parse_values(args.f_number, "--f-number", args.max_rows) if args.f_number \
+            else _default_f_numbers(one, args.wavelength_nm)
+        _check_rows(len(variants) * len(focus) * len(fnums),
+                    f"{len(variants)} configurations x {len(focus)} focus distances x {len(fnums)} f-numbers",
+                    args.max_rows)
+        if args.f_number:
+            from ..paraxial.fnumber import check_f_number
+            for n in fnums:  # as render and bokeh: never wider than the lens opens
+                check_f_number(one, n)
+        job = sweep_job(SweepSetup(one, args.wavelength_nm, args.sensor, args.coc_mm), focus, fnums, args.seed)
+        with executor_from_args(args, uses_device=job.uses_device) as ex:
+            result = ex.run(job, progress=progress_printer(args, "variants"))
+        rows += [({"configuration": name} if name is not None else {}) | r for r in result.value]
+    keys = (["configuration"] if variants[0][0] is not None else []) + ["focus_distance_mm", "f_number"] + \
+        [c for c in columns if c != "f_number"]
     coc = fmt.coc_mm if args.coc_mm is None else args.coc_mm
-    meta = {"lens": lens.name, "path": lens.path, "wavelength_nm": args.wavelength_nm, "sensor": fmt.name,
+    meta = {"lens": lens.name, "configurations": [n for n, _ in variants if n is not None], "path": lens.path, "wavelength_nm": args.wavelength_nm, "sensor": fmt.name,
             "coc_mm": coc, "columns": {k: QUANTITIES.get(k, ("mm" if k.endswith("_mm") else "", ""))[0]
                                        for k in keys}}
     doc = {**meta, "rows": [{k: r[k] for k in keys} for r in rows], "run": result.summary()}
@@ -182,3 +186,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 0
     emit(texts[args.format])
     return 0
+
+
+def _lenses(args: argparse.Namespace) -> list[tuple[str | None, Any]]:
+    """(configuration name, lens) pairs to sweep: every configuration with ``--config all``, else one lens."""
+    from ..loading import load_configurations, load_lens
+    config = lens_config(args, allow_all=True)
+    if config is not None and config.lower() == "all":
+        family = load_configurations(args.file)
+        return list(zip(family.names, family.configurations()))
+    return [(None, load_lens(args.file, config=config))]

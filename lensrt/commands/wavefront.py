@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_lens_argument, add_reader_options, emit, print_json
+from ._common import add_lens_argument, add_reader_options, emit, print_json, lens_config
 
 __all__ = ["register", "cmd_wavefront"]
 
@@ -54,7 +54,7 @@ def cmd_wavefront(args: argparse.Namespace) -> int:
         raise LensrtError(f"--pupil-samples {args.pupil_samples} must be between 32 and 1024")
     if args.plot and not args.out:
         raise LensrtError("--plot writes files: give --out DIR")
-    lens = load_lens(args.file, **reader_options(args))
+    lens = load_lens(args.file, config=lens_config(args), **reader_options(args))
     spec = parse_spectrum(lens, parse_list(args.wavelength_nm, "wavelength"), None, (400.0, 700.0), 7)
     setup = make_setup(lens, spec, args.focus, args.device, method="diffraction", pupil_samples=args.pupil_samples)
     fields, _ = fields_from_args(args, lens, setup.plane_z_mm, args.device)

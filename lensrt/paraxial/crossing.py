@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from ..errors import PrescriptionError
+from ..prescription.frames import travel_signs
 from ..prescription.model import Lens
 from .first_order import entrance_pupil_diameter_mm, marginal_ray, pupils
 from .ynu import paraxial_system
@@ -49,17 +50,18 @@ def check_axial_beam_crossing(lens: Lens, samples: int = 65) -> None:
     if not np.isfinite(heights).all():
         return
     surfaces = lens.surfaces
+    signs = travel_signs(lens)  # after an odd number of mirrors light travels toward -z: "in front" flips
     for i in range(len(surfaces) - 1):
         a, b = surfaces[i], surfaces[i + 1]
-        if a.material.is_air:
-            continue
+        if a.material.is_air or a.transform_after is not None or b.transform_before is not None:
+            continue  # air gaps: the file's semi-diameters decide; transformed surfaces share no axis
         limits = [heights[i], heights[i + 1], a.max_semi_diameter_mm, b.max_semi_diameter_mm]
         limits += [s.semi_diameter_mm for s in (a, b) if s.semi_diameter_mm is not None]
         r_max = float(min(limits))
         if not r_max > 0:
             continue
         r = np.linspace(0.0, r_max, samples)
-        gap = a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r))
+        gap = signs[i + 1] * (a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)))
         worst = int(np.argmin(gap))
         if gap[worst] < -TOL_MM:
             raise PrescriptionError(

@@ -27,7 +27,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
 
-__all__ = ["FirstOrder", "first_order", "pupils", "Pupils", "entrance_pupil_diameter_mm",
+__all__ = ["FirstOrder", "first_order", "is_afocal", "pupils", "Pupils", "entrance_pupil_diameter_mm",
            "marginal_ray", "chief_ray", "field_slope_and_height", "paraxial_rays"]
 
 #: a matrix element below this (relative) counts as zero: a pupil or image at infinity
@@ -180,9 +180,15 @@ def paraxial_rays(lens: Lens, wavelength_nm: float | None = None, object_distanc
 
 def _power(system: ParaxialSystem) -> float:
     phi = -float(system.matrix(0, system.n_surfaces - 1)[1, 0])
-    if abs(phi) < 1e-15:
-        raise LensrtError("the lens has no power (afocal): first-order data are undefined")
+    if is_afocal(system):
+        raise LensrtError("the lens has no power (afocal): focal lengths and image positions are undefined",
+                          hint="first_order() reports its angular magnification and pupils")
     return phi
+
+
+def is_afocal(system: ParaxialSystem) -> bool:
+    """True when the system's power vanishes (a telescope, or a plate): no focal points."""
+    return abs(float(system.matrix(0, system.n_surfaces - 1)[1, 0])) < 1e-15
 
 
 @dataclass(frozen=True)
@@ -231,10 +237,19 @@ class FirstOrder:
     half_field_deg: float  # largest object-space half field angle (chief-ray slope for heights)
     paraxial_image_height_mm: float  # at the largest field, in the paraxial image plane
     field_image_heights_mm: tuple[float, ...]  # at each field point (radial), paraxial image plane
-    #: the image-space rays diverge: the paraxial image lies in front of the last vertex (an object
+    #: the image-space rays diverge: the paraxial image lies in front of the last vertex (behind it, along
+    #: the direction light travels, after an odd number of mirrors) (an object
     #: inside the front focal point of a positive lens -- a magnifier); the lens's image surface then
     #: receives a blur, not an image
     image_virtual: bool = False
+    #: the lens has no power (a telescope or a plate): focal lengths, focal and principal points, the image
+    #: and the f-number are inf; ``angular_magnification`` (u'/u of a ray, n u' = D n u with the system
+    #: matrix's D) and the pupils are what it has
+    afocal: bool = False
+    angular_magnification: float | None = None
+    #: the lens has tilts/decenters: these are the paraxial data of its unfolded axis (exact for fold
+    #: mirrors that are tilted flats, not for genuinely decentred systems)
+    unfolded_axis: bool = False
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -264,6 +279,8 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     d_obj = lens.object_distance_mm if object_distance_mm is None else float(object_distance_mm)
     if math.isnan(d_obj) or d_obj <= 0.0:
         raise LensrtError(f"object distance {d_obj!r} mm must be positive (inf for an object at infinity)")
+    if is_afocal(sysm):
+        return _afocal_first_order(lens, sysm, d_obj)
     N = sysm.n_surfaces
     n0, nk = float(sysm.index[0]), float(sysm.index[-1])
     (A, B), (C, D) = sysm.matrix(0, N - 1)
@@ -289,8 +306,9 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     # an object at (or within rounding of) the front focal point images to infinity: rounding leaves
     # a finite but meaningless image distance (1e17 mm), so anything beyond 1e9 focal lengths is infinity
     if (math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl)) and math.isinf(d_obj):
-        raise LensrtError(f"the lens is afocal (EFL {efl:.4g} mm, its power nearly zero): an object at infinity "
-                          "images at infinity", hint="a camera lens needs power; check the radii")
+        raise LensrtError(f"an object at infinity has no finite image: the image lies {image_offset:.4g} mm behind "
+                          f"the last vertex, more than 1e9 focal lengths (EFL {efl:.4g} mm)",
+                          hint="check the radii and thicknesses")
     if math.isinf(image_offset) or abs(image_offset) > _IMAGE_AT_INFINITY * abs(efl):
         raise LensrtError(f"the image is at infinity at this object distance ({d_obj:g} mm: the object is at the "
                           f"front focal point, z = {front_focal_z:g} mm)",
@@ -332,5 +350,42 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm,
         half_field_deg=half_field, paraxial_image_height_mm=h_img,
         field_image_heights_mm=tuple(float(h) for h in heights),
-        image_virtual=bool(image_offset < 0.0),
+        image_virtual=bool(image_offset * math.copysign(1.0, nk) < 0.0), unfolded_axis=not lens.is_centred,
     )
+
+
+def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> FirstOrder:
+    """First-order data of an afocal lens: pupils and angular magnification; focal quantities inf."""
+    if lens.aperture.kind == "image_fno":
+        raise LensrtError("the lens is afocal: an f-number aperture is undefined",
+                          hint="give the entrance-pupil diameter (EPD / ENPD) instead")
+    if lens.fields.kind in ("paraxial_image_height", "real_image_height"):
+        raise LensrtError("the lens is afocal: image-height fields are undefined", hint="use field angles")
+    N = sysm.n_surfaces
+    n0, nk = float(sysm.index[0]), float(sysm.index[-1])
+    D = float(sysm.matrix(0, N - 1)[1, 1])
+    inf = math.inf
+    pup = pupils(sysm)
+    epd = entrance_pupil_diameter_mm(lens, sysm, pup, inf, d_obj)
+    stop_sd = 0.5 * epd * abs(pup.entrance_magnification)
+    xpd = 2.0 * stop_sd * abs(pup.exit_magnification)
+    m_ray = marginal_ray(sysm, d_obj, pup.entrance_z_mm, epd)
+    fmax = lens.fields.max_radial
+    c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
+    lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
+    petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
+    half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
+    return FirstOrder(
+        wavelength_nm=sysm.wavelength_nm, object_distance_mm=None if math.isinf(d_obj) else d_obj,
+        object_z_mm=None if math.isinf(d_obj) else -d_obj, efl_mm=inf, front_focal_length_mm=inf,
+        rear_focal_length_mm=inf, bfl_mm=inf, ffl_mm=-inf, front_focal_z_mm=-inf, rear_focal_z_mm=inf,
+        front_principal_z_mm=inf, rear_principal_z_mm=inf, front_nodal_z_mm=inf, rear_nodal_z_mm=inf,
+        entrance_pupil_z_mm=pup.entrance_z_mm, entrance_pupil_diameter_mm=epd, exit_pupil_z_mm=pup.exit_z_mm,
+        exit_pupil_diameter_mm=xpd, stop_semi_diameter_mm=stop_sd, pupil_magnification=xpd / epd,
+        entrance_pupil_distance_mm=inf, exit_pupil_distance_mm=inf, f_number=inf, bellows_factor=1.0,
+        working_f_number=inf, image_z_mm=inf, image_distance_mm=inf,
+        image_surface_distance_mm=float(lens.surfaces[-1].thickness_mm), unit_focus_extension_mm=0.0,
+        magnification=0.0, lagrange_invariant=lagrange, petzval_sum_per_mm=petzval,
+        overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm, half_field_deg=half_field,
+        paraxial_image_height_mm=inf, field_image_heights_mm=tuple(inf for _ in lens.fields.y),
+        afocal=True, angular_magnification=D * n0 / nk, unfolded_axis=not lens.is_centred)

@@ -4,6 +4,15 @@ At each surface ``n'u' = n u - y Phi`` with surface power ``Phi = c (n' - n)``,
 then the transfer ``y_next = y + t u'``. u > 0 for a rising ray. The paraxial
 curvature of an even asphere includes its r^2 term: c_par = c + 2 A2.
 
+Mirrors (Field Guide p. 3; Zemax's and CODE V's convention): after a
+reflection light travels toward -z, the thicknesses are negative and the
+index is given the sign of the travel direction (n' = -n at a mirror), so
+the same equations hold: a mirror's power is Phi = -2 n c and every reduced
+thickness t / n stays positive. ``ParaxialSystem.index`` holds these signed
+indices. Tilts and decenters are ignored here: the paraxial data of a lens
+with coordinate transforms are those of its unfolded axis (exact for fold
+mirrors that are tilted flats).
+
 Everything here also works with 2x2 reduced matrices on (y, n u): refraction
 ``[[1, 0], [-Phi, 1]]`` and transfer ``[[1, t / n], [0, 1]]`` (det = 1).
 """
@@ -29,7 +38,8 @@ class ParaxialSystem:
     thickness_mm : ndarray (N,)
         Thickness after each surface (the last runs to the image surface).
     index : ndarray (N + 1,)
-        Object-space index, then the index after each surface.
+        Object-space index, then the index after each surface, signed by the
+        direction of travel (negative after an odd number of mirrors).
     power_per_mm : ndarray (N,)
         Surface powers Phi = c (n' - n).
     stop_index : int
@@ -79,6 +89,12 @@ def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialS
     c = np.array([s.curvature_per_mm + (2.0 * s.asphere[0] if s.asphere else 0.0) for s in lens.surfaces])
     t = np.array([s.thickness_mm for s in lens.surfaces], dtype=np.float64)
     n = np.asarray(lens.indices(w), dtype=np.float64)
+    if lens.has_mirrors:
+        sign, signs = 1.0, [1.0]
+        for sf in lens.surfaces:
+            sign = -sign if sf.mirror else sign
+            signs.append(sign)
+        n = n * np.asarray(signs)
     phi = c * (n[1:] - n[:-1])
     return ParaxialSystem(c, t, n, phi, lens.stop_index, w)
 

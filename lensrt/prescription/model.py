@@ -23,10 +23,13 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..errors import PrescriptionError
+from .focusing import UNIT_FOCUS, FocusMechanism
+from .geometry import CoordinateTransform, SurfaceAperture
 from .materials import AIR, Material
 
 __all__ = [
-    "APERTURE_KINDS", "FIELD_KINDS", "Aperture", "Iris", "Fields", "Wavelengths", "Surface", "Lens", "LoadWarning",
+    "APERTURE_KINDS", "FIELD_KINDS", "APERTURE_RULES", "Aperture", "Iris", "Fields", "Wavelengths", "Surface", "Lens",
+    "LoadWarning",
 ]
 
 #: epd: entrance-pupil diameter (mm); image_fno: image-space f-number at infinite
@@ -36,6 +39,12 @@ APERTURE_KINDS = ("epd", "image_fno", "object_na", "float_by_stop")
 #: angle: field angle in object space (rad); object_height: mm in the object plane;
 #: paraxial_image_height / real_image_height: mm on the image surface.
 FIELD_KINDS = ("angle", "object_height", "paraxial_image_height", "real_image_height")
+#: which semi-diameters vignette. every_surface: every element's clear semi-diameter (given or
+#: computed) clips, as pbrt's lens tables mean it (the photographic reading, lensrt's default);
+#: opticstudio: OpticStudio's rule -- an automatic semi-diameter does not vignette, a user-defined
+#: one (``Surface.semi_diameter_fixed``: ``DIAM v 1``, a floating aperture) does. Surface apertures
+#: (``Surface.apertures``) and the stop clip under both rules.
+APERTURE_RULES = ("every_surface", "opticstudio")
 
 
 def _finite(value: float, what: str, surface: int | None = None) -> float:
@@ -171,7 +180,19 @@ class Wavelengths:
 
 @dataclass(frozen=True)
 class Surface:
-    """One refracting surface and the gap after it (see the module docstring)."""
+    """One refracting or reflecting surface and the gap after it (see the module docstring).
+
+    Geometry beyond the rotationally symmetric lens (:mod:`.geometry`):
+    ``mirror`` reflects instead of refracting (its ``material`` is the medium
+    the reflected light travels in: the one before it; thicknesses after an
+    odd number of mirrors are negative, as in Zemax and CODE V);
+    ``transform_before`` moves the local frame before the surface is placed
+    and ``transform_after`` after it, before the thickness is measured along
+    the new z (None: identity); ``apertures`` are clear apertures and
+    obscurations that always clip; ``semi_diameter_fixed`` marks a
+    user-defined semi-diameter (OpticStudio's ``DIAM v 1``), the one kind that
+    vignettes under the ``opticstudio`` aperture rule.
+    """
 
     curvature_per_mm: float = 0.0
     thickness_mm: float = 0.0
@@ -183,10 +204,16 @@ class Surface:
     label: str = ""
     #: True when the clear semi-diameter was computed (not given by the file)
     semi_diameter_auto: bool = False
+    mirror: bool = False
+    transform_before: CoordinateTransform | None = None
+    transform_after: CoordinateTransform | None = None
+    apertures: tuple[SurfaceAperture, ...] = ()
+    semi_diameter_fixed: bool = False
     #: line of the source file this surface came from (not part of equality)
     line: int | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
+        self._check_geometry()
         object.__setattr__(self, "curvature_per_mm", _finite(self.curvature_per_mm, "curvature"))
         object.__setattr__(self, "thickness_mm", _finite(self.thickness_mm, "thickness"))
         object.__setattr__(self, "conic", _finite(self.conic, "conic constant"))
@@ -207,6 +234,25 @@ class Surface:
                     f"(|R| = {abs(self.radius_mm):g} mm, conic {self.conic:g})",
                     hint="a semi-diameter must not exceed |R| (the surface would not exist there)")
             object.__setattr__(self, "semi_diameter_mm", sd)
+
+    def _check_geometry(self) -> None:
+        object.__setattr__(self, "mirror", bool(self.mirror))
+        object.__setattr__(self, "semi_diameter_fixed", bool(self.semi_diameter_fixed))
+        for name in ("transform_before", "transform_after"):
+            t = getattr(self, name)
+            if t is not None and not isinstance(t, CoordinateTransform):
+                raise PrescriptionError(f"{name} {t!r} is not a CoordinateTransform")
+            if t is not None and t.is_identity:
+                object.__setattr__(self, name, None)  # identity is stored as None: equal lenses compare equal
+        aps = tuple(self.apertures)
+        if any(not isinstance(a, SurfaceAperture) for a in aps):
+            raise PrescriptionError("surface apertures must be SurfaceAperture values")
+        object.__setattr__(self, "apertures", aps)
+
+    @property
+    def is_centred(self) -> bool:
+        """No transform and no aperture beyond the circular semi-diameter (mirrors allowed)."""
+        return self.transform_before is None and self.transform_after is None and not self.apertures
 
     @property
     def radius_mm(self) -> float:
@@ -269,12 +315,23 @@ class Lens:
     source: str = ""
     #: free-form metadata as (key, value) pairs, e.g. ("clear_apertures", "paraxial")
     notes: tuple[tuple[str, str], ...] = ()
+    #: which semi-diameters vignette (:data:`APERTURE_RULES`)
+    aperture_rule: str = "every_surface"
+    #: the image surface's change of frame after the last thickness (CODE V's SI decenter); None: identity
+    image_transform: CoordinateTransform | None = None
     #: approximations the reader made (glass substitutions, ignored keywords, assumed defaults)
     warnings: tuple[LoadWarning, ...] = field(default=(), compare=False)
     #: file the lens was read from (not part of equality)
     path: str | None = field(default=None, compare=False)
+    #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default
+    focus: FocusMechanism = UNIT_FOCUS
 
     def __post_init__(self) -> None:
+        if self.image_transform is not None and self.image_transform.is_identity:
+            object.__setattr__(self, "image_transform", None)
+        if self.aperture_rule not in APERTURE_RULES:
+            raise PrescriptionError(f"unknown aperture rule {self.aperture_rule!r}",
+                                    hint=f"use one of {', '.join(APERTURE_RULES)}")
         surfaces = tuple(self.surfaces)
         object.__setattr__(self, "surfaces", surfaces)
         if not surfaces:
@@ -302,6 +359,42 @@ class Lens:
             raise PrescriptionError("the aperture floats by stop size but the stop has no semi-diameter",
                                     surface=stops[0], hint="give the stop's semi-diameter")
         object.__setattr__(self, "notes", tuple((str(k), str(v)) for k, v in self.notes))
+        self.focus.check_against(len(surfaces))
+        self._check_mirrors(surfaces)
+
+    def _check_mirrors(self, surfaces: tuple[Surface, ...]) -> None:
+        before = self.object_material
+        for i, s in enumerate(surfaces):
+            if s.mirror and s.material != before:
+                raise PrescriptionError(
+                    f"mirror surface {i + 1} has material {s.material.describe()} but the light before it "
+                    f"travels in {before.describe()}", surface=i, line=s.line,
+                    hint="a mirror's material is the medium the reflected light travels in: the one before it")
+            before = s.material
+
+    # ---- geometry kind ---------------------------------------------------
+    @property
+    def has_mirrors(self) -> bool:
+        return any(s.mirror for s in self.surfaces)
+
+    @property
+    def is_centred(self) -> bool:
+        """Rotationally symmetric about one axis: no transforms, only circular apertures (mirrors allowed)."""
+        return self.image_transform is None and all(s.is_centred for s in self.surfaces)
+
+    @property
+    def is_plain(self) -> bool:
+        """The classic lens of the Warp kernels: centred, refractive, every semi-diameter clipping."""
+        return self.is_centred and not self.has_mirrors and self.aperture_rule == "every_surface"
+
+    def clips_semi_diameter(self, index: int) -> bool:
+        """True when surface ``index``'s circular semi-diameter vignettes under :attr:`aperture_rule`."""
+        s = self.surfaces[index]
+        if s.semi_diameter_mm is None:
+            return False
+        if self.aperture_rule == "every_surface" or index == self.stop_index:
+            return True
+        return s.semi_diameter_fixed
 
     # ---- structure -------------------------------------------------------
     @property

@@ -23,20 +23,27 @@ def check_geometry(lens: Lens, samples: int = 65) -> None:
     never lie in front of the earlier one over the common aperture:
     ``z_i(r) <= t_i + z_{i+1}(r)`` for ``0 <= r <= min(sd_i, sd_{i+1})``. A
     negative thickness is thus allowed only where the sags make room for it.
-    The image surface must lie behind the last vertex.
+    The image surface must lie behind the last vertex. After an odd number of
+    mirrors light travels toward -z and "behind" means toward -z too; surfaces
+    with a coordinate transform between them are not compared (their sags do
+    not share an axis).
     """
     surfaces = lens.surfaces
+    sign = 1.0
     for i in range(len(surfaces) - 1):
         a, b = surfaces[i], surfaces[i + 1]
+        sign = -sign if a.mirror else sign
+        if a.transform_after is not None or b.transform_before is not None:
+            continue
         if a.semi_diameter_mm is None or b.semi_diameter_mm is None or a.semi_diameter_auto or b.semi_diameter_auto:
             # computed apertures are estimates (paraxial ones overshoot on wide lenses): only
             # the file's own semi-diameters can prove a crossing
-            if a.thickness_mm < 0.0 and not a.material.is_air:
+            if sign * a.thickness_mm < 0.0 and not a.material.is_air:
                 raise PrescriptionError(f"negative thickness {a.thickness_mm:g} mm inside glass "
                                         f"{a.material.describe()}", surface=i, line=a.line)
             continue
         r = np.linspace(0.0, min(a.semi_diameter_mm, b.semi_diameter_mm), samples)
-        gap = a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r))
+        gap = sign * (a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)))
         worst = int(np.argmin(gap))
         if gap[worst] < -CROSSING_TOL_MM:
             raise PrescriptionError(
@@ -45,7 +52,8 @@ def check_geometry(lens: Lens, samples: int = 65) -> None:
                 surface=i, line=a.line,
                 hint="check the thickness, the radii and the semi-diameters")
     last = surfaces[-1]
-    if last.thickness_mm < 0.0:
+    sign = -sign if last.mirror else sign
+    if sign * last.thickness_mm < 0.0 and last.transform_after is None and lens.is_centred:
         raise PrescriptionError(f"the image surface lies {-last.thickness_mm:g} mm in front of the last surface",
                                 surface=len(surfaces) - 1, line=last.line,
                                 hint="the last thickness runs to the image and must not be negative")

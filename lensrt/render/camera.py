@@ -21,7 +21,9 @@ five wavelengths -- what contrast-detect autofocus converges to -- rather than t
 image, which lies a little off for a real lens with spherical aberration (``focus="paraxial"``
 keeps the paraxial image plane). ``focus_extension_mm`` moves the whole lens forward from its
 infinity position by that much (unit focusing, Field Guide p. 12): in the lens frame the
-sensor moves back by the extension.
+sensor moves back by the extension. A lens that declares a focus group or floating groups
+(:mod:`lensrt.prescription.focusing`) is focused at ``focus_distance`` by moving them instead,
+the sensor fixed, to the same best-focus criterion (``Camera.lens`` is the moved lens).
 
 Aperture. ``[camera] f_number`` scales the stop's clear radius by N_lens / N (paraxially the
 entrance pupil scales with the stop); opening wider than the lens's own f-number is an error.
@@ -228,6 +230,18 @@ def _focus_weights(scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
     return _FOCUS_WAVELENGTHS_NM, tuple(float(x) for x in v)
 
 
+def _focus_by_mechanism(lens: Lens, distance_mm: float, wls: tuple[float, ...], wts: tuple[float, ...],
+                        stop_radius: float | None) -> Lens:
+    """``lens`` with its focus group / floating groups moved so the best focus of ``distance_mm`` is on its image
+    surface (the same criterion as :func:`best_focus_z_mm`)."""
+    from ..prescription.focus_travel import move_mechanism, solve_travel
+
+    def residual(moved: Lens) -> float:
+        return best_focus_z_mm(moved, distance_mm, wls, wts, stop_radius) - moved.image_z_mm
+    travel, _, _, _ = solve_travel(lens, distance_mm, residual, tol_mm=1e-7)
+    return move_mechanism(lens, travel)
+
+
 def setup_camera(scene, lens: Lens, focus: str = "best") -> Camera:
     """The :class:`Camera` of ``scene`` with ``lens`` (focus ``"best"`` or ``"paraxial"``; module docstring)."""
     from ..paraxial.first_order import first_order
@@ -255,7 +269,11 @@ def setup_camera(scene, lens: Lens, focus: str = "best") -> Camera:
         if not math.isinf(dist) and not -dist < first_order(lens, None, math.inf).front_focal_z_mm:
             raise LensrtError(f"focus distance {dist / 1000.0:g} m is inside the lens's front focal point",
                               hint="focus farther away")
-        sensor_z = image_z(dist)
+        if not lens.focus.is_unit and focus == "best":
+            lens = _focus_by_mechanism(lens, dist, wls, wts, stop_radius)
+            sensor_z = lens.image_z_mm  # the sensor stays; the lens's focus group moved
+        else:
+            sensor_z = image_z(dist)
     try:
         fo = first_order(lens, None, dist if math.isfinite(dist) and dist > 0 else math.inf)
         bellows, mag, xp_z = fo.bellows_factor, fo.magnification, fo.exit_pupil_z_mm

@@ -198,6 +198,7 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
     t["plan"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cam = setup_camera(scene, lens, options.focus)
+    lens = cam.lens  # a declared focus group / floating groups moved to focus (render.camera)
     t["camera"] = time.perf_counter() - t0
     dev = resolve_device(device if device is not None else options.device)
     t0 = time.perf_counter()

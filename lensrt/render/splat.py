@@ -186,6 +186,7 @@ def render_splat(scene, lens, plan, options, progress=None):
     t_start = time.perf_counter()
     dev = resolve_device(options.device)
     cam = setup_camera(scene, lens, options.focus)
+    lens = cam.lens  # a declared focus group / floating groups moved to focus (render.camera)
     sen = cam.sensor
     rows, cols = sen.shape
     n_px = rows * cols

@@ -170,6 +170,8 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
     d = options.object_distance_mm
     if d is not None and not (math.isinf(d) and math.isinf(lens.object_distance_mm)) \
             and d != lens.object_distance_mm:
+        if not lens.focus.is_unit:
+            return _focus_by_mechanism(lens, float(d), notes)
         from ..analysis.bokeh.focus import focus_lens
         f = focus_lens(lens, d)
         last = lens.n_surfaces - 1
@@ -180,3 +182,13 @@ def prepare_lens(lens: Lens, options: ReportOptions) -> tuple[Lens, list[str]]:
         notes.append(f"focused at {where} from the first vertex by unit focusing: the image surface moved "
                      f"{shift:+.4f} mm (extension {f.extension_mm:.4f} mm from infinity focus)")
     return lens, notes
+
+
+def _focus_by_mechanism(lens, distance_mm: float, notes: list[str]):
+    """Focus a lens that declares a focus group or floating groups with that mechanism (real best focus)."""
+    from ..analysis.focusing import focus_at
+    sol = focus_at(lens, distance_mm)
+    where = "infinity" if math.isinf(distance_mm) else f"{distance_mm / 1000.0:g} m"
+    notes.append(f"focused at {where} from the first vertex by the lens's own mechanism ({sol.mechanism}): "
+                 f"travel {sol.travel:.6g} {sol.travel_unit}, real best focus on the image surface")
+    return sol.lens, notes

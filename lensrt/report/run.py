@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence
 from ..core.telemetry import measure
 from ..errors import LensrtError
 from ..io.paths import output_dir
+from ..prescription.configurations import MultiConfigLens
 from .model import Report, ReportContext, Section
 from .options import ReportOptions, prepare_lens
 
@@ -29,6 +30,8 @@ SECTIONS: tuple[tuple[str, str, str, str], ...] = (
      "distortion, focus, colour", "sections_compare:aberrations_section"),
     ("image_quality", "Spots, ray fans, pupils and relative illumination", "spots, fans, illumination",
      "sections_compare:image_quality_section"),
+    ("zoom", "Configurations and focus breathing", "configurations, focus breathing",
+     "sections_zoom:zoom_section"),
     ("psf", "PSF map", "PSF map", "sections_psf:psf_section"),
     ("mtf", "MTF", "MTF", "sections_psf:mtf_section"),
     ("bokeh", "Bokeh", "bokeh map", "sections_bokeh:bokeh_section"),
@@ -93,6 +96,10 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
                  skip: Sequence[str] = (), stream=None, quiet: bool = False) -> Report:
     """Run the report's sections on ``lens`` and write ``index.html`` and ``report.json`` into ``out_dir``.
 
+    ``lens`` may be a :class:`~lensrt.prescription.configurations.MultiConfigLens`: the
+    ``zoom`` section then tabulates every configuration and the others analyse the
+    current one.
+
     A section that raises keeps what it made so far and records the error (``Report.failed``);
     the others run on. Bad options or a lens that cannot be prepared raise :class:`LensrtError`
     before anything is written. Progress goes to ``stream`` (stderr) unless ``quiet``.
@@ -116,10 +123,15 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
     from ..views.progress import StepProgress
     from ..device import describe_device, resolve_device
     t0 = time.perf_counter()
+    family = None
+    if isinstance(lens, MultiConfigLens):
+        family, lens = lens, lens.configuration()
     analysed, notes = prepare_lens(lens, options)
     device = resolve_device(options.device)
     out = output_dir(out_dir)
     ctx = ReportContext(analysed, lens, options, out, device, notes)
+    if family is not None:
+        ctx.cache["configurations"] = family
     steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
     sections = []
     for key, title, label, spec in SECTIONS:

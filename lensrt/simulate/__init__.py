@@ -2,7 +2,7 @@
 
 Stage: beside :mod:`lensrt.pipeline` and :mod:`lensrt.studies`, above :mod:`lensrt.analysis`; it uses
 the analysis stage's real-ray tools (chief-ray placement, pupil boxes, the stream kernel), the sensor
-and ISP stages and :mod:`lensrt.io`; only the CLI imports it. See docs/guide/simulate.md.
+and ISP stages and :mod:`lensrt.io`; only the CLI imports it. See docs/guide/simulate.md. In Python::
 
     from lensrt import load_lens
     from lensrt.simulate import SimulateOptions, read_image_linear, simulate, write_outputs

@@ -66,17 +66,19 @@ def real_ray_heights(lens: Lens) -> tuple[np.ndarray, int, int]:
     return heights, failed, tried
 
 
-def compute_clear_apertures(lens: Lens) -> Lens:
+def compute_clear_apertures(lens: Lens, max_failed_fraction: float = MAX_FAILED_FRACTION) -> Lens:
     """A copy of ``lens`` with every missing semi-diameter computed from real rays (flagged automatic).
 
     A value beyond the largest radius the surface can have (|R| for a sphere) is
-    limited to that radius.
+    limited to that radius. More than ``max_failed_fraction`` of the chief and marginal rays failing is an
+    error; a study of a lens pushed beyond what it passes (a stability case opened past its design
+    f-number) may opt in to a larger fraction, the failed rays' heights then taken from the paraxial ones.
     """
     if all(s.semi_diameter_mm is not None for s in lens.surfaces):
         return lens
     heights, failed, tried = real_ray_heights(lens)
     method = METHOD_REAL
-    if failed > MAX_FAILED_FRACTION * tried:
+    if failed > max_failed_fraction * tried:
         raise PrescriptionError(
             f"the clear apertures cannot be computed: {failed} of {tried} real chief and marginal rays fail "
             "(cannot be aimed, miss a surface or are totally reflected)",

@@ -6,6 +6,12 @@ One row per surface plus one for the image surface (a plane)::
                1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
+A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
+direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
+odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
+curvature and asphere terms are then stored multiplied by that sign (the surface
+seen in the frame mirrored in z, as :mod:`.reference_general` meets it).
 ``media[m]`` holds medium m (0 = object space, m = i + 1 after surface i):
 ``[0, n]`` for a constant index (air included) or ``[1, p_0 .. p_14]`` with the 15
 coefficients of :func:`lensrt.prescription.materials.index_from_packed`.
@@ -32,13 +38,27 @@ from ..prescription.model import Iris, Lens
 from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
+           "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "S_APER", "MAX_SURFACE_APERTURES", "APERTURE_COLS",
+           "APERTURE_SHAPE_CODES", "pack_geometry",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
            "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
 
 S_C, S_KP1, S_SD2, S_THICK, S_KIND, S_NASPH, S_ASPH = range(7)
 MAX_ASPHERE = 10
-SURF_COLS = S_ASPH + MAX_ASPHERE
+#: geometry columns after the asphere block (module docstring): mirror flag, travel sign at the
+#: surface, lens-wide geometry flag, the surface frame's origin (3) and axes (9, row-major, columns = axes)
+S_MIRROR = S_ASPH + MAX_ASPHERE
+S_SIGN, S_GEOM, S_ORIGIN = S_MIRROR + 1, S_MIRROR + 2, S_MIRROR + 3
+S_AXES = S_ORIGIN + 3
+#: up to MAX_SURFACE_APERTURES surface apertures per surface, APERTURE_COLS columns each from S_APER:
+#: shape code (0 none, 1 circle, 2 annulus, 3 rectangle, 4 ellipse), a, b, decenter x, y, cos and sin
+#: of the rotation, obscuration flag (sizes with APERTURE_TOLERANCE applied)
+S_APER = S_AXES + 9
+MAX_SURFACE_APERTURES = 2
+APERTURE_COLS = 8
+SURF_COLS = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
 (IRIS_STOP, IRIS_RADIUS, IRIS_BLADES, IRIS_ROTATION, IRIS_ROUNDNESS, IRIS_OBSTRUCTION, IRIS_COS_HALF,
@@ -51,7 +71,11 @@ _CACHE_SIZE = 32
 
 def pack_arrays(lens: Lens, iris: Iris | None = None,
                 stop_radius_mm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(surf, media, iris) float64 host arrays of ``lens`` (module docstring)."""
+    """(surf, media, iris) float64 host arrays of ``lens`` (module docstring).
+
+    Mirrors, coordinate transforms and surface apertures fill the geometry
+    columns (:func:`pack_geometry`).
+    """
     n = lens.n_surfaces
     surf = np.zeros((n + 1, SURF_COLS))
     for i, s in enumerate(lens.surfaces):
@@ -60,7 +84,7 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
                               f"at most {MAX_ASPHERE} (r^2 .. r^{2 * MAX_ASPHERE})")
         surf[i, S_C] = s.curvature_per_mm
         surf[i, S_KP1] = 1.0 + s.conic
-        sd = s.semi_diameter_mm
+        sd = s.semi_diameter_mm if lens.clips_semi_diameter(i) else None
         surf[i, S_SD2] = -1.0 if sd is None else (sd * (1.0 + APERTURE_TOLERANCE)) ** 2
         surf[i, S_THICK] = s.thickness_mm
         surf[i, S_KIND] = 2.0 if s.asphere else (1.0 if s.curvature_per_mm != 0.0 else 0.0)
@@ -68,6 +92,7 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
         surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
+    pack_geometry(lens, surf)
     media = np.zeros((n + 1, MEDIA_COLS))
     for m, mat in enumerate(lens.media()):
         p = np.asarray(mat.packed(), dtype=np.float64)
@@ -89,6 +114,41 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
     iris_row[IRIS_COS_HALF] = math.cos(half)
     iris_row[IRIS_HALF] = half
     return surf, media, iris_row
+
+
+def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
+    """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
+    surf[:, S_SIGN] = 1.0
+    surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
+    if lens.is_centred and not lens.has_mirrors:
+        return
+    from ..prescription.frames import surface_frames, travel_signs
+    signs = travel_signs(lens)
+    for i, (origin, axes) in enumerate(surface_frames(lens)):
+        surf[i, S_GEOM] = 1.0
+        surf[i, S_SIGN] = signs[i]
+        surf[i, S_ORIGIN:S_ORIGIN + 3] = origin
+        surf[i, S_AXES:S_AXES + 9] = axes.ravel()
+        if i < lens.n_surfaces:
+            surf[i, S_MIRROR] = 1.0 if lens.surfaces[i].mirror else 0.0
+            surf[i, S_C] *= signs[i]
+            surf[i, S_ASPH:S_ASPH + MAX_ASPHERE] *= signs[i]
+            _pack_apertures(lens, i, surf)
+
+
+def _pack_apertures(lens: Lens, i: int, surf: np.ndarray) -> None:
+    aps = lens.surfaces[i].apertures
+    if len(aps) > MAX_SURFACE_APERTURES:
+        raise LensrtError(f"surface {i + 1} has {len(aps)} surface apertures; the kernels take at most "
+                          f"{MAX_SURFACE_APERTURES}", path=lens.path,
+                          hint="use lensrt.trace.reference.trace_reference (float64, one ray at a time)")
+    g = 1.0 + APERTURE_TOLERANCE
+    for k, a in enumerate(aps):
+        grow = 1.0 / g if a.obscuration else g  # the tolerance always favours passing
+        b = a.b / grow if a.shape == "annulus" else a.b * grow
+        surf[i, S_APER + k * APERTURE_COLS:S_APER + (k + 1) * APERTURE_COLS] = (
+            APERTURE_SHAPE_CODES[a.shape], a.a * grow, b, a.decenter_x_mm, a.decenter_y_mm,
+            math.cos(a.rotation_rad), math.sin(a.rotation_rad), 1.0 if a.obscuration else 0.0)
 
 
 def index_table(lens: Lens, wavelength_nm: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..errors import LensrtError
 from ..prescription.model import Aperture, Fields, Lens
 
 __all__ = ["reversed_lens", "to_reversed", "from_reversed"]
@@ -31,6 +32,10 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
     have one) and the field the object height 0: sample the reversed lens with explicit
     rays or stream sources, not with its field specification.
     """
+    if lens.has_mirrors or not lens.is_centred:
+        raise LensrtError("tracing from the image side (render, bokeh maps) does not support mirrors, tilts/decenters "
+                          "or surface apertures yet", path=lens.path,
+                          hint="trace such lenses forward (trace, psf, spot) or with the float64 reference tracer")
     n = lens.n_surfaces
     media = lens.media()
     old = lens.surfaces

@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from .pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
-                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_KP1, S_NASPH, S_SD2, S_THICK)
+                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_GEOM, S_KP1, S_NASPH, S_SD2,
+                   S_THICK)
 
 __all__ = ["PLANE", "SPHERE", "CONIC", "ASPHERE", "IRIS_NONE", "IRIS_CIRCLE", "IRIS_POLYGON", "MediumShape",
            "LensShape", "Layout", "lens_shape", "constants", "specialisable", "describe", "MAX_CONSTANTS", "MAX_BLADES_UNROLLED"]
@@ -68,6 +69,8 @@ class LensShape:
     media: tuple[MediumShape, ...]
     #: refraction at surface i is the identity (the same constant index on both sides)
     same_index: tuple[bool, ...]
+    #: mirrors or coordinate transforms (pack.S_GEOM): only the generic kernel traces those
+    geometry: bool = False
 
 
 class Layout:
@@ -173,7 +176,7 @@ def lens_shape(surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray, clip: 
         if mode == IRIS_CIRCLE:
             blades = 0
     return LensShape(n, tuple(kinds), tuple(n_asph), tuple(clips), stop, mode, blades, obstruction, rounded,
-                     mshapes, tuple(same))
+                     mshapes, tuple(same), bool(surf[0, S_GEOM] != 0.0))
 
 
 def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray) -> np.ndarray:
@@ -222,8 +225,9 @@ def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: n
 
 
 def specialisable(shape: LensShape) -> bool:
-    """False for shapes the generator leaves to the generic kernel (too many constants or blades)."""
-    return shape.blades <= MAX_BLADES_UNROLLED and Layout(shape).size <= MAX_CONSTANTS
+    """False for shapes the generator leaves to the generic kernel (too many constants or blades,
+    mirrors or coordinate transforms)."""
+    return not shape.geometry and shape.blades <= MAX_BLADES_UNROLLED and Layout(shape).size <= MAX_CONSTANTS
 
 
 def describe(shape: LensShape) -> dict[str, Any]:

@@ -24,6 +24,11 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
     if wavelength_nm is not None:
         lens.check_wavelengths(wavelength_nm)  # an ExtrapolationWarning where a glass's formula is extrapolated
     fo = first_order(lens, wavelength_nm, object_distance_mm)
+    if fo.afocal:  # a telescope or a plate: pupils and angular magnification, no focal data or Seidel sums
+        if sensor is not None:
+            raise LensrtError("the lens is afocal: it forms no image on a sensor", hint="leave out --sensor")
+        return {"lens": lens.name, "path": lens.path, **fo.to_dict(),
+                "field_image_heights_mm": list(fo.field_image_heights_mm), "seidel": None}
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
     data.update(fo.to_dict())

@@ -264,17 +264,10 @@ def test_output_name_cannot_escape_out(tmp_path: Path, capsys) -> None:
     assert (out / "ok.png").is_file() and not any(p.parent != out for p in tmp_path.rglob("ok.*"))
 
 
-def test_afocal_message_does_not_contradict_itself(tmp_path: Path) -> None:
-    # an object at infinity, a lens of (nearly) no power: never "the object is at the front focal point"
-    from lensrt.paraxial import first_order
-    from lensrt.prescription.model import Aperture, Fields, Lens, Surface, Wavelengths
-    from lensrt.prescription.materials import ConstantIndex
-    n, r1, t = 1.5, 50.0, 5.0
-    phi1 = (n - 1) / r1
-    r2 = (n - 1) / (phi1 / (1 - t * phi1 / n))  # phi1 + phi2 - t phi1 phi2 / n = 0, to rounding
-    lens = Lens(surfaces=(Surface(1 / r1, t, ConstantIndex(n), is_stop=True), Surface(1 / r2, 40.0)),
-                aperture=Aperture("epd", 10.0), fields=Fields(y=(0.0,)), wavelengths=Wavelengths())
-    with pytest.raises(LensrtError) as err:
-        first_order(lens)
-    msg = str(err.value)
-    assert "afocal" in msg and "front focal point" not in msg
+def test_no_finite_image_message_does_not_contradict_itself(tmp_path: Path) -> None:
+    # an object at infinity whose image falls more than 1e9 focal lengths away (a 1.5e11 mm element, found by
+    # the long Hypothesis profile): never "the object is at the front focal point"; refused at load, naming
+    # the file. (A lens of exactly zero power is afocal and reported with its angular magnification.)
+    text = COOKE.replace("thickness_mm = 3.25896", "thickness_mm = 146427852046.0")
+    msg = refused(lens_file(tmp_path, "long.toml", COOKE, text))
+    assert "front focal point" not in msg and ("no finite image" in msg or "cross" in msg or "clear apertures" in msg)

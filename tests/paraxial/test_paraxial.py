@@ -180,8 +180,9 @@ def test_lagrange_invariant_at_image(library_dir) -> None:
 def test_afocal_and_bad_distance_are_reported() -> None:
     rows = [dict(curvature_per_mm=0.0, thickness_mm=5.0, material=ConstantIndex(1.5), is_stop=True),
             dict(curvature_per_mm=0.0, thickness_mm=10.0)]
-    with pytest.raises(LensrtError, match="no power"):
-        first_order(_lens(rows))
+    plate = first_order(_lens(rows))  # afocal (issue 17): angular magnification instead of an error
+    assert plate.afocal and plate.angular_magnification == pytest.approx(1.0, rel=1e-15)
+    assert math.isinf(plate.efl_mm) and plate.entrance_pupil_diameter_mm > 0.0
     rows = [dict(curvature_per_mm=1 / 50.0, thickness_mm=5.0, material=ConstantIndex(1.5), is_stop=True),
             dict(curvature_per_mm=0.0, thickness_mm=90.0)]
     lens = _lens(rows)

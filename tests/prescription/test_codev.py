@@ -122,14 +122,14 @@ def test_solves_and_variable_codes_are_kept_values() -> None:
 
 
 @pytest.mark.parametrize("edit,needle", [
-    (("S -0.02 45", "S -0.02 45 REFL"), "mirrors"),
-    (("  STO", "  STO\n  ADE 3"), "ADE: a tilt"),
-    (("  STO", "  STO\n  YDE 1"), "YDE: a decenter"),
-    (("  STO", "  STO\n  DAR"), "decenter-and-return"),
+    (("SI 0 0", "SI 0 0 REFL"), "cannot be mirrors"),
+    (("  STO", "  STO\n  RET S1"), "RET: a coordinate return"),
+    (("  STO", "  STO\n  ADE"), "ADE without a value"),
+    (("SI 0 0", "SI 0 0\nDAR"), "DAR without a surface"),
     (("  STO", "  STO\n  XTO"), "toroidal"),
     (("  STO", "  STO\n  DIF DOE"), "diffractive"),
-    (("  STO", "  STO\n  REX 3"), "rectangular aperture"),
-    (("  STO", "  STO\n  CIR HOL 3"), "holes"),
+    (("  STO", "  STO\n  REX 3"), "rectangle aperture without REY"),
+    (("  STO", "  STO\n  REX 3; ELY 2"), "mixes a rectangular and an elliptical"),
     (("EPD 10", "EPD 10\nZOO 3"), "zoom"),
     (("EPD 10", "EPD 10\nPRV"), "close the private catalog with END"),
     (("EPD 10", "EPD 10\nNA 0.1"), "image-space NA"),
@@ -155,10 +155,10 @@ def test_unsupported_constructs(edit: tuple[str, str], needle: str | None) -> No
 
 
 def test_error_points_at_the_line() -> None:
-    text = BASE.replace("  STO", "  STO\n  ADE 3")
+    text = BASE.replace("  STO", "  STO\n  XTO 3")
     with pytest.raises(PrescriptionError) as err:
         loads_seq(text, "bad.seq")
-    assert text.splitlines()[err.value.line - 1].strip() == "ADE 3"
+    assert text.splitlines()[err.value.line - 1].strip() == "XTO 3"
 
 
 def test_real_codev_files_load_or_fail_cleanly() -> None:

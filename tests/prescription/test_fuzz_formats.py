@@ -24,12 +24,16 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            ROOT.parent / "lens_prescriptions" / "codev_dblgauss_100mm_f2.toml",
            # the glass and keyword syntax of issues 22/25: PRV, '&', n:v and six-digit glasses, DOR/UID,
            # F_SILICA, ___BLANK, GCAT of unshipped catalogs, FLOA, newer OpticStudio keywords
-           ROOT / "data" / "glass_syntax.seq", ROOT / "data" / "glass_syntax.zmx"]
+           ROOT / "data" / "glass_syntax.seq", ROOT / "data" / "glass_syntax.zmx",
+           # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
+           # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
+           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
-          "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT"]
+          "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
+          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:

@@ -121,8 +121,8 @@ def test_report_json_and_monte_carlo_records(reports, name):
     d, _ = reports[name]
     data = _strict_json(d / "report.json")
     assert data["ok"] and not data["failed_sections"]
-    assert [s["key"] for s in data["sections"]] == ["lens", "first_order", "aberrations", "image_quality", "psf",
-                                                    "mtf", "bokeh", "dof"]
+    assert [s["key"] for s in data["sections"]] == ["lens", "first_order", "aberrations", "image_quality", "zoom",
+                                                    "psf", "mtf", "bokeh", "dof"]
     assert data["device"] == "cpu" and data["options"]["precision"] == "float32"
     assert data["environment"]["command_line"].startswith("lensrt report " + name)
     assert data["environment"]["lensrt"]

@@ -89,7 +89,7 @@ def test_matches_optiland(device):
     pytest.importorskip("optiland")
     import optiland.backend as be
     from optiland.rays import RealRays
-    from test_trace_optiland import optiland_optic
+    from optiland_cases import optiland_optic
     wl = LENS.wavelengths.primary_nm
     op = optiland_optic(LENS, wl)
     hy = np.repeat([0.0, 0.7, 1.0], len(PY))

@@ -14,11 +14,11 @@ import math
 import numpy as np
 import pytest
 
+from optiland_cases import optiland_optic
 from trace_cases import DATA, library_lens
 from test_trace_kernels import FLOAT32_BOUND_MM
 
 from lensrt.loading import complete_lens
-from lensrt.paraxial import first_order
 from lensrt.prescription.materials import AIR, ModelGlass
 from lensrt.prescription.model import Aperture, Fields, Lens, Surface, Wavelengths
 from lensrt.trace import make_rays, trace
@@ -50,26 +50,6 @@ def cooke_triplet() -> Lens:
     lens = Lens(surf, aperture=Aperture("epd", 10.0), fields=Fields("angle", tuple(map(math.radians, (0, 14, 20)))),
                 wavelengths=Wavelengths((480.0, 550.0, 650.0), primary=1), name="Cooke triplet")
     return complete_lens(lens)
-
-
-def optiland_optic(lens: Lens, wavelength_nm: float):
-    import optiland.backend as be
-    from optiland import optic
-    from optiland.materials import IdealMaterial
-    n = lens.indices(wavelength_nm)
-    op = optic.Optic()
-    op.surfaces.add(index=0, radius=be.inf, thickness=be.inf)
-    for i, s in enumerate(lens.surfaces):
-        mat = "air" if n[i + 1] == 1.0 else IdealMaterial(float(n[i + 1]))
-        op.surfaces.add(index=i + 1, radius=s.radius_mm, thickness=s.thickness_mm, material=mat,
-                        is_stop=s.is_stop, conic=s.conic)
-    op.surfaces.add(index=lens.n_surfaces + 1)
-    op.set_aperture(aperture_type="EPD", value=first_order(lens).entrance_pupil_diameter_mm)
-    op.fields.set_type(field_type="angle")
-    for f in lens.fields.y:
-        op.fields.add(y=math.degrees(f))
-    op.wavelengths.add(value=wavelength_nm / 1000.0, is_primary=True)
-    return op
 
 
 LENSES = {"cooke": cooke_triplet, "codev_dblgauss": lambda: library_lens("codev_dblgauss_100mm_f2")}

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 
 from ...errors import LensrtError
+from ...prescription.frames import travel_signs
 from ...prescription.model import Lens
 
 __all__ = ["FOCUS_BASES", "FocusSpec", "parse_focus", "best_focus_z_mm", "focus_plane"]
@@ -108,7 +109,8 @@ def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | N
         raise LensrtError(f"unknown focus base {spec.base!r}")
     z = float(base + spec.offset_mm)
     last_z = float(lens.vertex_z_mm()[lens.n_surfaces - 1])
-    if not z > last_z:  # rays would be extended backwards through the lens to a plane in front of its end
+    travel = travel_signs(lens)[-1]  # -1 after an odd number of mirrors: the image lies toward -z
+    if not (z - last_z) * travel > 0.0:  # rays would be extended backwards through the lens to a plane in front
         raise LensrtError(f"focus {spec}: the observation plane z = {z:.6g} mm is not behind the last surface "
                           f"(z = {last_z:.6g} mm)", hint="give a smaller shift")
     info["base_z_mm"] = float(base)

@@ -10,10 +10,11 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import PrescriptionError
+from ...errors import PrescriptionError, located
+from ..configurations import MultiConfigLens, single_configuration
 from ..model import Lens
 
-__all__ = ["FORMATS", "read_lens", "read_text", "detect_format"]
+__all__ = ["FORMATS", "read_lens", "read_text", "detect_format", "read_any", "read_configurations"]
 
 #: format name -> (module, reader function, file extensions)
 FORMATS: dict[str, tuple[str, str, tuple[str, ...]]] = {
@@ -89,8 +90,13 @@ def detect_format(path: str | Path, text: str | None = None) -> str:
                                  "or pass --format")
 
 
-def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Lens:
+def read_lens(path: str | Path, format: str | None = None, config: int | str | None = None,
+              **options: Any) -> Lens:
     """Read a lens file of any supported format into a :class:`Lens`.
+
+    A multi-configuration file (zoom or focus positions) gives configuration
+    ``config`` (a name or a 1-based number; default the file's current one);
+    :func:`read_configurations` gives them all.
 
     Parameters
     ----------
@@ -104,15 +110,34 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
         another format than the file's is an error. The glass options of every
         format: ``glass_substitute``, ``glass_model_fallback`` (bool) and
         ``glass_catalog`` (paths of ``.agf`` files or folders), see
-        :mod:`lensrt.prescription.glass_lookup`.
+        :mod:`lensrt.prescription.glass_lookup`. ``aperture_rule`` (any format)
+        sets :attr:`Lens.aperture_rule`: which semi-diameters vignette.
 
     Notes
     -----
     Semi-diameters the file does not give are left as ``None`` here; use
     :func:`lensrt.load_lens` for a lens with computed clear apertures.
     """
+    found = read_any(path, format, **options)
+    if isinstance(found, MultiConfigLens):
+        return found.configuration(config)
+    if config is not None:
+        single_configuration(found).index_of(config)  # only "1" names the one configuration
+    return found
+
+
+def read_configurations(path: str | Path, format: str | None = None, **options: Any) -> MultiConfigLens:
+    """Every configuration of a lens file (a plain lens file has one)."""
+    found = read_any(path, format, **options)
+    return found if isinstance(found, MultiConfigLens) else single_configuration(found)
+
+
+def read_any(path: str | Path, format: str | None = None, **options: Any) -> Lens | MultiConfigLens:
+    """What the format's reader gives: a :class:`Lens`, or a :class:`MultiConfigLens` for a
+    multi-configuration file. Options as for :func:`read_lens`."""
     text = read_text(path)
     fmt = format or detect_format(path, text)
+    rule = options.pop("aperture_rule", None)
     if fmt not in FORMATS:
         raise PrescriptionError(f"unknown format {fmt!r}", path=path, hint=f"use one of {', '.join(FORMATS)}")
     kwargs = {}
@@ -127,7 +152,18 @@ def read_lens(path: str | Path, format: str | None = None, **options: Any) -> Le
                                     hint="options are named after the format they apply to (pbrt-thickness)")
         kwargs[name] = value
     module, func, _ = FORMATS[fmt]
-    reader: Callable[..., Lens] = getattr(import_module(f"{__name__}.{module}"), func)
+    reader: Callable[..., Lens | MultiConfigLens] = getattr(import_module(f"{__name__}.{module}"), func)
+    lens = _read_with_glass_policy(reader, path, text, kwargs, glass)
+    if rule is not None:
+        with located(path):
+            if isinstance(lens, MultiConfigLens):
+                return lens.with_base(lens.base.replace(aperture_rule=rule)).validate()
+            lens = lens.replace(aperture_rule=rule)
+    return lens
+
+
+def _read_with_glass_policy(reader: Callable[..., Lens], path: str | Path, text: str, kwargs: dict,
+                            glass: dict) -> Lens:
     if not any(v for v in glass.values()):
         return reader(path, text=text, **kwargs)
     from ..glass_lookup import glass_policy

@@ -12,6 +12,7 @@ starts a comment, ``&`` continues a line):
   (nm), ``REF``, ``WTW``, ``XAN``/``YAN``, ``XOB``/``YOB``, ``XIM``/``YIM``,
   ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
+* zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
   codes), ``PIM`` and other solves/pickups (the value on the S line is the
   solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
@@ -30,9 +31,11 @@ shorter than the fields is padded with 0 -- each an ``assumed_default``
 warning. Commands lensrt does not know are ignored with a ``keyword_unknown``
 warning.
 
-Decenters and tilts, mirrors (``REFL``), diffractive surfaces, non-circular or
-decentred apertures, special surface types and zooms are errors naming the
-file, the line and the command.
+Mirrors (``REFL``), decenters and tilts (``XDE`` .. ``CDE``, ``DAR``, ``REV``,
+``BEN``) and apertures (``CIR ... OBS/HOL``, ``REX``/``REY``, ``ELX``/``ELY``,
+``ADX``/``ADY``/``ARO``) are read by :mod:`.codev_geometry`. ``RET``,
+diffractive surfaces, special surface types, private catalogs are
+errors naming the file, the line and the command.
 """
 from __future__ import annotations
 
@@ -43,12 +46,15 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, deg_to_rad
+from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..materials import AIR, Material
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
 from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 from .codev_glass import PrivateCatalog, fictitious_glass
+from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
+from .codev_geometry import GEOMETRY_COMMANDS, geometry_command, image_transform, new_row_geometry, row_geometry
 
 __all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
 
@@ -64,10 +70,10 @@ IGNORED = {
     "EDG": "edge thickness solve (solved value kept)", "UMY": "solve (solved value kept)",
     "UCY": "solve (solved value kept)", "IMY": "solve (solved value kept)", "ICY": "solve (solved value kept)",
     "CA": "clear aperture mode", "WID": "wide-angle flag", "SPH": "spherical profile",
+    "CLS": "wavelength colour labels (display)", "CUM": "mirror substrate curvature (drawing only)",
+    "THM": "mirror substrate thickness (drawing only)",
 }
 UNSUPPORTED = {
-    "XDE": "a decenter", "YDE": "a decenter", "ZDE": "a decenter", "ADE": "a tilt", "BDE": "a tilt",
-    "CDE": "a tilt", "DAR": "a decenter-and-return", "BEN": "a bend (fold)", "REV": "a reverse decenter",
     "RET": "a coordinate return", "XOD": "an offset decenter", "YOD": "an offset decenter",
     "ZOD": "an offset decenter", "REFL": "a mirror", "RMD": "a mirror/TIR mode", "DIF": "a diffractive surface",
     "HOE": "a holographic element", "GRT": "a grating", "HWL": "a diffractive surface", "HOR": "a diffractive surface",
@@ -75,10 +81,8 @@ UNSUPPORTED = {
     "XTO": "a toroidal surface", "YTO": "a toroidal surface", "AAS": "an anamorphic asphere",
     "CYL": "a cylinder", "SPS": "a special surface", "ZRN": "a Zernike surface", "ZFR": "a Zernike surface",
     "XYP": "an XY polynomial surface", "UDS": "a user-defined surface", "CUX": "a toroidal curvature",
-    "RDX": "a toroidal radius", "REX": "a rectangular aperture", "REY": "a rectangular aperture",
-    "ELX": "an elliptical aperture", "ELY": "an elliptical aperture", "CIG": "a general aperture",
-    "REG": "a general aperture", "ELG": "a general aperture", "ADX": "a decentred aperture",
-    "ADY": "a decentred aperture", "ARO": "a rotated aperture", "ZOO": "zoom data", "POS": "zoom positions",
+    "RDX": "a toroidal radius", "CIG": "a general aperture",
+    "REG": "a general aperture", "ELG": "a general aperture",
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
     "NSO": "a non-sequential object",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
@@ -87,10 +91,9 @@ UNSUPPORTED = {
 _ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
 _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
-_KNOWN = set(IGNORED) | set(UNSUPPORTED) | {"RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM",
-                                            "PRE", "STO", "CIR", "ASP", "CON", "SLB", "RDY", "CUY", "THI", "GLA",
-                                            "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM",
-                                            "XRI", "YRI"}
+_KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
+    "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
+    "RDY", "CUY", "THI", "GLA", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -160,6 +163,7 @@ class _Seq:
         self.title = ""
         self.notes: list[tuple[str, str]] = []
         self.subs: dict[str, str] = {}
+        self.zoom = ZoomReader(path)  # ZOO / POS data (codev_zoom)
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -185,16 +189,18 @@ class _Seq:
         v = self.num(toks[0], "radius" if self.radius_mode else "curvature", line)
         curv = (0.0 if v == 0.0 else 1.0 / v) if self.radius_mode else v
         thick = parse_number(toks[1], "thickness", path=self.path, line=line, allow_inf=kind == "SO")
-        glass = None
+        glass, mirror = None, False
         if len(toks) > 2:
             glass = toks[2]
             if glass.upper() == "REFL":
-                raise self.err(f"{kind} ... REFL: mirrors are not supported", line,
-                               "lensrt models refractive lenses only")
+                if kind != "S":
+                    raise self.err(f"{kind} ... REFL: the object and image surfaces cannot be mirrors", line)
+                glass, mirror = None, True
         if len(toks) > 3:
             raise self.err(f"unexpected {' '.join(toks[3:])!r} after the glass of {kind}", line)
         self.rows.append(dict(kind=kind, line=line, curv=curv, thick=thick, glass=glass, stop=False, sd=None,
-                              conic=0.0, asph={}, label=""))
+                              conic=0.0, asph={}, label="", **new_row_geometry()))
+        self.rows[-1]["mirror"] = mirror
 
     def command(self, line: int, toks: list[str]) -> bool:
         """Apply one command; returns False at GO."""
@@ -234,16 +240,19 @@ class _Seq:
         if name == "STO":
             self.cur(name, line)["stop"] = True
             return True
+        if geometry_command(self, name, args, line):
+            return True
         if name in ("CIR", "SLB") and self.rows and self.rows[-1]["kind"] == "SI":
             return True  # the image surface's size and label do not change the optics
         if name == "CIR":
             row = self.cur(name, line)
-            quals = [a.upper() for a in args if not _looks_number(a)]
+            quals = [a.upper() for a in args if not _looks_number(a) and not a.upper().startswith("L'")]
             vals = [a for a in args if _looks_number(a)]
-            if any(q in ("HOL", "OBS") for q in quals):
-                raise self.err(f"CIR {' '.join(quals)}: holes and obscurations are not supported", line)
             if "EDG" in quals:
                 return True  # mechanical edge aperture: no effect on the rays
+            if any(q in ("HOL", "OBS") for q in quals) and vals:
+                row["cir_obs"].append(self.num(vals[0], "obscuration radius", line))
+                return True
             if not vals or any(q not in ("CLR",) for q in quals):
                 raise self.err(f"cannot read CIR {' '.join(args)}", line, "use 'CIR <semi-diameter>'")
             row["sd"] = self.num(vals[0], "semi-diameter", line)
@@ -273,6 +282,9 @@ class _Seq:
             else:
                 v = self.num(args[0], name, line)
                 row["curv"] = v if name == "CUY" else (0.0 if v == 0.0 else 1.0 / v)
+            return True
+        if name in ("ZOO", "POS"):
+            self.zoom.command(name, args, line)
             return True
         if name in UNSUPPORTED:
             raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
@@ -335,17 +347,21 @@ class _Seq:
                 raise self.err("curved image surface (SI)", img["line"], "lensrt's image surface is a plane")
             defocus = img["thick"]
         self.assumed_defaults(body)
-        surfaces = []
+        surfaces: list[Surface] = []
+        before = self.material(obj["glass"], obj["line"])
         for k, r in enumerate(body):
             with located(self.path, r["line"]):
                 n = max(r["asph"]) if r["asph"] else 0
                 asph = tuple(r["asph"].get(i, 0.0) * f ** (-1 - 2 * i) for i in range(0, n + 1)) if n else ()
                 thick = r["thick"] + (defocus if k == len(body) - 1 else 0.0)
+                geometry = row_geometry(r, f, self.path)
                 surfaces.append(Surface(
                     curvature_per_mm=r["curv"] / f, thickness_mm=thick * f,
-                    material=self.material(r["glass"], r["line"], k),
+                    material=before if r["mirror"] else self.material(r["glass"], r["line"], k), **geometry,
                     semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=r["conic"], asphere=asph,
                     is_stop=r["stop"], label=r["label"], line=r["line"]))
+                before = surfaces[-1].material
+        self.image_transform = image_transform(img, f)
         if defocus:
             self.notes.append(("image_defocus_mm", f"{defocus * f:.12g} (SI thickness, added to the last "
                                                    "surface's thickness)"))
@@ -457,7 +473,7 @@ class _Seq:
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
-                         notes=tuple(self.notes), warnings=found)
+                         notes=tuple(self.notes), warnings=found, image_transform=self.image_transform)
 
 
 def _looks_number(tok: str) -> bool:
@@ -468,8 +484,9 @@ def _looks_number(tok: str) -> bool:
         return False
 
 
-def loads_seq(text: str, path: str | Path | None = None) -> Lens:
-    """Parse CODE V sequence text into a :class:`Lens`."""
+def loads_seq(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse CODE V sequence text into a :class:`Lens` (a :class:`MultiConfigLens` for zoom data,
+    :mod:`lensrt.prescription.formats.codev_zoom`)."""
     spath = str(path) if path is not None else None
     reject_other_format(text, "codev", spath)
     seq = _Seq(spath)
@@ -477,10 +494,10 @@ def loads_seq(text: str, path: str | Path | None = None) -> Lens:
         with located(spath, line):
             if not seq.command(line, toks):
                 break
-    return seq.build()
+    return seq.zoom.build(seq.build(), MM_PER_UNIT[seq.dim], seq.material)
 
 
-def read_seq(path: str | Path, text: str | None = None) -> Lens:
+def read_seq(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a CODE V ``.seq`` file into a :class:`Lens`."""
     if text is None:
         from . import read_text

@@ -47,23 +47,29 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import PrescriptionError, UnknownGlassError, located
+from ..configurations import MultiConfigLens
+from ..focusing import UNIT_FOCUS
 from ..glass_lookup import lookup_any, user_catalogs
 from ..limits import check_asphere_power, check_catalog_names
 from ..materials import AIR, CATALOGS, CatalogGlass, ConstantIndex, Material, ModelGlass, parse_material
 from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
+from .native_config import dumps_configurations, dumps_focus, parse_configurations, parse_focus
+from .native_geometry import (SURFACE_KEYS, SYSTEM_KEYS, read_surface_geometry, read_system_geometry,
+                              write_surface_geometry, write_system_geometry)
 
 __all__ = ["read_native", "loads_native", "write_native", "dumps_native"]
 
 _KEYS = {
-    "": {"format", "version", "lens", "system", "aperture", "iris", "fields", "wavelengths", "surface"},
+    "": {"format", "version", "lens", "system", "aperture", "iris", "fields", "wavelengths", "surface",
+         "focus", "configuration"},
     "lens": {"name", "source", "notes"},
-    "system": {"object_distance_mm", "object_material", "catalogs"},
+    "system": {"object_distance_mm", "object_material", "catalogs"} | SYSTEM_KEYS,
     "aperture": {"type", "value"},
     "iris": {"blades", "rotation_deg", "roundness", "obstruction_ratio"},
     "fields": {"type", "y", "x", "weights"},
     "wavelengths": {"nm", "weights", "primary_nm"},
     "surface": {"radius_mm", "curvature_per_mm", "thickness_mm", "material", "semi_diameter_mm",
-                "conic", "asphere", "stop", "label"},
+                "conic", "asphere", "stop", "label"} | SURFACE_KEYS,
 }
 _ASPH_KEY = re.compile(r"^A(\d+)$")
 #: the native format's name and version, as written in every file
@@ -81,13 +87,13 @@ def _check_keys(table: dict, section: str, line: int | None, path: str | None) -
                                     f"allowed keys: {', '.join(sorted(allowed))}")
 
 
-def _section_lines(text: str) -> tuple[dict[str, int], list[int]]:
-    """1-based line of each ``[section]`` header and of each ``[[surface]]`` header."""
+def _section_lines(text: str, array: str = "surface") -> tuple[dict[str, int], list[int]]:
+    """1-based line of each ``[section]`` header and of each ``[[array]]`` header."""
     sections: dict[str, int] = {}
     surfaces: list[int] = []
     for no, raw in enumerate(text.splitlines(), start=1):
         s = raw.strip()
-        if s.startswith("[[") and s.split("]]")[0][2:].strip() == "surface":
+        if s.startswith("[[") and s.split("]]")[0][2:].strip() == array:
             surfaces.append(no)
         elif s.startswith("[") and not s.startswith("[["):
             sections.setdefault(s[1:].split("]")[0].strip(), no)
@@ -158,6 +164,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
         is_stop=stop,
         label=str(row.get("label", "")),
         line=line,
+        **read_surface_geometry(row),
     )
 
 
@@ -177,8 +184,13 @@ def _check_format(doc: dict, text: str, path: str | None) -> None:
                                 hint="upgrade lensrt for a newer file, or fix the version number")
 
 
-def loads_native(text: str, path: str | Path | None = None) -> Lens:
-    """Parse native TOML text into a :class:`Lens` (semi-diameters may be left to compute)."""
+def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse native TOML text into a :class:`Lens` (semi-diameters may be left to compute).
+
+    A file with ``[[configuration]]`` tables gives a
+    :class:`~lensrt.prescription.configurations.MultiConfigLens`
+    (:mod:`lensrt.prescription.formats.native_config`).
+    """
     spath = str(path) if path is not None else None
     try:
         doc = tomllib.loads(text)
@@ -252,17 +264,24 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens:
     with located(spath, sections.get("system")):
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
         obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
+        geometry = read_system_geometry(sys_t)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
+    with located(spath, sections.get("focus")):
+        focus = parse_focus(doc["focus"]) if "focus" in doc else UNIT_FOCUS
     with located(spath, None):
-        return Lens(surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
+        lens = Lens(surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                     object_distance_mm=dist, object_material=obj_mat, iris=iris,
                     name=str(lens_t.get("name", "")), source=str(lens_t.get("source", "")),
-                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath)
+                    notes=tuple((str(k), str(v)) for k, v in notes.items()), path=spath, focus=focus, **geometry)
+    if "configuration" not in doc:
+        return lens
+    with located(spath, None):
+        return parse_configurations(lens, doc["configuration"], _section_lines(text, "configuration")[1], catalogs)
 
 
-def read_native(path: str | Path, text: str | None = None) -> Lens:
+def read_native(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a native TOML lens file."""
     if text is None:
         text = Path(path).read_text(encoding="utf-8")
@@ -320,12 +339,15 @@ def _material(m: Material) -> str:
     raise PrescriptionError(f"cannot write material {m!r} in the native format")
 
 
-def dumps_native(lens: Lens) -> str:
+def dumps_native(lens: Lens | MultiConfigLens) -> str:
     """The native TOML text of ``lens``; :func:`loads_native` gives back an equal lens.
 
     Computed (automatic) semi-diameters are not written, so they are computed
-    again on load.
+    again on load. A :class:`MultiConfigLens` is written as its shared lens, its
+    ``[focus]`` table and its ``[[configuration]]`` tables.
     """
+    family = lens if isinstance(lens, MultiConfigLens) else None
+    lens = family.base if family is not None else lens
     out = ["# lensrt lens prescription (native TOML; lengths in mm, angles in degrees)",
            f'format = "{FORMAT_NAME}"', f"version = {FORMAT_VERSION}", "", "[lens]", f"name = {_s(lens.name)}",
            f"source = {_s(lens.source)}"]
@@ -335,6 +357,7 @@ def dumps_native(lens: Lens) -> str:
     out += ["", "[system]", f"object_distance_mm = {_f(lens.object_distance_mm)}"]
     if lens.object_material != AIR:
         out.append(f"object_material = {_material(lens.object_material)}")
+    out += write_system_geometry(lens)
     out += ["", "[aperture]", f"type = {_s(lens.aperture.kind)}", f"value = {_f(lens.aperture.value)}"]
     ir = lens.iris
     out += ["", "[iris]", f"blades = {ir.blades}", f"rotation_deg = {_deg(ir.rotation_rad)}"]
@@ -374,9 +397,13 @@ def dumps_native(lens: Lens) -> str:
             out.append("stop = true")
         if s.label:
             out.append(f"label = {_s(s.label)}")
+        out += write_surface_geometry(s)
+    out += dumps_focus(lens.focus, _f)
+    if family is not None:
+        out += dumps_configurations(family, _f, _deg, _material)
     return "\n".join(out) + "\n"
 
 
-def write_native(lens: Lens, path: str | Path) -> None:
+def write_native(lens: Lens | MultiConfigLens, path: str | Path) -> None:
     """Write ``lens`` to ``path`` in the native format."""
     Path(path).write_text(dumps_native(lens), encoding="utf-8")

@@ -1,6 +1,7 @@
 """Zemax OpticStudio ``.zmx`` reader: the sequential, rotationally symmetric subset.
 
-Supported (see the table in docs/how-to/import-zemax-codev-pbrt.md): ``UNIT`` (MM, CM, IN, M; lengths are
+Mirrors, coordinate breaks and surface apertures are read by
+:mod:`.zemax_geometry` (see there). Supported (see the table in docs/how-to/import-zemax-codev-pbrt.md): ``UNIT`` (MM, CM, IN, M; lengths are
 converted to mm), ``SURF`` with ``TYPE STANDARD`` or ``EVENASPH``, ``CURV``,
 ``DISZ`` (``INFINITY`` on the object surface), ``GLAS``, ``CONI``, ``PARM``
 (EVENASPH: PARM 1 is the r^2 coefficient, PARM 2 r^4, ...), ``DIAM``
@@ -23,7 +24,7 @@ Display, optimisation and tolerancing data are ignored explicitly
 (:data:`IGNORED`); merit-function operands after the last surface are
 ignored. Everything that changes the optics but lies outside lensrt's model
 (mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
-other surface types, multi-configuration, non-circular or decentred apertures,
+other surface types, unsupported multi-configuration operands, non-circular or decentred apertures,
 curved object/image surfaces, ...) is an error naming the file, the line and
 the construct. A keyword lensrt does not know is ignored with a
 ``keyword_unknown`` warning naming it and its line
@@ -39,12 +40,15 @@ from pathlib import Path
 
 from ...errors import PrescriptionError, located
 from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
+from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..limits import MAX_ZEMAX_PARM
 from ..materials import AIR, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
 from .keywords import ZemaxKeywordPolicy
+from .zemax_geometry import aperture_entry, coordbrk_transform, surface_apertures
+from .zemax_mce import MultiConfigReader
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
@@ -70,22 +74,21 @@ IGNORED: dict[str, str] = {
     "EFFL": "settings", "TCED": "settings", "CONF": "configuration settings",
     "DBDT": "settings", "PWFN": "settings", "OPDX": "merit operand", "ENVD": "checked: 20 C, 1 atm",
     "PUPD": "checked: uniform apodization", "OBDC": "checked: zero aperture decenter",
-    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter", "MNUM": "checked: 1 configuration",
+    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter",
     "NOTE": "kept in lens.notes", "NAME": "lens name", "COMM": "surface label", "VANN": "checked: zero",
     "TRAC": "merit operand", "GLCB": "merit operand",
 }
 
 #: keywords of constructs outside lensrt's model, and what to tell the user
 UNSUPPORTED: dict[str, str] = {
-    "SQAP": "a rectangular aperture", "ELAP": "an elliptical aperture", "SPID": "a spider aperture",
-    "OBSC": "a circular obscuration", "UDAP": "a user-defined aperture", "RCAP": "a rectangular aperture",
+    "SPID": "a spider aperture", "UDAP": "a user-defined aperture", "RCAP": "a rectangular aperture",
     "DECX": "a surface decenter", "DECY": "a surface decenter",
     "TILT": "a surface tilt", "NSOB": "a non-sequential object", "GRAT": "a grating",
 }
 
-_SUPPORTED_TYPES = ("STANDARD", "EVENASPH")
+_SUPPORTED_TYPES = ("STANDARD", "EVENASPH", "COORDBRK")
 _TYPE_NAMES = {
-    "COORDBRK": "a coordinate break (tilt/decenter)", "DGRATING": "a diffraction grating",
+    "DGRATING": "a diffraction grating",
     "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
     "PARAXIAL": "an ideal paraxial lens", "ODDASPHE": "an odd asphere", "XOSPHERE": "an extended odd asphere",
     "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface", "BINARY_1": "a binary optic",
@@ -113,6 +116,10 @@ class _Surf:
     clap: float | None = None
     stop: bool = False
     label: str = ""
+    mirror: bool = False
+    diam_fixed: bool = False
+    apertures: list[tuple[str, float, float, int]] = field(default_factory=list)
+    obdc: tuple[float, float] = (0.0, 0.0)
 
 
 def _rest(raw: str, keyword: str) -> str:
@@ -141,6 +148,8 @@ class _Reader:
         self.warnings: list[LoadWarning] = []
         self.keywords = ZemaxKeywordPolicy()
         self.floa_line: int | None = None
+        self.mce: MultiConfigReader | None = None  # multi-configuration rows (zemax_mce)
+        self.in_mce = False
 
     # -- helpers -------------------------------------------------------------
     def err(self, message: str, line: int | None, hint: str | None = None) -> PrescriptionError:
@@ -160,6 +169,11 @@ class _Reader:
 
     # -- one line ------------------------------------------------------------
     def line(self, raw: str, no: int, after_last_surf: bool) -> None:
+        if self.in_mce:
+            if self.mce.accepts(raw):  # type: ignore[union-attr]
+                self.mce.add(raw, no)  # type: ignore[union-attr]
+                return
+            self.in_mce = False
         toks = raw.split()
         kw = toks[0].upper()
         args = toks[1:]
@@ -287,9 +301,14 @@ class _Reader:
             raise self.err("PUPD: pupil apodization is not supported", no, "use uniform apodization")
 
     def kw_MNUM(self, args, no, raw):
-        if args and int(self.num(args[0], "configuration count", no)) > 1:
-            raise self.err(f"MNUM {args[0]}: multi-configuration files are not supported", no,
-                           "export the configuration you want as its own .zmx file")
+        count = int(self.num(args[0], "configuration count", no)) if args else 1
+        if count != 1:
+            current = int(self.num(args[1], "current configuration", no)) if len(args) > 1 else 1
+            self.mce, self.in_mce = MultiConfigReader(self.path, count, current, no), True
+
+    def glass(self, name: str, no: int) -> Material:
+        """The material a multi-configuration GLSS row names (looked up as a GLAS line is)."""
+        return self.material(_Surf(number=-1, line=no, glass=[name], glass_line=no))
 
     # -- surface data --------------------------------------------------------
     def kw_TYPE(self, args, no, raw):
@@ -315,8 +334,8 @@ class _Reader:
         if not args:
             raise self.err("GLAS without a glass name", no)
         if args[0].upper() == "MIRROR":
-            raise self.err("GLAS MIRROR: mirrors are not supported", no,
-                           "lensrt models refractive lenses only")
+            s.mirror = True
+            return
         s.glass, s.glass_line = args, no
 
     def kw_CONI(self, args, no, raw):
@@ -338,15 +357,27 @@ class _Reader:
         if d < 0.0:
             raise self.err(f"DIAM {args[0]}: a negative semi-diameter", no,
                            "give the clear semi-diameter as a positive number (0: computed on load)")
-        self.cur("DIAM", no).diam = d
+        s = self.cur("DIAM", no)
+        s.diam = d
+        s.diam_fixed = len(args) > 1 and args[1] == "1"
 
     def kw_CLAP(self, args, no, raw):
         s = self.cur("CLAP", no)
-        rmin, rmax = self.nums(args[:2], "clear aperture radius", no)
-        if rmin != 0.0:
-            raise self.err(f"CLAP {rmin:g} {rmax:g}: an annular aperture (inner radius {rmin:g}) is not supported",
-                           no)
-        s.clap = rmax
+        vals = [self.num(t, "clear aperture radius", no, allow_inf=True) for t in args]
+        s.apertures.append(aperture_entry("CLAP", vals, no, self.path))
+
+    def kw_OBSC(self, args, no, raw):
+        s = self.cur("OBSC", no)
+        vals = [self.num(t, "obscuration radius", no, allow_inf=True) for t in args]
+        s.apertures.append(aperture_entry("OBSC", vals, no, self.path))
+
+    def kw_SQAP(self, args, no, raw):
+        s = self.cur("SQAP", no)
+        s.apertures.append(aperture_entry("SQAP", self.nums(args, "aperture half-width", no), no, self.path))
+
+    def kw_ELAP(self, args, no, raw):
+        s = self.cur("ELAP", no)
+        s.apertures.append(aperture_entry("ELAP", self.nums(args, "aperture half-width", no), no, self.path))
 
     def kw_STOP(self, args, no, raw):
         self.cur("STOP", no).stop = True
@@ -355,8 +386,8 @@ class _Reader:
         self.cur("COMM", no).label = _rest(raw, raw.split()[0]).strip('"')
 
     def kw_OBDC(self, args, no, raw):
-        if any(v != 0.0 for v in self.nums(args[:2], "aperture decenter", no)):
-            raise self.err("OBDC: a decentred aperture is not supported", no)
+        vals = self.nums(args[:2], "aperture decenter", no)
+        self.cur("OBDC", no).obdc = (vals[0], vals[1] if len(vals) > 1 else 0.0)
 
     def kw_SCBD(self, args, no, raw):
         if any(v != 0.0 for v in self.nums(args[1:], "tilt/decenter value", no)):
@@ -417,9 +448,15 @@ class _Reader:
                                f"lensrt's {what} surface is a plane")
             if s.stop:
                 raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
-        surfaces = []
+        surfaces: list[Surface] = []
+        with located(self.path, obj.line):
+            object_medium = self.material(obj)
         for k, s in enumerate(body):
             with located(self.path, s.line):
+                before = surfaces[-1].material if surfaces else object_medium
+                if s.type == "COORDBRK":
+                    surfaces.append(self._coordbrk(s, before, f))
+                    continue
                 asph: tuple[float, ...] = ()
                 if s.type == "EVENASPH":
                     n = max(s.parm) if s.parm else 0
@@ -427,14 +464,27 @@ class _Reader:
                 elif any(v != 0.0 for v, _ in s.parm.values()):
                     bad = next(ln for v, ln in s.parm.values() if v != 0.0)
                     raise self.err("PARM on a STANDARD surface", bad, "use TYPE EVENASPH for aspheric terms")
-                sd = s.clap if s.clap is not None else s.diam
+                sd, entries, fixed = s.diam, list(s.apertures), s.diam_fixed
+                if len(entries) == 1 and entries[0][:2] == ("CLAP", 0.0) and s.obdc == (0.0, 0.0):
+                    sd, entries, fixed = entries[0][2], [], True  # a centred circular CLAP: the semi-diameter
                 if sd is not None and sd <= 0.0:
                     sd = None  # DIAM 0: no semi-diameter given (computed on load)
                 surfaces.append(Surface(
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
-                    material=self.material(s, k), semi_diameter_mm=None if sd is None else sd * f,
-                    conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line))
+                    material=before if s.mirror else self.material(s, k),
+                    semi_diameter_mm=None if sd is None else sd * f,
+                    conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line, mirror=s.mirror,
+                    apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed))
         return self._system(surfaces, obj, f)
+
+    def _coordbrk(self, s: _Surf, before: Material, f: float) -> Surface:
+        """A COORDBRK: a plane dummy surface carrying the frame change (:mod:`.zemax_geometry`)."""
+        if s.curv != 0.0 or s.conic != 0.0 or s.mirror or s.glass is not None or s.apertures:
+            raise self.err("a coordinate break with a curvature, conic, glass or aperture", s.type_line or s.line,
+                           "a COORDBRK surface only moves the frame (PARM 1..6 and its thickness)")
+        label = s.label or "coordinate break"
+        return Surface(thickness_mm=(s.disz or 0.0) * f, material=before, is_stop=s.stop, label=label, line=s.line,
+                       transform_before=coordbrk_transform(s.parm, f, self.path, s.type_line or s.line))
 
     def _aperture(self, surfaces: list[Surface], f: float) -> Aperture:
         """The system aperture; FLOA floats on the stop's semi-diameter, or, where the stop has none, on the
@@ -556,8 +606,9 @@ def _vignetting_notes(fields: dict[str, tuple[list[float], int | None]], n: int)
     return out
 
 
-def loads_zmx(text: str, path: str | Path | None = None) -> Lens:
-    """Parse ``.zmx`` text (already decoded) into a :class:`Lens`."""
+def loads_zmx(text: str, path: str | Path | None = None) -> Lens | MultiConfigLens:
+    """Parse ``.zmx`` text (already decoded) into a :class:`Lens` (a :class:`MultiConfigLens`
+    for a multi-configuration file, :mod:`lensrt.prescription.formats.zemax_mce`)."""
     spath = str(path) if path is not None else None
     reject_other_format(text, "zemax", spath)
     lines = text.splitlines()
@@ -572,14 +623,18 @@ def loads_zmx(text: str, path: str | Path | None = None) -> Lens:
         if not raw.strip():
             continue
         if i > last_surf and not raw[:1].isspace() and raw.split()[0].upper() not in (
-                "CURV", "DISZ", "GLAS", "CONI", "PARM", "DIAM", "STOP", "TYPE", "CLAP"):
+                "CURV", "DISZ", "GLAS", "CONI", "PARM", "DIAM", "STOP", "TYPE", "CLAP", "OBSC", "SQAP", "ELAP",
+                "OBDC"):
             after = True
         with located(spath, i + 1):
             reader.line(raw, i + 1, after)
-    return reader.build()
+    lens = reader.build()
+    if reader.mce is None:
+        return lens
+    return reader.mce.build(lens, MM_PER_UNIT[reader.unit], reader.glass)
 
 
-def read_zmx(path: str | Path, text: str | None = None) -> Lens:
+def read_zmx(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
     """Read a Zemax ``.zmx`` file (UTF-16 with BOM, UTF-8 or ASCII) into a :class:`Lens`.
 
     Semi-diameters come from ``DIAM`` (or ``CLAP``); surfaces without one are

@@ -17,14 +17,15 @@ from typing import Any
 import warp as wp
 
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
-                    IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_KIND, S_KP1, S_NASPH, S_SD2,
-                    S_THICK)
+                    IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_GEOM, S_KIND, S_KP1,
+                    S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
+                    APERTURE_COLS)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
-__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "inside_iris",
-           "trace_ray", "write_ray"]
+__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
+           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -234,6 +235,90 @@ def refract(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, n1: Any, n2: Any,
 
 
 @wp.func
+def reflect(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, angles: int):
+    # vector law of reflection d' = d - 2 (d . n) n; returns status, L', M', N', I, I, cos I
+    cos_i = L * nx + M * ny + N * nz
+    L2 = L - type(L)(2.0) * cos_i * nx
+    M2 = M - type(L)(2.0) * cos_i * ny
+    N2 = N - type(L)(2.0) * cos_i * nz
+    inv = type(L)(1.0) / wp.sqrt(L2 * L2 + M2 * M2 + N2 * N2)
+    ang = type(L)(0.0)
+    if angles != 0:
+        cx = M * nz - N * ny
+        cy = N * nx - L * nz
+        cz = L * ny - M * nx
+        ang = wp.atan2(wp.sqrt(cx * cx + cy * cy + cz * cz), wp.abs(cos_i))
+    return int(OK), L2 * inv, M2 * inv, N2 * inv, ang, ang, wp.abs(cos_i)
+
+
+@wp.func
+def to_local(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
+    # global point and direction into surface i's frame, mirrored in z when light travels toward -z
+    # there: p_local = A^T (p - o), d_local = A^T d (A's columns are the local axes; row-major storage)
+    sgn = surf[i, S_SIGN]
+    dx = x - surf[i, S_ORIGIN]
+    dy = y - surf[i, S_ORIGIN + 1]
+    dz = z - surf[i, S_ORIGIN + 2]
+    xl = surf[i, S_AXES] * dx + surf[i, S_AXES + 3] * dy + surf[i, S_AXES + 6] * dz
+    yl = surf[i, S_AXES + 1] * dx + surf[i, S_AXES + 4] * dy + surf[i, S_AXES + 7] * dz
+    zl = sgn * (surf[i, S_AXES + 2] * dx + surf[i, S_AXES + 5] * dy + surf[i, S_AXES + 8] * dz)
+    Ll = surf[i, S_AXES] * L + surf[i, S_AXES + 3] * M + surf[i, S_AXES + 6] * N
+    Ml = surf[i, S_AXES + 1] * L + surf[i, S_AXES + 4] * M + surf[i, S_AXES + 7] * N
+    Nl = sgn * (surf[i, S_AXES + 2] * L + surf[i, S_AXES + 5] * M + surf[i, S_AXES + 8] * N)
+    return xl, yl, zl, Ll, Ml, Nl
+
+
+@wp.func
+def to_global(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
+    # the inverse of to_local: p = o + A p_local, d = A d_local (z unmirrored first)
+    zs = surf[i, S_SIGN] * z
+    Ns = surf[i, S_SIGN] * N
+    xg = surf[i, S_ORIGIN] + surf[i, S_AXES] * x + surf[i, S_AXES + 1] * y + surf[i, S_AXES + 2] * zs
+    yg = surf[i, S_ORIGIN + 1] + surf[i, S_AXES + 3] * x + surf[i, S_AXES + 4] * y + surf[i, S_AXES + 5] * zs
+    zg = surf[i, S_ORIGIN + 2] + surf[i, S_AXES + 6] * x + surf[i, S_AXES + 7] * y + surf[i, S_AXES + 8] * zs
+    Lg = surf[i, S_AXES] * L + surf[i, S_AXES + 1] * M + surf[i, S_AXES + 2] * Ns
+    Mg = surf[i, S_AXES + 3] * L + surf[i, S_AXES + 4] * M + surf[i, S_AXES + 5] * Ns
+    Ng = surf[i, S_AXES + 6] * L + surf[i, S_AXES + 7] * M + surf[i, S_AXES + 8] * Ns
+    return xg, yg, zg, Lg, Mg, Ng
+
+
+@wp.func
+def passes_apertures(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any) -> int:
+    # surface apertures (pack.S_APER): a clear aperture passes its inside, an obscuration blocks it
+    passed = int(1)
+    for k in range(MAX_SURFACE_APERTURES):
+        col = S_APER + k * APERTURE_COLS
+        shape = int(surf[i, col])
+        if shape != 0:
+            a = surf[i, col + 1]
+            b = surf[i, col + 2]
+            du = x - surf[i, col + 3]
+            dv = y - surf[i, col + 4]
+            cr = surf[i, col + 5]
+            sr = surf[i, col + 6]
+            u = cr * du + sr * dv
+            v = cr * dv - sr * du
+            inside = int(0)
+            r2 = u * u + v * v
+            if shape == 1:
+                if r2 <= a * a:
+                    inside = int(1)
+            elif shape == 2:
+                if r2 <= a * a and r2 >= b * b:
+                    inside = int(1)
+            elif shape == 3:
+                if wp.abs(u) <= a and wp.abs(v) <= b:
+                    inside = int(1)
+            elif (u / a) * (u / a) + (v / b) * (v / b) <= type(x)(1.0):
+                inside = int(1)
+            if surf[i, col + 7] != type(x)(0.0):
+                inside = 1 - inside
+            if inside == 0:
+                passed = int(0)
+    return passed
+
+
+@wp.func
 def inside_iris(iris: wp.array(dtype=Any), x: Any, y: Any) -> int:
     # circle or regular N-gon (vertex at the rotation angle), roundness, central obstruction
     r = wp.sqrt(x * x + y * y)
@@ -297,10 +382,17 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
     if status == int(OK) and not (n1 > type(x0)(0.0)):
         status = int(INVALID)
         where = int(0)
+    # mirrors or coordinate transforms: the ray travels in global coordinates between surfaces and is
+    # met in each surface's (z-mirrored after odd mirrors) local frame, as in reference_general
+    geom = int(surf[0, S_GEOM])
+    sgn = type(x0)(1.0)
     i = int(0)
     while status == int(OK) and i <= end:
+        if geom != 0:
+            sgn = surf[i, S_SIGN]
+            x, y, z, L, M, N = to_local(surf, i, x, y, z, L, M, N)
         if i == n_surfaces:
-            z = z - plane_dz  # the plane may stand apart from the image surface
+            z = z - sgn * plane_dz  # the plane may stand apart from the image surface
         st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
         if st == int(OK) and L * nx + M * ny + N * nz < type(x0)(0.0):
             st = int(MISSED)  # met from behind (from the medium after it): no sequential path
@@ -317,13 +409,16 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             if i < end:
                 if clip != 0:
                     passed = int(1)
-                    if i == int(iris[IRIS_STOP]):
-                        if iris[IRIS_RADIUS] > type(x0)(0.0):
-                            passed = inside_iris(iris, x, y)
-                    else:
-                        sd2 = surf[i, S_SD2]
-                        if sd2 >= type(x0)(0.0) and x * x + y * y > sd2:
-                            passed = int(0)
+                    if geom != 0:
+                        passed = passes_apertures(surf, i, x, y)
+                    if passed != 0:
+                        if i == int(iris[IRIS_STOP]):
+                            if iris[IRIS_RADIUS] > type(x0)(0.0):
+                                passed = inside_iris(iris, x, y)
+                        else:
+                            sd2 = surf[i, S_SD2]
+                            if sd2 >= type(x0)(0.0) and x * x + y * y > sd2:
+                                passed = int(0)
                     if passed == 0:
                         status = int(VIGNETTED)
                         where = i
@@ -336,6 +431,10 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                     if not (n2 > type(x0)(0.0)):
                         status = int(INVALID)
                         where = i
+                    elif geom != 0 and surf[i, S_MIRROR] != type(x0)(0.0):
+                        st, L, M, N, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
+                        min_cos = wp.min(min_cos, cos_ir)
+                        n1 = n2
                     else:
                         st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
                         min_cos = wp.min(min_cos, cos_ir)
@@ -346,17 +445,21 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             if record != 0:
                 rec[ray, i, 0] = x
                 rec[ray, i, 1] = y
-                rec[ray, i, 2] = z
+                rec[ray, i, 2] = sgn * z
                 rec[ray, i, 3] = L
                 rec[ray, i, 4] = M
-                rec[ray, i, 5] = N
+                rec[ray, i, 5] = sgn * N
                 rec[ray, i, 6] = ang_i
                 rec[ray, i, 7] = ang_r
                 rec[ray, i, 8] = t
             if status == int(OK) and i < end:
-                z = z - surf[i, S_THICK]  # into the next vertex frame
+                if geom != 0:
+                    x, y, z, L, M, N = to_global(surf, i, x, y, z, L, M, N)
+                else:
+                    z = z - surf[i, S_THICK]  # into the next vertex frame
         i = i + 1
-    return status, where, x, y, z, L, M, N, opl, min_cos
+    # the end state in the local frame of the last surface met (unmirrored)
+    return status, where, x, y, sgn * z, L, M, sgn * N, opl, min_cos
 
 
 @wp.func

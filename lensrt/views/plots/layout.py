@@ -7,6 +7,12 @@ its clear radius; the image surface as a line. Meridional rays of each field poi
 (aimed at the real stop) are spread evenly across the meridional extent of the
 real, vignetted pupil (found by tracing 97 probe rays with every aperture), so the
 drawn bundle is the one that reaches the image.
+
+Folded and tilted systems (mirrors, coordinate transforms) are drawn in the
+global y-z plane: every surface profile, ray point and the image line is
+placed by its surface's frame (:func:`lensrt.prescription.frames.surface_frames`),
+which for a centred lens is the vertex position on the axis (the same drawing
+as before).
 """
 from __future__ import annotations
 
@@ -15,19 +21,32 @@ from typing import Sequence
 
 import numpy as np
 
+from ...prescription.frames import surface_frames
 from ...prescription.model import Lens
 
 from .figure import new_figure, save_figure
 
-__all__ = ["plot_layout", "element_outlines"]
+__all__ = ["plot_layout", "element_outlines", "to_plane"]
 
 _FIELD_COLOURS = ("#1f4fb4", "#2a9d3b", "#d2361f", "#8b3fb0", "#c98a00", "#138c8c")
 
 
-def _profile(lens: Lens, i: int, r: np.ndarray) -> np.ndarray:
-    """Global z of surface i at heights r (mm)."""
+def to_plane(lens: Lens, i: int, y_mm: np.ndarray, z_mm: np.ndarray, x_mm: np.ndarray | float = 0.0
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Global (z, y) of points given in surface i's local frame (i = n_surfaces: the image surface)."""
+    origin, axes = surface_frames(lens)[i]
+    y, z = np.asarray(y_mm, dtype=np.float64), np.asarray(z_mm, dtype=np.float64)
+    x = np.broadcast_to(np.asarray(x_mm, dtype=np.float64), y.shape)
+    if np.array_equal(axes, np.eye(3)) and origin[0] == 0.0 and origin[1] == 0.0:
+        return origin[2] + z, y  # centred: the vertex on the axis (no rounding from the product)
+    g = origin[:, None] + axes @ np.stack([x, y, z])
+    return g[2], g[1]
+
+
+def _profile(lens: Lens, i: int, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Global (z, y) of surface i's meridional profile at heights r (mm)."""
     s = lens.surfaces[i]
-    return lens.vertex_z_mm()[i] + np.asarray(s.sag(np.minimum(np.abs(r), s.max_semi_diameter_mm)))
+    return to_plane(lens, i, r, np.asarray(s.sag(np.minimum(np.abs(r), s.max_semi_diameter_mm))))
 
 
 def element_outlines(lens: Lens) -> list[np.ndarray]:
@@ -39,13 +58,19 @@ def element_outlines(lens: Lens) -> list[np.ndarray]:
         sd1 = lens.surfaces[i].semi_diameter_mm or 1.0
         sd2 = lens.surfaces[i + 1].semi_diameter_mm or 1.0
         rim = max(sd1, sd2)
+        s1, s2 = lens.surfaces[i], lens.surfaces[i + 1]
         y1 = np.linspace(-sd1, sd1, 61)
         y2 = np.linspace(sd2, -sd2, 61)
-        z1, z2 = _profile(lens, i, y1), _profile(lens, i + 1, y2)
-        zt1, zt2 = float(_profile(lens, i, np.array([sd1]))[0]), float(_profile(lens, i + 1, np.array([sd2]))[0])
+        zl1 = np.asarray(s1.sag(np.minimum(np.abs(y1), s1.max_semi_diameter_mm)))
+        zl2 = np.asarray(s2.sag(np.minimum(np.abs(y2), s2.max_semi_diameter_mm)))
+        zt1, zt2 = float(s1.sag(min(sd1, s1.max_semi_diameter_mm))), float(s2.sag(min(sd2, s2.max_semi_diameter_mm)))
         # front face, up its flange to the rim, along the edge, down the back flange, back face, and back
-        z = np.concatenate([z1, [zt1, zt2, zt2], z2, [zt2, zt2, zt1, zt1]])
-        y = np.concatenate([y1, [rim, rim, sd2], y2, [-sd2, -rim, -rim, -sd1]])
+        a = to_plane(lens, i, np.concatenate([y1, [rim, rim]]), np.concatenate([zl1, [zt1, zt1]]))
+        b = to_plane(lens, i + 1, np.concatenate([[rim, sd2], y2, [-sd2, -rim]]),
+                     np.concatenate([[zt2, zt2], zl2, [zt2, zt2]]))
+        c = to_plane(lens, i, np.array([-rim, -sd1]), np.array([zt1, zt1]))
+        z = np.concatenate([a[0], b[0], c[0]])
+        y = np.concatenate([a[1], b[1], c[1]])
         out.append(np.stack([z, y], axis=1))
     return out
 
@@ -71,15 +96,19 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
         ax.plot(poly[:, 0], poly[:, 1], color="#1b3a57", lw=1.0, zorder=3)
     for i, s in enumerate(lens.surfaces):
         r = np.linspace(-sds[i], sds[i], 81)
-        if i == lens.stop_index:
-            z0 = vz[i]
+        if i == lens.stop_index and not s.mirror:
             for sgn in (1, -1):
-                ax.plot([z0, z0], [sgn * sds[i], sgn * 1.25 * sds[i]], color="k", lw=3, solid_capstyle="butt",
-                        zorder=4)
-            ax.annotate("stop", (z0, 1.25 * sds[i]), xytext=(0, 4), textcoords="offset points", ha="center",
+                bz, by = to_plane(lens, i, np.array([sgn * sds[i], sgn * 1.25 * sds[i]]), np.zeros(2))
+                ax.plot(bz, by, color="k", lw=3, solid_capstyle="butt", zorder=4)
+            tz, ty = to_plane(lens, i, np.array([1.25 * sds[i]]), np.zeros(1))
+            ax.annotate("stop", (float(tz[0]), float(ty[0])), xytext=(0, 4), textcoords="offset points", ha="center",
                         fontsize=8)
-        elif s.material.is_air and (i == 0 or lens.surfaces[i - 1].material.is_air):
-            ax.plot(_profile(lens, i, r), r, color="#1b3a57", lw=1.0, zorder=3)  # a lone surface
+        if s.is_plane and s.transform_before is not None and not s.mirror and not s.apertures \
+                and s.material == (lens.surfaces[i - 1].material if i else lens.object_material):
+            continue  # a coordinate break: a frame change, nothing to draw
+        if s.mirror or (i != lens.stop_index and s.material.is_air and (i == 0 or lens.surfaces[i - 1].material.is_air)):
+            pz, py_ = _profile(lens, i, r)  # a lone surface (a mirror drawn thicker)
+            ax.plot(pz, py_, color="#1b3a57", lw=2.0 if s.mirror else 1.0, zorder=3)
     # rays
     img_h = 0.0
     specs = [field_spec(lens, h) for h in hy]
@@ -111,8 +140,9 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
             if rows == 0:
                 continue
             rec = res.records[j, :rows]
-            z = rec[:, 2] + vz[:rows]
-            y = rec[:, 1]
+            pts = [to_plane(lens, q, rec[q:q + 1, 1], rec[q:q + 1, 2], rec[q:q + 1, 0]) for q in range(rows)]
+            z = np.array([float(p[0][0]) for p in pts])
+            y = np.array([float(p[1][0]) for p in pts])
             o, d = rays.origin_mm[j], rays.direction[j]
             if fp.infinite:
                 t = (z_start - o[2]) / d[2]
@@ -124,14 +154,20 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
             ax.plot(zz, yy, color=colour, lw=0.7, alpha=0.9, zorder=2,
                     label=spec.label if j == 0 else None)
             if st == OK:
-                img_h = max(img_h, abs(y[-1]))
+                img_h = max(img_h, abs(float(rec[-1, 1])))
     hi = max(img_h, ymax) * 1.1
-    ax.plot([lens.image_z_mm] * 2, [-hi, hi], color="k", lw=1.2, zorder=3)
-    ax.annotate("image", (lens.image_z_mm, hi), xytext=(0, 3), textcoords="offset points", ha="center", fontsize=8)
+    iz, iy = to_plane(lens, n, np.array([-hi, hi]), np.zeros(2))
+    ax.plot(iz, iy, color="k", lw=1.2, zorder=3)
+    ax.annotate("image", (float(iz[1]), float(iy[1])), xytext=(0, 3), textcoords="offset points", ha="center",
+                fontsize=8)
     ax.axhline(0.0, color="0.5", lw=0.6, ls=(0, (8, 3, 2, 3)), zorder=0)
     ax.set_aspect("equal")
     ax.set(xlabel="z (mm, from the first vertex)", ylabel="y (mm)")
-    ax.set_ylim(-1.3 * hi, 1.3 * hi)
+    if lens.is_centred:
+        ax.set_ylim(-1.3 * hi, 1.3 * hi)
+    else:  # folded or tilted: the drawing leaves the axis; size the figure to it
+        ylo, yhi = ax.get_ylim()
+        hi = 0.5 * (yhi - ylo) / 1.3
     ax.set_title(title or f"{lens.name or 'lens'}: layout, {wl:g} nm", fontsize=10)
     ax.legend(title="field", fontsize=8, title_fontsize=8, loc="lower right")
     ax.grid(alpha=0.2)

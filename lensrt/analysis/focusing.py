@@ -1,0 +1,207 @@
+"""Focusing a lens with its own mechanism, solved with real rays, and its focus breathing.
+
+:func:`focus_at` moves the lens's :class:`~lensrt.prescription.focusing.FocusMechanism`
+(unit focusing, a focus group, floating groups) until the real best focus
+(:func:`lensrt.analysis.focus.best_focus`: the plane of minimum RMS spot radius of
+the axial point, a uniformly filled real pupil) of an object at the given distance
+lies on the image surface. The travel parameter t is the extension e (mm) for unit
+focusing, the group's travel (mm) for a focus group, and the object vergence 1/s
+(1/mm) that the floating table is read at for floating groups; the residual
+``best focus z - image z`` is driven to zero by the secant method.
+
+:func:`focus_breathing` measures the angle of view against focus distance with
+real rays: at each distance the lens is focused by :func:`focus_at` and the real
+chief ray that lands at the sensor's half diagonal is found; its object-space
+angle is the half angle of view. Beside it, the unit-focus formula of the Field
+Guide (p. 18), alpha = 2 atan(d / (2 b f)) with b = 1 + |m| / m_p.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import LensrtError
+from ..prescription.focus_travel import move_mechanism, solve_travel
+from ..prescription.model import Lens
+
+__all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad",
+           "largest_field_value", "image_circle_radius_mm", "BreathingCurve", "focus_breathing"]
+
+
+@dataclass(frozen=True)
+class FocusSolution:
+    """A lens focused by its mechanism: ``lens`` has the object at ``distance_mm``."""
+
+    lens: Lens
+    distance_mm: float
+    travel: float
+    travel_unit: str
+    residual_mm: float
+    iterations: int
+    mechanism: str
+
+    def to_dict(self) -> dict:
+        return {"distance_mm": self.distance_mm, "travel": self.travel, "travel_unit": self.travel_unit,
+                "residual_mm": self.residual_mm, "iterations": self.iterations, "mechanism": self.mechanism,
+                "gaps_mm": {str(i + 1): s.thickness_mm for i, s in enumerate(self.lens.surfaces)
+                            if i in self.lens.focus.gaps or (self.lens.focus.is_unit and i == self.lens.n_surfaces - 1)}}
+
+
+def focus_residual_mm(lens: Lens, distance_mm: float, wavelength_nm: float | None = None) -> float:
+    """Real best focus minus the image surface's z (mm) for an axial object at ``distance_mm``."""
+    from .compare.focus import best_focus
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    at = lens if distance_mm == lens.object_distance_mm else lens.replace(object_distance_mm=float(distance_mm))
+    return best_focus(at, [wl], [1.0], 0.0).z_mm - lens.image_z_mm
+
+
+def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None, tol_mm: float = 1e-9,
+             max_iter: int = 40) -> FocusSolution:
+    """Focus ``lens`` at ``distance_mm`` (in front of the first vertex; ``inf``) with its own mechanism.
+
+    Raises :class:`LensrtError` when the mechanism cannot bring the real best focus
+    onto the image surface within ``tol_mm`` in ``max_iter`` secant steps.
+    """
+    d = float(distance_mm)
+    if math.isnan(d) or d <= 0.0:
+        raise LensrtError(f"focus distance {distance_mm!r} mm must be positive (inf for infinity)")
+    t, r, it, unit = solve_travel(lens, d, lambda moved: focus_residual_mm(moved, d, wavelength_nm),
+                                  tol_mm, max_iter)
+    moved = move_mechanism(lens, t).replace(object_distance_mm=d)
+    return FocusSolution(moved, d, float(t), unit, float(r), it, lens.focus.describe())
+
+
+def _chief_tracer(lens: Lens, wavelength_nm: float | None):
+    """v -> (real chief-ray height on the image surface, its object-space angle), v an object field value."""
+    from .raysets import chief_batch, object_field_point, trace64
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+
+    def trace(v: float) -> tuple[float, float]:
+        batch = chief_batch(lens, [object_field_point(lens, v)], wl)
+        res = trace64(lens, batch)
+        if not (bool(res.ok[0]) and bool(batch.aimed[0])):
+            return math.nan, math.nan
+        return float(res.position_mm[0, 1]), math.atan2(float(batch.direction[0, 1]), float(batch.direction[0, 2]))
+    return trace
+
+
+def largest_field_value(lens: Lens) -> float:
+    """The lens's largest object field as an object-space value (rad at infinity, else mm in the object plane)."""
+    f = lens.fields
+    if math.isinf(lens.object_distance_mm):
+        return f.max_radial if f.kind == "angle" else math.radians(89.0)
+    if f.kind == "object_height":
+        return f.max_radial
+    angle = f.max_radial if f.kind == "angle" else math.radians(45.0)
+    return lens.object_distance_mm * math.tan(min(angle, math.radians(89.0)))
+
+
+def image_circle_radius_mm(lens: Lens, wavelength_nm: float | None = None) -> float:
+    """Real chief-ray height on the image surface at the lens's largest field (mm)."""
+    y, _ = _chief_tracer(lens, wavelength_nm)(largest_field_value(lens))
+    return abs(y)
+
+
+def _field_guess(lens: Lens, image_height_mm: float, wavelength_nm: float | None) -> float:
+    """Paraxial object field value (rad at infinity, else mm) imaged at ``image_height_mm``."""
+    from ..paraxial import first_order
+    fo = first_order(lens, wavelength_nm)
+    if math.isinf(lens.object_distance_mm):
+        return min(math.atan(image_height_mm / abs(fo.efl_mm)), math.radians(89.0))
+    return image_height_mm / max(abs(fo.magnification), 1e-12)
+
+
+def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
+                        tol_mm: float = 1e-7, max_iter: int = 80) -> float:
+    """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad).
+
+    The object field is bracketed between the axis and the lens's largest field and found by
+    the Illinois (regula falsi) method; a height beyond the largest field's is an error.
+    """
+    trace = _chief_tracer(lens, wavelength_nm)
+    h = abs(float(image_height_mm))
+    lo, hi = 0.0, _field_guess(lens, 1.3 * h, wavelength_nm)
+    y_hi = trace(hi)[0]
+    for _ in range(40):  # shrink until the chief ray passes
+        if not math.isnan(y_hi):
+            break
+        hi *= 0.8
+        y_hi = trace(hi)[0]
+    limit = math.radians(89.0) if math.isinf(lens.object_distance_mm) else 50.0 * hi
+    while abs(y_hi) < h and hi < limit:  # beyond the lens's nominal field, while real chief rays still pass
+        wider = min(1.2 * hi, limit)
+        y_wider = trace(wider)[0]
+        if math.isnan(y_wider):
+            break
+        hi, y_hi = wider, y_wider
+    if not abs(y_hi) >= h:
+        raise LensrtError(f"no real chief ray reaches {h:.4g} mm on the image surface: the widest that passes "
+                          f"lands at {abs(y_hi):.4g} mm", hint="use a smaller sensor (the image circle is smaller)")
+    f_lo, f_hi, side = -h, abs(y_hi) - h, 0
+    v, a = hi, 0.0
+    for _ in range(max_iter):
+        v = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        y, a = trace(v)
+        if math.isnan(y):
+            v, (y, a) = 0.5 * (lo + hi), trace(0.5 * (lo + hi))
+        fv = abs(y) - h
+        if abs(fv) < tol_mm:
+            break
+        if fv > 0:
+            hi, f_hi = v, fv
+            f_lo = f_lo / 2 if side == -1 else f_lo
+            side = -1
+        else:
+            lo, f_lo = v, fv
+            f_hi = f_hi / 2 if side == 1 else f_hi
+            side = 1
+    return abs(a)
+
+
+@dataclass
+class BreathingCurve:
+    """Angle of view against focus distance: real (the lens's mechanism) and the unit-focus formula."""
+
+    distances_mm: np.ndarray
+    afov_real_deg: np.ndarray
+    afov_unit_formula_deg: np.ndarray
+    travel: np.ndarray
+    travel_unit: str
+    sensor_diagonal_mm: float
+    efl_mm: float
+    mechanism: str
+    residual_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def to_dict(self) -> dict:
+        return {"distance_mm": self.distances_mm, "afov_real_deg": self.afov_real_deg,
+                "afov_unit_focus_formula_deg": self.afov_unit_formula_deg, "travel": self.travel,
+                "travel_unit": self.travel_unit, "sensor_diagonal_mm": self.sensor_diagonal_mm,
+                "efl_at_infinity_mm": self.efl_mm, "mechanism": self.mechanism,
+                "focus_residual_mm": self.residual_mm,
+                "definition": "diagonal AFoV: twice the object-space angle of the real chief ray that lands at "
+                              "half the sensor diagonal, the lens focused by its own mechanism (real best focus "
+                              "on the sensor); formula: Field Guide p. 18, 2 atan(d / (2 b f)), b = 1 + |m|/mp"}
+
+
+def focus_breathing(lens: Lens, distances_mm: Sequence[float], sensor_diagonal_mm: float,
+                    wavelength_nm: float | None = None) -> BreathingCurve:
+    """Real AFoV against focus distance for the lens's own mechanism, beside the unit-focus formula."""
+    from ..paraxial import first_order
+    from ..paraxial.photographic import focus_breathing_afov_rad
+    fo = first_order(lens.replace(object_distance_mm=math.inf), wavelength_nm)
+    real, formula, travel, resid = [], [], [], []
+    unit = ""
+    for d in distances_mm:
+        sol = focus_at(lens, float(d), wavelength_nm)
+        real.append(2.0 * math.degrees(real_half_field_rad(sol.lens, 0.5 * sensor_diagonal_mm, wavelength_nm)))
+        formula.append(math.degrees(focus_breathing_afov_rad(float(d), fo.efl_mm, sensor_diagonal_mm,
+                                                             fo.pupil_magnification)))
+        travel.append(sol.travel)
+        resid.append(sol.residual_mm)
+        unit = sol.travel_unit
+    return BreathingCurve(np.asarray(distances_mm, dtype=np.float64), np.array(real), np.array(formula),
+                          np.array(travel), unit, float(sensor_diagonal_mm), fo.efl_mm, lens.focus.describe(),
+                          np.array(resid))

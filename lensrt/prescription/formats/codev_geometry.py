@@ -1,0 +1,125 @@
+"""The geometry commands of a CODE V sequence: mirrors, decenters and tilts, apertures.
+
+Used by :mod:`.codev`; kept apart so that the syntax and glass work on that
+reader and this one do not collide.
+
+* ``REFL`` in the glass position of an ``S`` line: a mirror (the medium after
+  it is the one before it).
+* ``XDE``/``YDE``/``ZDE`` (lens units) and ``ADE``/``BDE``/``CDE`` (degrees):
+  the surface's decenter, applied decenter first, then alpha, beta, gamma
+  (:class:`~lensrt.prescription.geometry.CoordinateTransform`, order 0), of
+  the type the surface names: basic (the default: the new frame holds for this
+  and every later surface), ``DAR`` (decenter and return: for this surface
+  only), ``REV`` (reverse: the surface stays in the frame before, and the
+  inverse of the decenter applies after it), ``BEN`` (bend, for fold mirrors:
+  the tilt applies again after the surface, so the axis follows the reflected
+  beam). On ``SI`` the decenter places the image surface.
+* Apertures: ``CIR r`` (the semi-diameter, as before); ``CIR OBS r``
+  (a circular obscuration) and ``CIR HOL r`` (a hole: rays there do not meet
+  the surface, so a sequential trace stops them -- lensrt treats it as an
+  obscuration of this surface); ``REX``/``REY`` (rectangle half-widths),
+  ``ELX``/``ELY`` (ellipse semi-axes), with ``OBS``/``HOL`` likewise;
+  ``ADX``/``ADY`` (aperture decenter) and ``ARO`` (rotation, degrees) move them.
+  Labels (``L'text'``) are ignored; ``EDG`` apertures are mechanical and ignored.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from ...errors import PrescriptionError
+from ...units import deg_to_rad
+from ..geometry import CoordinateTransform, SurfaceAperture
+
+__all__ = ["GEOMETRY_COMMANDS", "geometry_command", "row_geometry", "new_row_geometry"]
+
+_DECENTER = {"XDE": "x", "YDE": "y", "ZDE": "z", "ADE": "a", "BDE": "b", "CDE": "c"}
+_TYPES = {"DAR": "dar", "REV": "rev", "BEN": "ben"}
+_SHAPED = {"REX": ("rectangle", "a"), "REY": ("rectangle", "b"), "ELX": ("ellipse", "a"),
+           "ELY": ("ellipse", "b")}
+#: the commands read here
+GEOMETRY_COMMANDS = set(_DECENTER) | set(_TYPES) | set(_SHAPED) | {"ADX", "ADY", "ARO"}
+
+
+def new_row_geometry() -> dict[str, Any]:
+    """The geometry entries every surface row starts with."""
+    return dict(mirror=False, dec={}, dtype="basic", dec_line=None, cir_obs=[], shaped={}, shaped_obs=False,
+                ap_dx=0.0, ap_dy=0.0, ap_rot=0.0)
+
+
+def _value(seq: Any, args: list[str], what: str, line: int) -> float:
+    vals = [a for a in args if not a.upper().startswith("L'")]
+    if not vals:
+        raise seq.err(f"{what} without a value", line)
+    return seq.num(vals[-1], what, line)
+
+
+def geometry_command(seq: Any, name: str, args: list[str], line: int) -> bool:
+    """Apply one geometry command to the current row of ``seq`` (a CODE V reader); False if not one."""
+    if name not in GEOMETRY_COMMANDS:
+        return False
+    row = seq.rows[-1] if seq.rows and seq.rows[-1]["kind"] == "SI" and name in _DECENTER else \
+        seq.cur(name, line)
+    if name in _DECENTER:
+        row["dec"][_DECENTER[name]] = _value(seq, args, name, line)
+        row["dec_line"] = row["dec_line"] or line
+    elif name in _TYPES:
+        if row["kind"] == "SI":
+            raise seq.err(f"{name} on the image surface", line, "the image surface takes a basic decenter only")
+        row["dtype"] = _TYPES[name]
+    elif name in _SHAPED:
+        shape, key = _SHAPED[name]
+        if row["shaped"].get("shape", shape) != shape:
+            raise seq.err(f"{name} mixes a rectangular and an elliptical aperture on one surface", line)
+        row["shaped"]["shape"] = shape
+        row["shaped"][key] = _value(seq, args, name, line)
+        row["shaped"]["line"] = line
+        row["shaped_obs"] = row["shaped_obs"] or any(a.upper() in ("OBS", "HOL") for a in args)
+    else:
+        row[{"ADX": "ap_dx", "ADY": "ap_dy", "ARO": "ap_rot"}[name]] = _value(seq, args, name, line)
+    return True
+
+
+def _transform(row: dict[str, Any], f: float) -> CoordinateTransform | None:
+    d = row["dec"]
+    if not d:
+        return None
+    return CoordinateTransform(d.get("x", 0.0) * f, d.get("y", 0.0) * f, d.get("z", 0.0) * f,
+                               deg_to_rad(d.get("a", 0.0)), deg_to_rad(d.get("b", 0.0)),
+                               deg_to_rad(d.get("c", 0.0)), 0)
+
+
+def _apertures(row: dict[str, Any], f: float, path: str | None) -> tuple[SurfaceAperture, ...]:
+    dx, dy, rot = row["ap_dx"] * f, row["ap_dy"] * f, deg_to_rad(row["ap_rot"])
+    out = [SurfaceAperture("circle", r * f, 0.0, dx, dy, rot, obscuration=True) for r in row["cir_obs"]]
+    sh = row["shaped"]
+    if sh:
+        if "a" not in sh or "b" not in sh:
+            missing = {"rectangle": ("REX", "REY"), "ellipse": ("ELX", "ELY")}[sh["shape"]][0 if "a" not in sh else 1]
+            raise PrescriptionError(f"{sh['shape']} aperture without {missing}", path=path, line=sh["line"],
+                                    hint="give both half-widths (X and Y)")
+        out.append(SurfaceAperture(sh["shape"], abs(sh["a"]) * f, abs(sh["b"]) * f, dx, dy, rot,
+                                   obscuration=row["shaped_obs"]))
+    elif (dx or dy) and row.get("sd") is not None:
+        # a decentred CIR: the circle moves off the axis, so it is a surface aperture
+        out.append(SurfaceAperture("circle", row["sd"] * f, 0.0, dx, dy, rot))
+        row["sd"] = None
+    return tuple(out)
+
+
+def row_geometry(row: dict[str, Any], f: float, path: str | None) -> dict[str, Any]:
+    """The :class:`~lensrt.prescription.model.Surface` geometry fields of one ``S`` row."""
+    t = _transform(row, f)
+    before, after = t, None
+    if t is not None and row["dtype"] == "dar":
+        after = t.inverse()
+    elif t is not None and row["dtype"] == "rev":
+        before, after = None, t.inverse()
+    elif t is not None and row["dtype"] == "ben":
+        after = CoordinateTransform(tilt_x_rad=t.tilt_x_rad, tilt_y_rad=t.tilt_y_rad, tilt_z_rad=t.tilt_z_rad)
+    return dict(mirror=row["mirror"], transform_before=before, transform_after=after,
+                apertures=_apertures(row, f, path))
+
+
+def image_transform(row: dict[str, Any] | None, f: float) -> CoordinateTransform | None:
+    """The image surface's decenter (``SI`` with XDE ... CDE), or None."""
+    return None if row is None else _transform(row, f)

@@ -1,0 +1,50 @@
+"""Plots of zoom and focus: focus breathing (AFoV against focus distance) and the focal-length curve."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .figure import new_figure, save_figure
+
+__all__ = ["plot_breathing", "plot_zoom_curve"]
+
+
+def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
+    """AFoV (deg) against focus distance (m): real rays for the lens's mechanism and the unit-focus formula."""
+    fig = new_figure(6.0, 4.0)
+    ax = fig.add_subplot(1, 1, 1)
+    d = np.asarray(curve["distance_mm"], dtype=np.float64)
+    x = np.where(np.isinf(d), np.nan, d / 1000.0)
+    finite = np.isfinite(x)
+    ax.plot(x[finite], np.asarray(curve["afov_real_deg"])[finite], "o-", label="real rays, " + curve["mechanism"])
+    ax.plot(x[finite], np.asarray(curve["afov_unit_focus_formula_deg"])[finite], "s--",
+            label="unit-focus formula (Field Guide p. 18)")
+    if not finite.all():
+        ax.axhline(float(np.asarray(curve["afov_real_deg"])[~finite][0]), color="C0", lw=0.6, ls=":",
+                   label="real rays at infinity")
+    ax.set_xscale("log")
+    ax.set_xlabel("focus distance from the first vertex (m)")
+    ax.set_ylabel(f"diagonal angle of view (deg), d = {curve['sensor_diagonal_mm']:.2f} mm")
+    ax.set_title(title or "focus breathing", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return save_figure(fig, path)
+
+
+def plot_zoom_curve(path: str | Path, names: Sequence[str], efl_mm: Sequence[float], f_number: Sequence[float],
+                    title: str = "") -> Path:
+    """EFL and f-number per configuration."""
+    fig = new_figure(6.0, 3.5)
+    ax = fig.add_subplot(1, 1, 1)
+    k = np.arange(len(names))
+    ax.plot(k, efl_mm, "o-", color="C0")
+    ax.set_xticks(k, list(names))
+    ax.set_ylabel("EFL (mm)", color="C0")
+    ax2 = ax.twinx()
+    ax2.plot(k, f_number, "s--", color="C1")
+    ax2.set_ylabel("f-number", color="C1")
+    ax.set_title(title or "focal length per configuration")
+    ax.grid(alpha=0.3)
+    return save_figure(fig, path)
