@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..colour.rgb import linear_srgb_to_xyz
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from .compose import assign_layers, composite_layers, layer_depths_mm, warp_layer
@@ -87,7 +88,7 @@ class Simulation:
 
     def errors(self) -> dict:
         """The error estimates of the sidecar."""
-        y = self.rgb @ np.array([0.2126, 0.7152, 0.0722])
+        y = linear_srgb_to_xyz(self.rgb)[..., 1]   # luminance Y of linear sRGB (lensrt.colour)
         lit = y > 0.05 * max(float(np.percentile(y, 99)), 1e-30)
         rel = self.y_stderr[lit] / np.maximum(y[lit], 1e-30)
         checks = self.psf_grid.checks
