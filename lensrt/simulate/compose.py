@@ -28,13 +28,19 @@ spreads over the background by its own blur radius only.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import LensrtError
-from .convolve import convolve_bands
+from .convolve import TilePlan, convolve_layer, tile_plan
 from .optics import Camera, LayerOptics, picture_positions_mm
 
-__all__ = ["layer_depths_mm", "assign_layers", "warp_layer", "composite_layers"]
+__all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "warp_layer",
+           "layer_channels", "Compositor", "blur_and_composite", "TABLE_SAMPLES"]
+
+#: samples of the per-layer radial tables (real radius -> pinhole radius, relative illumination)
+TABLE_SAMPLES = 4097
 
 
 def layer_depths_mm(depth_m: np.ndarray, n_layers: int) -> np.ndarray:
@@ -52,81 +58,132 @@ def layer_depths_mm(depth_m: np.ndarray, n_layers: int) -> np.ndarray:
 
 
 def assign_layers(depth_m: np.ndarray, layers_mm: np.ndarray) -> tuple[np.ndarray, float]:
-    """Layer index of every pixel (nearest in 1/depth) and the largest dioptre error (1/m)."""
+    """Layer index of every pixel (nearest in 1/depth; ties to the farther layer) and the largest dioptre
+    error (1/m)."""
     inv = 1.0 / np.asarray(depth_m, dtype=np.float64)
-    lev = 1000.0 / np.asarray(layers_mm)
-    idx = np.argmin(np.abs(inv[..., None] - lev), axis=-1)
+    lev = 1000.0 / np.asarray(layers_mm, dtype=np.float64)  # increasing: layers far first
+    idx = np.searchsorted(0.5 * (lev[1:] + lev[:-1]), inv, side="left").astype(np.int32)
     return idx, float(np.max(np.abs(inv - lev[idx])))
 
 
-def warp_layer(cam: Camera, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,
-               gain: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(sharp linear image x RI x gain (H, W, 3), alpha (H, W), fraction of pixels from beyond the input frame)."""
+@dataclass(frozen=True)
+class Geometry:
+    """Per output pixel, shared by the layers: picture position (u, v) and radius r (mm, float64)."""
+
+    u_mm: np.ndarray
+    v_mm: np.ndarray
+    r_mm: np.ndarray
+
+
+def geometry(cam: Camera) -> Geometry:
+    """The :class:`Geometry` of the camera's pixel frame."""
+    rows, cols = cam.shape
+    u, v = picture_positions_mm(cam, np.arange(rows)[:, None], np.arange(cols)[None, :])
+    u, v = np.broadcast_to(u, (rows, cols)), np.broadcast_to(v, (rows, cols))
+    return Geometry(u, v, np.hypot(u, v))
+
+
+def radial_tables(cam: Camera, opt: LayerOptics) -> tuple[float, np.ndarray, np.ndarray]:
+    """(step in mm, scale s(r) = pinhole radius / real radius, relative illumination), on
+    :data:`TABLE_SAMPLES` radii from 0 to the frame's corner: the layer's PCHIP tables, sampled once and then
+    interpolated linearly per pixel (the same on the host and on a device)."""
+    r_max = 0.5 * cam.pitch_mm * float(np.hypot(cam.shape[0], cam.shape[1])) * 1.0001
+    r = np.linspace(0.0, r_max, TABLE_SAMPLES)
+    ri = opt.ideal_of_real(r)
+    scale = np.ones_like(r)
+    scale[1:] = ri[1:] / r[1:]
+    # on the axis the scale is the slope d r_i / d r (the limit of r_i / r)
+    scale[0] = (ri[1] - ri[0]) / r[1] if len(r) > 1 else 1.0
+    return float(r[1] - r[0]), scale, opt.ri_at(r)
+
+
+def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, layer_index: np.ndarray | None,
+               li: int, gain: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(sharp linear image x RI x gain (3, H, W) -- zero where the layer is absent, alpha (H, W), fraction of
+    pixels from beyond the input frame) of layer ``li`` (``layer_index`` (H, W) the layer of each input pixel,
+    None: one layer everywhere)."""
     from scipy.ndimage import map_coordinates
     rows, cols = cam.shape
-    rr, cc = np.mgrid[0:rows, 0:cols].astype(np.float64)
-    u, v = picture_positions_mm(cam, rr, cc)
-    r = np.hypot(u, v)
-    ri = opt.ideal_of_real(r)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.where(r > 0, ri / np.where(r > 0, r, 1.0), 1.0)
-    ci = u * s / cam.pitch_mm + 0.5 * (cols - 1)
-    ri_row = 0.5 * (rows - 1) - v * s / cam.pitch_mm
+    step, scale_tab, ri_tab = radial_tables(cam, opt)
+    s = np.interp(geo.r_mm, np.arange(len(scale_tab)) * step, scale_tab)
+    ci = geo.u_mm * s / cam.pitch_mm + 0.5 * (cols - 1)
+    ri_row = 0.5 * (rows - 1) - geo.v_mm * s / cam.pitch_mm
     outside = float(np.mean((ci < -0.5) | (ci > cols - 0.5) | (ri_row < -0.5) | (ri_row > rows - 0.5)))
-    coords = np.stack([ri_row, ci])
-    sharp = np.stack([map_coordinates(image[..., k], coords, order=1, mode="nearest") for k in range(3)], axis=-1)
-    alpha = np.ones((rows, cols)) if mask is None else map_coordinates(mask.astype(np.float64), coords, order=0,
-                                                                       mode="nearest")
-    sharp *= (opt.ri_at(r) * gain)[..., None]
-    return sharp.astype(np.float32), alpha.astype(np.float32), outside
+    if layer_index is None:
+        alpha = np.ones((rows, cols), dtype=np.float32)
+    else:  # the layer's mask, sampled nearest
+        rn = np.clip(np.floor(ri_row + 0.5), 0, rows - 1).astype(np.intp)
+        cn = np.clip(np.floor(ci + 0.5), 0, cols - 1).astype(np.intp)
+        alpha = (layer_index[rn, cn] == li).astype(np.float32)
+    sel = np.nonzero(alpha)
+    coords = np.stack([ri_row[sel], ci[sel]])
+    gain_px = np.interp(geo.r_mm[sel], np.arange(len(ri_tab)) * step, ri_tab) * gain
+    sharp = np.zeros((3, rows, cols), dtype=np.float32)
+    for k in range(3):
+        sharp[k][sel] = map_coordinates(image[..., k], coords, order=1, mode="nearest") * gain_px
+    return sharp, alpha, outside
 
 
-def _products(sharp: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """(H, W, 10): colour x alpha (3), alpha, and the 6 products rgb_c rgb_c' alpha (c <= c')."""
-    pairs = [sharp[..., a] * sharp[..., b] for a in range(3) for b in range(a, 3)]
-    return np.concatenate([sharp * alpha[..., None], alpha[..., None], np.stack(pairs, axis=-1) * alpha[..., None]],
-                          axis=-1, dtype=np.float32)
+def layer_channels(sharp: np.ndarray, alpha: np.ndarray, y_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(shared (4, H, W): colour x alpha and alpha; own (K, H, W): each band's Y^2 alpha), float32.
+
+    (``sharp`` is already zero where alpha is: colour x alpha = sharp x alpha.)"""
+    shared = np.concatenate([sharp * alpha, alpha[None]], axis=0, dtype=np.float32)
+    yw = np.asarray(y_weights, dtype=np.float32)
+    own = np.einsum("kc,chw->khw", yw, shared[:3])
+    np.square(own, out=own)
+    own *= alpha
+    return shared, own
 
 
-def _mix(y_weights: np.ndarray) -> np.ndarray:
-    """(K, 5, 10): per band, colour (3) and alpha pass through; Y^2 alpha = sum w_c w_c' (rgb_c rgb_c' alpha)."""
-    k = len(y_weights)
-    m = np.zeros((k, 5, 10))
-    m[:, :4, :4] = np.eye(4)
-    col = 4
-    for a in range(3):
-        for b in range(a, 3):
-            m[:, 4, col] = y_weights[:, a] * y_weights[:, b] * (1.0 if a == b else 2.0)
-            col += 1
-    return m
+class Compositor:
+    """Back-to-front "over" compositing of blurred layers, all bands at once (module docstring).
 
-
-def composite_layers(layers: list[tuple[np.ndarray, np.ndarray]], psfs: list[np.ndarray], y_weights: np.ndarray,
-                     rays: np.ndarray, wr: np.ndarray, wc: np.ndarray, rows: np.ndarray,
-                     cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """All bands: (rgb coefficients (K, H, W, 3), variance of Y from the PSFs' rays (H, W)).
-
-    ``layers`` far to near: (sharp (H, W, 3), alpha (H, W)); ``psfs[l]`` (K, gr, gc, n, n); ``y_weights`` (K, 3)
-    each band's Y per coefficient; ``rays`` (L, K) rays landed per PSF. Each layer's tiles are transformed once
-    for all bands (:func:`lensrt.simulate.convolve.convolve_bands`).
+    Accumulates colour C (K, 3, H, W), coverage Acc (K, H, W) and the variance of Y from the PSFs' rays
+    (K, H, W); :meth:`add` takes the next nearer layer, :meth:`result` the coefficients and the variance.
     """
-    mix = _mix(np.asarray(y_weights, dtype=np.float64))
-    c = acc = var = None
-    for li, ((sharp, alpha), psf) in enumerate(zip(layers, psfs)):
-        blurred, u = convolve_bands(_products(sharp, alpha), psf, mix, wr, wc, rows, cols)
-        # divide by the operator's response to a full, uniform layer U: a layer that covers everything then has
+
+    def __init__(self, n_bands: int, shape: tuple[int, int], y_weights: np.ndarray):
+        self.c = np.zeros((n_bands, 3) + tuple(shape), dtype=np.float32)
+        self.acc = np.zeros((n_bands,) + tuple(shape), dtype=np.float32)
+        self.var = np.zeros((n_bands,) + tuple(shape), dtype=np.float32)
+        self.yw = np.asarray(y_weights, dtype=np.float32)
+
+    def add(self, blurred: np.ndarray, ones: np.ndarray, box: tuple[int, int, int, int], rays: np.ndarray) -> None:
+        """Composite a layer's blurred channels (K, 5, bh, bw) over the box (see
+        :func:`lensrt.simulate.convolve.convolve_layer`); ``rays`` (K,) rays landed per PSF."""
+        r0, r1, c0, c1 = box
+        # divide by the operator's response to a full, uniform layer: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
-        u = np.maximum(u, np.float32(1e-12))
-        b, q = blurred[..., :3] / u[..., None], blurred[..., 4] / u
-        a = np.clip(blurred[..., 3] / u, 0.0, 1.0)
-        yb = np.einsum("khwc,kc->khw", b, y_weights.astype(np.float32))
-        v = np.maximum(q - yb ** 2, 0.0) / np.maximum(rays[li], 1.0).astype(np.float32)[:, None, None]  # ray sampling
-        if c is None:
-            c, acc, var = b, a, v
-        else:
-            c = b + (1.0 - a)[..., None] * c
-            var = v + (1.0 - a) ** 2 * var
-            acc = a + (1.0 - a) * acc
-    good = acc > 1e-6
-    inv = np.where(good, 1.0 / np.where(good, acc, 1.0), 0.0)
-    return c * inv[..., None], (var * inv * inv).sum(axis=0)
+        inv_u = 1.0 / np.maximum(ones, np.float32(1e-12))
+        blurred *= inv_u[:, None]
+        b, q = blurred[:, :3], blurred[:, 4]
+        a = np.clip(blurred[:, 3], 0.0, 1.0)
+        yb = np.einsum("kchw,kc->khw", b, self.yw)
+        v = np.maximum(q - yb * yb, 0.0) / np.maximum(np.asarray(rays, dtype=np.float32), 1.0)[:, None, None]
+        keep = 1.0 - a
+        c, acc, var = self.c[:, :, r0:r1, c0:c1], self.acc[:, r0:r1, c0:c1], self.var[:, r0:r1, c0:c1]
+        c *= keep[:, None]
+        c += b
+        var *= keep * keep
+        var += v
+        acc *= keep
+        acc += a
+
+    def result(self) -> tuple[np.ndarray, np.ndarray]:
+        """(coefficients (K, 3, H, W) = C / Acc, variance of Y (H, W) summed over the bands)."""
+        good = self.acc > 1e-6
+        inv = np.where(good, 1.0 / np.where(good, self.acc, 1.0), 0.0).astype(np.float32)
+        return self.c * inv[:, None], (self.var * inv * inv).sum(axis=0)
+
+
+def blur_and_composite(comp: Compositor, sharp: np.ndarray, alpha: np.ndarray, psf: np.ndarray, rays: np.ndarray,
+                       wr: np.ndarray, wc: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> TilePlan:
+    """Blur one layer (all bands, host FFTs) and composite it over what ``comp`` holds; returns its plan."""
+    plan = tile_plan(alpha, rows, cols, psf.shape[-1] // 2)
+    if not plan.active.any():
+        return plan
+    shared, own = layer_channels(sharp, alpha, comp.yw)
+    blurred, ones = convolve_layer(shared, own, psf, wr, wc, rows, cols, plan)
+    comp.add(blurred, ones, plan.box, rays)
+    return plan

@@ -16,9 +16,11 @@ a point source anywhere gets exactly the blended PSF, and light is conserved.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["convolve_varying", "convolve_bands"]
+__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "tile_bounds", "tile_window", "TilePlan"]
 
 
 def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.ndarray,
@@ -43,42 +45,104 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
     return out[half:half + h_img, half:half + w_img]
 
 
-def _tile_bounds(k: int, nodes: np.ndarray) -> tuple[int, int]:
+@dataclass(frozen=True)
+class TilePlan:
+    """Which node tiles one depth layer needs.
+
+    ``active`` (gr, gc): tiles holding some of the layer (their image part is convolved); ``needed`` (gr, gc):
+    tiles whose response to a full layer of ones is needed -- every tile whose blur reaches where an active
+    tile's blur lands (so the normalisation is exact wherever the layer shows); ``box`` (r0, r1, c0, c1): the
+    image pixels the layer's blur reaches (the outputs are computed over this box only).
+    """
+
+    active: np.ndarray
+    needed: np.ndarray
+    box: tuple[int, int, int, int]
+
+
+def tile_bounds(k: int, nodes: np.ndarray) -> tuple[int, int]:
     """Pixel range [start, stop) of node k's tent (the cells either side)."""
     return int(nodes[max(k - 1, 0)]), int(nodes[min(k + 1, len(nodes) - 1)]) + 1
 
 
-def convolve_bands(image: np.ndarray, psfs: np.ndarray, mix: np.ndarray, wr: np.ndarray, wc: np.ndarray,
-                   rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`convolve_varying` for K bands at once, sharing each tile's forward FFT between the bands.
+def _reach(nodes: np.ndarray, half: int, n_px: int) -> np.ndarray:
+    """(nodes, 2): the image-pixel range [lo, hi) node k's tile reaches after a blur of half-width ``half``."""
+    out = np.empty((len(nodes), 2), dtype=int)
+    for k in range(len(nodes)):
+        a, b = tile_bounds(k, nodes)
+        out[k] = max(a - half, 0), min(b + half, n_px)
+    return out
 
-    ``image`` (H, W, C); ``psfs`` (K, gr, gc, n, n); ``mix`` (K, O, C) mixes the input channels into O output
-    channels per band (linear, so it is applied to the spectra). Returns (K, H, W, O) and, for a uniform image
-    of ones, the full-layer response (K, H, W) -- both with the same tiles, kernels and weights.
+
+def tile_plan(alpha: np.ndarray, rows: np.ndarray, cols: np.ndarray, half: int) -> TilePlan:
+    """The :class:`TilePlan` of a layer of coverage ``alpha`` (H, W) blurred by PSFs of half-width ``half``."""
+    h_img, w_img = alpha.shape
+    gr, gc = len(rows), len(cols)
+    present = alpha > 0
+    # per cell (between neighbouring nodes; the last node row/column closes the last cell): any of the layer?
+    by_rows = np.logical_or.reduceat(present, [int(r) for r in rows[:-1]], axis=0)
+    cells = np.logical_or.reduceat(by_rows, [int(c) for c in cols[:-1]], axis=1)
+    active = np.zeros((gr, gc), dtype=bool)
+    for i in range(gr):
+        for j in range(gc):
+            active[i, j] = bool(cells[max(i - 1, 0):min(i, gr - 2) + 1, max(j - 1, 0):min(j, gc - 2) + 1].any())
+    rr, rc = _reach(rows, half, h_img), _reach(cols, half, w_img)
+    over_r = (rr[:, None, 0] < rr[None, :, 1]) & (rr[None, :, 0] < rr[:, None, 1])
+    over_c = (rc[:, None, 0] < rc[None, :, 1]) & (rc[None, :, 0] < rc[:, None, 1])
+    needed = np.einsum("ik,jl,kl->ij", over_r.astype(int), over_c.astype(int), active.astype(int)) > 0
+    if not active.any():
+        return TilePlan(active, needed, (0, 0, 0, 0))
+    ai, aj = np.nonzero(active)
+    box = (int(rr[ai, 0].min()), int(rr[ai, 1].max()), int(rc[aj, 0].min()), int(rc[aj, 1].max()))
+    return TilePlan(active, needed, box)
+
+
+def tile_window(i: int, j: int, rows: np.ndarray, cols: np.ndarray, n: int, box: tuple[int, int, int, int]):
+    """Tile (i, j): its pixels (r0, r1, c0, c1), and where its full convolution (offset by -n // 2) meets the
+    box: (source slices into the full result, destination slices into the box arrays), or None."""
+    r0, r1 = tile_bounds(i, rows)
+    c0, c1 = tile_bounds(j, cols)
+    half = n // 2
+    lo_r, hi_r = max(r0 - half, box[0]), min(r1 + half, box[1])
+    lo_c, hi_c = max(c0 - half, box[2]), min(c1 + half, box[3])
+    if lo_r >= hi_r or lo_c >= hi_c:
+        return (r0, r1, c0, c1), None
+    src = (slice(lo_r - r0 + half, hi_r - r0 + half), slice(lo_c - c0 + half, hi_c - c0 + half))
+    dst = (slice(lo_r - box[0], hi_r - box[0]), slice(lo_c - box[2], hi_c - box[2]))
+    return (r0, r1, c0, c1), (src, dst)
+
+
+def convolve_layer(shared: np.ndarray, own: np.ndarray, psfs: np.ndarray, wr: np.ndarray, wc: np.ndarray,
+                   rows: np.ndarray, cols: np.ndarray, plan: TilePlan) -> tuple[np.ndarray, np.ndarray]:
+    """One layer, all K bands, on the host (NumPy/SciPy FFTs, single precision, both cores).
+
+    ``shared`` (S, H, W) channels blurred by every band's PSF; ``own`` (K, H, W) one channel per band, blurred
+    by that band's PSF only; ``psfs`` (K, gr, gc, n, n). Returns over ``plan.box``: the blurred channels
+    (K, S + 1, bh, bw) -- band k's blur of the S shared channels, then of its own -- and the response to a
+    full layer of ones (K, bh, bw). Each active tile is transformed once for all bands.
     """
     from scipy import fft
-    h_img, w_img, _ = image.shape
-    n_b, n_out = mix.shape[0], mix.shape[1]
-    n = psfs.shape[-1]
-    half = n // 2
-    out = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half, n_out), dtype=np.float32)  # float32: memory
-    ones = np.zeros((n_b, h_img + 2 * half, w_img + 2 * half), dtype=np.float32)
-    for i in range(len(rows)):
-        r0, r1 = _tile_bounds(i, rows)
-        for j in range(len(cols)):
-            c0, c1 = _tile_bounds(j, cols)
-            wt = wr[i, r0:r1, None] * wc[j, c0:c1][None, :]
-            shape = (fft.next_fast_len(r1 - r0 + n - 1, True), fft.next_fast_len(c1 - c0 + n - 1, True))
-            # single precision FFTs (about 1e-7 of the signal; accumulated in float64)
-            kf = fft.rfft2(psfs[:, i, j].astype(np.float32), s=shape, axes=(1, 2), workers=-1)  # (K, fy, fx)
-            f_one = fft.rfft2(wt.astype(np.float32), s=shape, workers=-1)
-            u = fft.irfft2(kf * f_one[None], s=shape, axes=(1, 2), workers=-1)
-            ones[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += u[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
-            tile = image[r0:r1, c0:c1] * wt[..., None]
-            if not np.any(tile):
-                continue
-            f_img = fft.rfft2(tile.astype(np.float32), s=shape, axes=(0, 1), workers=-1)  # (fy, fx, C)
-            spec = np.matmul(f_img[None], mix.transpose(0, 2, 1)[:, None].astype(f_img.dtype)) * kf[..., None]
-            res = fft.irfft2(spec, s=shape, axes=(1, 2), workers=-1)
-            out[:, r0:r1 + 2 * half, c0:c1 + 2 * half] += res[:, :r1 - r0 + n - 1, :c1 - c0 + n - 1]
-    return out[:, half:half + h_img, half:half + w_img], ones[:, half:half + h_img, half:half + w_img]
+    n_b, n = psfs.shape[0], psfs.shape[-1]
+    r0b, r1b, c0b, c1b = plan.box
+    n_s = shared.shape[0]
+    out = np.zeros((n_b, n_s + 1, r1b - r0b, c1b - c0b), dtype=np.float32)
+    ones = np.zeros((n_b, r1b - r0b, c1b - c0b), dtype=np.float32)
+    for i, j in zip(*np.nonzero(plan.needed)):
+        (r0, r1, c0, c1), where = tile_window(int(i), int(j), rows, cols, n, plan.box)
+        if where is None:
+            continue
+        (sr, sc), (dr, dc) = where
+        shape = (fft.next_fast_len(r1 - r0 + n - 1, True), fft.next_fast_len(c1 - c0 + n - 1, True))
+        wt = (wr[i, r0:r1, None] * wc[j, c0:c1][None, :]).astype(np.float32)
+        kf = fft.rfft2(psfs[:, i, j].astype(np.float32), s=shape, workers=-1)  # (K, fy, fx) complex64
+        kf_w = kf * fft.rfft2(wt, s=shape, workers=-1)
+        ones[:, dr, dc] += fft.irfft2(kf_w, s=shape, workers=-1)[:, sr, sc]
+        if not plan.active[i, j]:
+            continue
+        x = np.concatenate([shared[:, r0:r1, c0:c1], own[:, r0:r1, c0:c1]]) * wt
+        f_x = fft.rfft2(x, s=shape, workers=-1)  # (S + K, fy, fx)
+        spec = np.empty((n_b, n_s + 1) + f_x.shape[1:], dtype=f_x.dtype)
+        np.multiply(f_x[None, :n_s], kf[:, None], out=spec[:, :n_s])
+        np.multiply(f_x[n_s:], kf, out=spec[:, n_s])
+        out[:, :, dr, dc] += fft.irfft2(spec, s=shape, workers=-1)[:, :, sr, sc]
+    return out, ones

@@ -22,7 +22,7 @@ import numpy as np
 from ..colour.rgb import linear_srgb_to_xyz
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .compose import assign_layers, composite_layers, layer_depths_mm, warp_layer
+from .compose import Compositor, assign_layers, blur_and_composite, geometry, layer_depths_mm, warp_layer
 from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
 from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
@@ -60,6 +60,8 @@ class SimulateOptions:
     cache_dir: str | None = None
     use_cache: bool = True
     device: str | None = None
+    #: where the blur runs: "auto" (Warp tile FFTs on a CUDA device, NumPy/SciPy on the CPU), "host", "warp"
+    backend: str = "auto"
 
 
 @dataclass
@@ -127,9 +129,10 @@ class Simulation:
 
 
 def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
-    """Working memory of a simulation of ``shape`` (bytes; float32: 4 channels per layer, the all-band blur,
-    compositing accumulators and temporaries, 18 channels per band, and float64 warp temporaries)."""
-    return int(shape[0] * shape[1] * 4 * (4 * layers + 18 * bands + 32))
+    """Working memory of a simulation of ``shape`` (bytes; float32 channels: per band the compositing
+    accumulators (5), one layer's blur and its temporaries (11); the layer's channels, the float64 geometry and
+    warp temporaries and the outputs (40); layers are processed one at a time, so ``layers`` does not count)."""
+    return int(shape[0] * shape[1] * 4 * (16 * bands + 40))
 
 
 def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
@@ -166,28 +169,73 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     grid = compute_psf_grid(cam, bands, depths, options.grid, options.rays, options.seed, options.cache_dir,
                             options.use_cache)
     t2 = time.perf_counter()
-    sharp, outside = [], 0.0
-    for li, opt in enumerate(optics):
-        mask = None if idx is None else (idx == li)
-        s, a, out = warp_layer(cam, opt, image, mask, opt.axis_gain_sr / ref)
-        sharp.append((s, a))
-        outside = max(outside, out)
-    wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
-    psfs = [grid.psf[li] for li in range(len(depths))]
-    rays = grid.rays_landed.reshape(len(depths), bands.count, -1).mean(axis=2).astype(np.float64)
-    coef, var_y = composite_layers(sharp, psfs, bands.xyz_matrix[:, 1, :], rays, wr, wc, grid.node_rows,
-                                   grid.node_cols)
-    coef = coef.astype(np.float32)
-    from ..colour import xyz_to_linear_srgb
-    xyz = np.einsum("bkc,bhwc->hwk", bands.xyz_matrix, coef.astype(np.float64))
-    rgb = xyz_to_linear_srgb(xyz).astype(np.float32)
+    coef, rgb, var_y, outside, backend = _blur(image, cam, optics, idx, ref, grid, bands, options)
     t3 = time.perf_counter()
     sim = Simulation(rgb, coef, np.sqrt(var_y).astype(np.float32), cam, bands, optics, grid,
                      {"optics": t1 - t0, "psf_grid": t2 - t1, "convolution": t3 - t2, "total": t3 - t0},
-                     [], derr, outside)
+                     [f"convolution on {backend}"], derr, outside)
     sim.reference_gain_sr = ref
     sim.notes += _notes(cam, depths, derr, grid)
     return sim
+
+
+def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.ndarray | None, ref: float,
+          grid: PsfGrid, bands: Bands, options: SimulateOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                          float, str]:
+    """Warp, blur and composite every layer: (coefficients (K, H, W, 3), linear sRGB (H, W, 3), variance of Y
+    (H, W), fraction of
+    pixels from beyond the input frame, where it ran). On a CUDA device (or ``options.backend == "warp"``) with
+    Warp's tile FFTs (:mod:`.device`), else with NumPy/SciPy on the host."""
+    shape = image.shape[:2]
+    yw = bands.xyz_matrix[:, 1, :]
+    rays = grid.rays_landed.reshape(len(optics), bands.count, -1).mean(axis=2).astype(np.float64)
+    gains = [opt.axis_gain_sr / ref for opt in optics]
+    to_rgb = _rgb_matrix(bands)
+    if _use_device(options):
+        from .device import simulate_on_device
+        coef, rgb, var_y, outside = simulate_on_device(image, cam, optics, idx, gains, grid, yw, rays, to_rgb,
+                                                       options.device or "cpu")
+        return coef, rgb, var_y, outside, f"{options.device or 'cpu'} (Warp tile FFTs)"
+    wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
+    geo = geometry(cam)
+    comp = Compositor(bands.count, shape, yw)
+    outside = 0.0
+    for li, opt in enumerate(optics):
+        sharp, alpha, out = warp_layer(cam, geo, opt, image, idx, li, gains[li])
+        outside = max(outside, out)
+        blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr, wc, grid.node_rows, grid.node_cols)
+        del sharp, alpha
+    coef, var_y = comp.result()
+    n_b, _, rows, cols = coef.shape
+    rgb = (to_rgb.reshape(3, -1).astype(np.float32) @ coef.reshape(3 * n_b, -1)).reshape(3, rows, cols)
+    return (np.ascontiguousarray(coef.transpose(0, 2, 3, 1)), np.ascontiguousarray(rgb.transpose(1, 2, 0)), var_y,
+            outside, "host (NumPy/SciPy FFTs)")
+
+
+def _rgb_matrix(bands: Bands) -> np.ndarray:
+    """(3, K, 3): linear sRGB = sum over bands b and coefficients c of M[:, b, c] x coefficient (XYZ -> sRGB of
+    sum_b W_b c_b, :mod:`.spectral`)."""
+    from ..colour import xyz_to_linear_srgb
+    a = xyz_to_linear_srgb(np.eye(3)).T  # XYZ -> linear sRGB as a matrix on column vectors
+    return np.einsum("ok,bkc->obc", a, bands.xyz_matrix)
+
+
+def _use_device(options: SimulateOptions) -> bool:
+    """Whether the blur runs with Warp kernels: on a CUDA device always, on the CPU when asked
+    (``backend="warp"``). A CUDA device that Warp does not see is one clear error, never a silent host run."""
+    dev = (options.device or "cpu").lower()
+    if options.backend not in ("auto", "host", "warp"):
+        raise LensrtError(f"simulate backend {options.backend!r} is not auto, host or warp")
+    if dev.startswith("cuda"):
+        if options.backend == "host":
+            return False
+        import warp as wp
+        wp.init()
+        if not wp.is_cuda_available():
+            raise LensrtError(f"device {options.device!r} asked for, but Warp sees no CUDA device",
+                              hint="use --device cpu")
+        return True
+    return options.backend == "warp"
 
 
 def _reference_gain(cam: Camera, optics: list[LayerOptics], depths: np.ndarray, f_pin: float,

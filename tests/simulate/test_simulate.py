@@ -297,7 +297,7 @@ def test_readers_png16_tiff16_exr_and_depth_codes(tmp_path):
 def test_source_side_interpolation_is_exact_and_seamless():
     """A point anywhere gets exactly the bilinear blend of its four node PSFs (no seams, flux kept), and the
     all-bands FFT path equals the one-band one (float64 reference)."""
-    from lensrt.simulate.convolve import convolve_bands, convolve_varying
+    from lensrt.simulate.convolve import convolve_varying
     from lensrt.simulate.psf_grid import blend_at, hat_weights, node_positions
     rng = np.random.default_rng(1)
     h, w, n = 30, 41, 9
@@ -312,13 +312,25 @@ def test_source_side_interpolation_is_exact_and_seamless():
         want = blend_at(psf, wr[:, r], wc[:, c])
         np.testing.assert_allclose(out[r - n // 2:r + n // 2 + 1, c - n // 2:c + n // 2 + 1], want, atol=1e-12)
         assert abs(out.sum() - 1.0) < 1e-12
-    img = rng.random((h, w, 3))
-    mix = rng.random((2, 2, 3))
-    both, ones = convolve_bands(img, np.stack([psf, psf[::-1]]), mix, wr, wc, rows, cols)
-    # (the all-bands path runs its FFTs in single precision)
-    np.testing.assert_allclose(both[1], convolve_varying(img, psf[::-1], wr, wc, rows, cols) @ mix[1].T, atol=2e-6)
-    np.testing.assert_allclose(ones[0], convolve_varying(np.ones((h, w, 1)), psf, wr, wc, rows, cols)[..., 0],
-                               atol=1e-6)
+    # the layer path (all bands at once, single-precision FFTs, only the tiles a layer needs) equals the
+    # float64 one-band reference, over the plan's box, for a layer that covers part of the frame
+    from lensrt.simulate.convolve import convolve_layer, tile_plan
+    img = rng.random((3, h, w)).astype(np.float32)
+    alpha = np.zeros((h, w), np.float32)
+    alpha[:, 25:] = 1.0
+    shared, own = img * alpha, img[:1] * alpha
+    psfs = np.stack([psf, psf[::-1]]).astype(np.float32)
+    plan = tile_plan(alpha, rows, cols, n // 2)
+    assert plan.active.sum() < plan.active.size  # some tiles are skipped
+    blurred, ones = convolve_layer(shared, own, psfs, wr, wc, rows, cols, plan)
+    r0, r1, c0, c1 = plan.box
+    for k, p in enumerate((psf, psf[::-1])):
+        ref = convolve_varying(np.concatenate([shared, own]).transpose(1, 2, 0), p, wr, wc, rows, cols)
+        np.testing.assert_allclose(blurred[k].transpose(1, 2, 0), ref[r0:r1, c0:c1], atol=2e-6)
+        one = convolve_varying(np.ones((h, w, 1)), p, wr, wc, rows, cols)[r0:r1, c0:c1, 0]
+        lit = ref[r0:r1, c0:c1, 0] > 0  # where the layer shows, its normalisation is exact
+        np.testing.assert_allclose(ones[k][lit], one[lit], atol=1e-6)
+    assert c0 > 0  # the box leaves out what the layer's blur cannot reach
 
 
 @pytest.mark.slow
