@@ -317,7 +317,7 @@ def test_source_side_interpolation_is_exact_and_seamless():
     from lensrt.simulate.convolve import convolve_layer, tile_plan
     img = rng.random((3, h, w)).astype(np.float32)
     alpha = np.zeros((h, w), np.float32)
-    alpha[:, 25:] = 1.0
+    alpha[:, 30:] = 1.0
     shared, own = img * alpha, img[:1] * alpha
     psfs = np.stack([psf, psf[::-1]]).astype(np.float32)
     plan = tile_plan(alpha, rows, cols, n // 2)
