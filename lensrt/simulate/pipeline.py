@@ -149,6 +149,7 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
              options: SimulateOptions = SimulateOptions()) -> Simulation:
     """Simulate ``image`` (H, W, 3 linear sRGB, pinhole view) through ``lens`` (module docstring)."""
     t0 = time.perf_counter()
+    _use_device(options)  # a device asked for and not there: one error before any work
     shape = image.shape[:2]
     need = memory_bytes(shape, options.bands, options.layers if depth_m is not None else 1)
     limit = memory_limit_bytes()

@@ -1,0 +1,323 @@
+"""The blur of :mod:`lensrt.simulate` on a device: Warp kernels and Warp tile FFTs (``wp.tile_fft``).
+
+The same operator as the host path (:mod:`.convolve`, :mod:`.compose`), step for
+step, with every full-size array on the device: per layer, a warp kernel (the
+real chief-ray mapping through the layer's radial tables, bilinear colour,
+nearest mask, relative illumination) writes the layer's channels; per node tile
+that the layer needs (:func:`lensrt.simulate.convolve.tile_plan`), the tent-
+weighted channels are packed two real signals to one complex one -- (r a, g a),
+(b a, a) and per band (Y_b^2 a, w), w the tent weight, whose blur is the
+full-layer response -- zero-padded to powers of two, transformed by row FFTs
+(``wp.tile_fft``, one row per block), a transpose and row FFTs again, multiplied
+by the band's PSF spectrum, transformed back the same way, and added into the
+layer's box; a compositing kernel applies "over"; a last kernel divides by the
+coverage and forms the coefficients and linear sRGB. Only the picture, the layer
+index and the tables go up, only the results come down.
+
+Since a real kernel's convolution is linear, the blur of x1 + i x2 is
+h * x1 + i h * x2: one complex FFT carries two real channels.
+
+Single precision (the host path's FFTs are single precision too); results agree
+with the host path to about 1e-5 of the signal (tests/simulate/test_device.py).
+Tile FFT sizes are powers of two up to :data:`MAX_FFT`; a larger tile is one
+clear error (use a finer PSF grid).
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..errors import LensrtError
+from .compose import radial_tables
+from .convolve import tile_bounds, tile_plan, tile_window
+
+__all__ = ["simulate_on_device", "fft_rows", "MAX_FFT"]
+
+#: the largest tile FFT (per axis); four elements per thread at most 1024 threads a block
+MAX_FFT = 4096
+_ELEMENTS_PER_THREAD = 4
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.kernel
+def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.int32), li: int, has_index: int,
+                scale_tab: wp.array(dtype=wp.float64), ri_tab: wp.array(dtype=wp.float64), step: float,
+                pitch: float, gain: float, yw: wp.array2d(dtype=wp.float32), shared: wp.array3d(dtype=wp.float32),
+                own: wp.array3d(dtype=wp.float32), outside: wp.array(dtype=wp.int32)):
+    """One layer's channels: colour x alpha, alpha (shared) and Y_b^2 alpha per band (own)."""
+    r, c = wp.tid()
+    rows = image.shape[0]
+    cols = image.shape[1]
+    u = (wp.float64(c) - wp.float64(0.5) * wp.float64(cols - 1)) * wp.float64(pitch)
+    v = (wp.float64(0.5) * wp.float64(rows - 1) - wp.float64(r)) * wp.float64(pitch)
+    rad = wp.sqrt(u * u + v * v)
+    x = rad / wp.float64(step)
+    k = wp.min(int(x), scale_tab.shape[0] - 2)
+    t = x - wp.float64(k)
+    s = scale_tab[k] + t * (scale_tab[k + 1] - scale_tab[k])
+    ri = ri_tab[k] + t * (ri_tab[k + 1] - ri_tab[k])
+    ci = u * s / wp.float64(pitch) + wp.float64(0.5) * wp.float64(cols - 1)
+    rr = wp.float64(0.5) * wp.float64(rows - 1) - v * s / wp.float64(pitch)
+    half = wp.float64(0.5)
+    if ci < -half or ci > wp.float64(cols) - half or rr < -half or rr > wp.float64(rows) - half:
+        wp.atomic_add(outside, 0, 1)
+    alpha = float(1.0)
+    if has_index != 0:
+        rn = wp.clamp(int(wp.floor(rr + half)), 0, rows - 1)
+        cn = wp.clamp(int(wp.floor(ci + half)), 0, cols - 1)
+        if index[rn, cn] != li:
+            alpha = float(0.0)
+    # bilinear, edge pixels repeated beyond the frame (scipy's map_coordinates, order 1, mode "nearest")
+    y = wp.clamp(rr, wp.float64(0.0), wp.float64(rows - 1))
+    xx = wp.clamp(ci, wp.float64(0.0), wp.float64(cols - 1))
+    r0 = wp.min(int(y), rows - 1)
+    c0 = wp.min(int(xx), cols - 1)
+    r1 = wp.min(r0 + 1, rows - 1)
+    c1 = wp.min(c0 + 1, cols - 1)
+    ty = float(y - wp.float64(r0))
+    tx = float(xx - wp.float64(c0))
+    g = float(ri) * gain * alpha
+    for ch in range(3):
+        top = image[r0, c0, ch] * (1.0 - tx) + image[r0, c1, ch] * tx
+        bot = image[r1, c0, ch] * (1.0 - tx) + image[r1, c1, ch] * tx
+        shared[ch, r, c] = (top * (1.0 - ty) + bot * ty) * g
+    shared[3, r, c] = alpha
+    for b in range(own.shape[0]):
+        yb = yw[b, 0] * shared[0, r, c] + yw[b, 1] * shared[1, r, c] + yw[b, 2] * shared[2, r, c]
+        own[b, r, c] = yb * yb * alpha
+
+
+@wp.kernel
+def _pack(shared: wp.array3d(dtype=wp.float32), own: wp.array3d(dtype=wp.float32), wr: wp.array(dtype=wp.float32),
+          wc: wp.array(dtype=wp.float32), psf: wp.array3d(dtype=wp.float32), r0: int, c0: int, h: int, w: int,
+          p: int, buf: wp.array2d(dtype=wp.vec2f)):
+    """Slabs of the padded tile (p rows of the buffer each): (r a, g a) w, (b a, a) w, per band (Y_b^2 a, 1) w,
+    then per band its PSF (real)."""
+    s, y, x = wp.tid()
+    n_b = own.shape[0]
+    val = wp.vec2f(0.0, 0.0)
+    if s < 2 + n_b:
+        if y < h and x < w:
+            wt = wr[r0 + y] * wc[c0 + x]
+            if s == 0:
+                val = wp.vec2f(shared[0, r0 + y, c0 + x], shared[1, r0 + y, c0 + x]) * wt
+            elif s == 1:
+                val = wp.vec2f(shared[2, r0 + y, c0 + x], shared[3, r0 + y, c0 + x]) * wt
+            else:
+                val = wp.vec2f(own[s - 2, r0 + y, c0 + x], 1.0) * wt
+    else:
+        n = psf.shape[1]
+        if y < n and x < n:
+            val = wp.vec2f(psf[s - 2 - n_b, y, x], 0.0)
+    buf[s * p + y, x] = val
+
+
+@wp.kernel
+def _transpose(src: wp.array2d(dtype=wp.vec2f), p: int, q: int, dst: wp.array2d(dtype=wp.vec2f)):
+    """Per slab: (p, q) -> (q, p)."""
+    s, y, x = wp.tid()
+    dst[s * q + x, y] = src[s * p + y, x]
+
+
+@wp.kernel
+def _multiply(spec: wp.array2d(dtype=wp.vec2f), n_b: int, rows: int, out: wp.array2d(dtype=wp.vec2f)):
+    """Per band b: slabs 0 and 1 and b's own slab times b's PSF spectrum -> out slabs 3b .. 3b + 2."""
+    s, y, x = wp.tid()
+    b = s // 3
+    j = s - 3 * b
+    src = j
+    if j == 2:
+        src = 2 + b
+    a = spec[src * rows + y, x]
+    k = spec[(2 + n_b + b) * rows + y, x]
+    out[s * rows + y, x] = wp.vec2f(a[0] * k[0] - a[1] * k[1], a[0] * k[1] + a[1] * k[0])
+
+
+@wp.kernel
+def _accumulate(res: wp.array2d(dtype=wp.vec2f), p: int, scale: float, sr0: int, sc0: int, dr0: int, dc0: int,
+                blurred: wp.array4d(dtype=wp.float32), ones: wp.array3d(dtype=wp.float32)):
+    """Add the tile's blur (full convolution, from (sr0, sc0)) into the box from (dr0, dc0)."""
+    b, y, x = wp.tid()
+    a0 = res[(3 * b) * p + sr0 + y, sc0 + x] * scale
+    a1 = res[(3 * b + 1) * p + sr0 + y, sc0 + x] * scale
+    a2 = res[(3 * b + 2) * p + sr0 + y, sc0 + x] * scale
+    blurred[b, 0, dr0 + y, dc0 + x] += a0[0]
+    blurred[b, 1, dr0 + y, dc0 + x] += a0[1]
+    blurred[b, 2, dr0 + y, dc0 + x] += a1[0]
+    blurred[b, 3, dr0 + y, dc0 + x] += a1[1]
+    blurred[b, 4, dr0 + y, dc0 + x] += a2[0]
+    ones[b, dr0 + y, dc0 + x] += a2[1]
+
+
+@wp.kernel
+def _composite(blurred: wp.array4d(dtype=wp.float32), ones: wp.array3d(dtype=wp.float32), r0: int, c0: int,
+               yw: wp.array2d(dtype=wp.float32), rays: wp.array(dtype=wp.float32), col: wp.array4d(dtype=wp.float32),
+               acc: wp.array3d(dtype=wp.float32), var: wp.array3d(dtype=wp.float32)):
+    """"over" of one layer's normalised blur (:class:`lensrt.simulate.compose.Compositor`)."""
+    b, y, x = wp.tid()
+    inv_u = 1.0 / wp.max(ones[b, y, x], 1.0e-12)
+    red = blurred[b, 0, y, x] * inv_u
+    grn = blurred[b, 1, y, x] * inv_u
+    blu = blurred[b, 2, y, x] * inv_u
+    a = wp.clamp(blurred[b, 3, y, x] * inv_u, 0.0, 1.0)
+    q = blurred[b, 4, y, x] * inv_u
+    yb = yw[b, 0] * red + yw[b, 1] * grn + yw[b, 2] * blu
+    v = wp.max(q - yb * yb, 0.0) / wp.max(rays[b], 1.0)
+    keep = 1.0 - a
+    r = r0 + y
+    c = c0 + x
+    col[b, 0, r, c] = col[b, 0, r, c] * keep + red
+    col[b, 1, r, c] = col[b, 1, r, c] * keep + grn
+    col[b, 2, r, c] = col[b, 2, r, c] * keep + blu
+    var[b, r, c] = var[b, r, c] * keep * keep + v
+    acc[b, r, c] = acc[b, r, c] * keep + a
+
+
+@wp.kernel
+def _finish(col: wp.array4d(dtype=wp.float32), acc: wp.array3d(dtype=wp.float32), var: wp.array3d(dtype=wp.float32),
+            to_rgb: wp.array3d(dtype=wp.float32), coef: wp.array4d(dtype=wp.float32),
+            rgb: wp.array3d(dtype=wp.float32), var_y: wp.array2d(dtype=wp.float32)):
+    """C / Acc per band -> coefficients (K, H, W, 3), linear sRGB and the variance of Y."""
+    y, x = wp.tid()
+    out = wp.vec3f(0.0, 0.0, 0.0)
+    v = float(0.0)
+    for b in range(col.shape[0]):
+        a = acc[b, y, x]
+        inv = float(0.0)
+        if a > 1.0e-6:
+            inv = 1.0 / a
+        for c in range(3):
+            val = col[b, c, y, x] * inv
+            coef[b, y, x, c] = val
+            for o in range(3):
+                out[o] = out[o] + to_rgb[o, b, c] * val
+        v += var[b, y, x] * inv * inv
+    for o in range(3):
+        rgb[y, x, o] = out[o]
+    var_y[y, x] = v
+
+
+_FFT_KERNELS: dict = {}
+
+
+def fft_rows(n: int, inverse: bool):
+    """A kernel that transforms every row (length ``n``, a power of two) of a 2-D vec2f array in place."""
+    key = (int(n), bool(inverse))
+    if key not in _FFT_KERNELS:
+        def body(a: wp.array2d(dtype=wp.vec2f)):
+            i, _lane = wp.tid()
+            t = wp.tile_load(a, shape=(1, n), offset=(i, 0))
+            if wp.static(inverse):
+                wp.tile_ifft(t)
+            else:
+                wp.tile_fft(t)
+            wp.tile_store(a, t, offset=(i, 0))
+        body.__name__ = f"fft_rows_{n}_{'inv' if inverse else 'fwd'}"
+        _FFT_KERNELS[key] = wp.kernel(body, module="unique")
+    return _FFT_KERNELS[key]
+
+
+def _pow2(n: int) -> int:
+    return 1 << max(int(n - 1).bit_length(), 3)
+
+
+def _fft2(buf, tmp, slabs: int, p: int, q: int, inverse: bool, device) -> None:
+    """2-D FFT of ``slabs`` (p, q) slabs of ``buf``: rows, transpose into ``tmp`` (q, p), rows. The result is
+    in ``tmp`` (transposed) for a forward transform; an inverse one starts from ``tmp`` (transposed) and ends in
+    ``buf``."""
+    if not inverse:
+        wp.launch_tiled(fft_rows(q, False), dim=[slabs * p], inputs=[buf], block_dim=_block(q), device=device)
+        wp.launch(_transpose, dim=(slabs, p, q), inputs=[buf, p, q, tmp], device=device)
+        wp.launch_tiled(fft_rows(p, False), dim=[slabs * q], inputs=[tmp], block_dim=_block(p), device=device)
+    else:
+        wp.launch_tiled(fft_rows(p, True), dim=[slabs * q], inputs=[tmp], block_dim=_block(p), device=device)
+        wp.launch(_transpose, dim=(slabs, q, p), inputs=[tmp, q, p, buf], device=device)
+        wp.launch_tiled(fft_rows(q, True), dim=[slabs * p], inputs=[buf], block_dim=_block(q), device=device)
+
+
+def _block(n: int) -> int:
+    return max(1, n // _ELEMENTS_PER_THREAD)
+
+
+def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, rows, cols, device):
+    """(blurred (K, 5, bh, bw), ones (K, bh, bw)) of one layer over ``plan.box`` (device arrays)."""
+    n_b, n = psf.shape[0], psf.shape[-1]
+    r0b, r1b, c0b, c1b = plan.box
+    blurred = wp.zeros((n_b, 5, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
+    ones = wp.zeros((n_b, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
+    for i, j in zip(*np.nonzero(plan.needed)):
+        (r0, r1, c0, c1), where = tile_window(int(i), int(j), rows, cols, n, plan.box)
+        if where is None:
+            continue
+        (sr, sc), (dr, dc) = where
+        h, w = r1 - r0, c1 - c0
+        p, q = _pow2(h + n - 1), _pow2(w + n - 1)
+        if max(p, q) > MAX_FFT:
+            raise LensrtError(f"a PSF tile needs a {p} x {q} FFT, more than {MAX_FFT} a side on the device",
+                              hint="use a finer --grid (more PSF nodes) for this picture size")
+        slabs = 2 + 2 * n_b
+        buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
+        tmp = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
+        k_psf = wp.array(np.ascontiguousarray(psf[:, i, j]), dtype=wp.float32, device=device)
+        wp.launch(_pack, dim=(slabs, p, q), inputs=[shared, own, wr[int(i)], wc[int(j)], k_psf, r0, c0, h, w, p, buf], device=device)
+        _fft2(buf, tmp, slabs, p, q, False, device)
+        prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
+        wp.launch(_multiply, dim=(3 * n_b, q, p), inputs=[tmp, n_b, q, prod], device=device)
+        back = wp.empty((3 * n_b * p, q), dtype=wp.vec2f, device=device)
+        _fft2(back, prod, 3 * n_b, p, q, True, device)
+        wp.launch(_accumulate, dim=(n_b, dr.stop - dr.start, dc.stop - dc.start),
+                  inputs=[back, p, 1.0 / (p * q), sr.start, sc.start, dr.start, dc.start, blurred, ones],
+                  device=device)
+    return blurred, ones
+
+
+def simulate_on_device(image: np.ndarray, cam, optics: list, idx: np.ndarray | None, gains: list[float], grid,
+                       y_weights: np.ndarray, rays: np.ndarray, to_rgb: np.ndarray, device: str):
+    """Warp, blur and composite every layer on ``device``: (coefficients (K, H, W, 3), linear sRGB (H, W, 3),
+    variance of Y (H, W), fraction of pixels from beyond the input frame) -- as the host path in
+    :func:`lensrt.simulate.pipeline.simulate`."""
+    from .psf_grid import hat_weights
+    wp.init()
+    dev = wp.get_device(device)
+    rows, cols = cam.shape
+    n_b = len(y_weights)
+    img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
+    index = wp.array(idx.astype(np.int32) if idx is not None else np.zeros((1, 1), np.int32), dtype=wp.int32,
+                     device=dev)
+    yw = wp.array(np.asarray(y_weights, np.float32), dtype=wp.float32, device=dev)
+    wr_h, wc_h = hat_weights(grid.node_rows, rows), hat_weights(grid.node_cols, cols)
+    col = wp.zeros((n_b, 3, rows, cols), dtype=wp.float32, device=dev)
+    acc = wp.zeros((n_b, rows, cols), dtype=wp.float32, device=dev)
+    var = wp.zeros((n_b, rows, cols), dtype=wp.float32, device=dev)
+    shared = wp.empty((4, rows, cols), dtype=wp.float32, device=dev)
+    own = wp.empty((n_b, rows, cols), dtype=wp.float32, device=dev)
+    outside = wp.zeros(1, dtype=wp.int32, device=dev)
+    wr = wp.array(wr_h.astype(np.float32), dtype=wp.float32, device=dev)
+    wc = wp.array(wc_h.astype(np.float32), dtype=wp.float32, device=dev)
+    worst = 0
+    for li, opt in enumerate(optics):
+        step, scale_tab, ri_tab = radial_tables(cam, opt)
+        outside.zero_()
+        wp.launch(_warp_layer, dim=(rows, cols), device=dev,
+                  inputs=[img, index, li, int(idx is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
+                          wp.array(ri_tab, dtype=wp.float64, device=dev), step, cam.pitch_mm, float(gains[li]), yw,
+                          shared, own, outside])
+        worst = max(worst, int(outside.numpy()[0]))
+        psf = grid.psf[li]
+        alpha = shared[3].numpy() if idx is not None else np.ones((rows, cols), np.float32)
+        plan = tile_plan(alpha, grid.node_rows, grid.node_cols, psf.shape[-1] // 2)
+        if not plan.active.any():
+            continue
+        blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, grid.node_rows, grid.node_cols, dev)
+        r0b, r1b, c0b, c1b = plan.box
+        wp.launch(_composite, dim=(n_b, r1b - r0b, c1b - c0b), device=dev,
+                  inputs=[blurred, ones, r0b, c0b, yw, wp.array(np.asarray(rays[li], np.float32), dtype=wp.float32,
+                                                                   device=dev), col, acc, var])
+    coef = wp.empty((n_b, rows, cols, 3), dtype=wp.float32, device=dev)
+    rgb = wp.empty((rows, cols, 3), dtype=wp.float32, device=dev)
+    var_y = wp.empty((rows, cols), dtype=wp.float32, device=dev)
+    wp.launch(_finish, dim=(rows, cols), device=dev,
+              inputs=[col, acc, var, wp.array(np.asarray(to_rgb, np.float32), dtype=wp.float32, device=dev), coef,
+                      rgb, var_y])
+    return coef.numpy(), rgb.numpy(), var_y.numpy(), worst / float(rows * cols)
