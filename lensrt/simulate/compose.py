@@ -51,10 +51,23 @@ def layer_depths_mm(depth_m: np.ndarray, n_layers: int) -> np.ndarray:
     lo, hi = float(inv.min()), float(inv.max())
     if hi - lo <= 1e-12 * hi or n_layers == 1:
         return np.array([1000.0 / (0.5 * (lo + hi))])
-    levels = np.unique(inv)
-    if len(levels) <= n_layers:
+    levels = _few_levels(inv, n_layers)
+    if levels is not None:
         return np.sort(1000.0 / levels)[::-1]
     return 1000.0 / np.linspace(lo, hi, n_layers)
+
+
+def _few_levels(values: np.ndarray, most: int) -> np.ndarray | None:
+    """The distinct values of ``values`` if there are at most ``most`` of them, else None (one pass per level,
+    no sort of the whole map)."""
+    levels, cur = [], -np.inf
+    for _ in range(most + 1):
+        nxt = float(np.min(values, where=values > cur, initial=np.inf))
+        if not np.isfinite(nxt):
+            return np.array(levels)
+        levels.append(nxt)
+        cur = nxt
+    return None
 
 
 def assign_layers(depth_m: np.ndarray, layers_mm: np.ndarray) -> tuple[np.ndarray, float]:

@@ -199,11 +199,14 @@ def _finish(col: wp.array4d(dtype=wp.float32), acc: wp.array3d(dtype=wp.float32)
 
 
 _FFT_KERNELS: dict = {}
+#: whether cuFFTDx (libmathdx) builds the tile FFTs on CUDA; set to False, with a note, if it fails to
+FFT_STATE = {"mathdx": True, "note": ""}
 
 
-def fft_rows(n: int, inverse: bool):
-    """A kernel that transforms every row (length ``n``, a power of two) of a 2-D vec2f array in place."""
-    key = (int(n), bool(inverse))
+def fft_rows(n: int, inverse: bool, mathdx: bool = True):
+    """A kernel that transforms every row (length ``n``, a power of two) of a 2-D vec2f array in place
+    (``mathdx``: let Warp use cuFFTDx on CUDA; else its cooperative radix-2 tile FFT)."""
+    key = (int(n), bool(inverse), bool(mathdx))
     if key not in _FFT_KERNELS:
         def body(a: wp.array2d(dtype=wp.vec2f)):
             i, _lane = wp.tid()
@@ -213,9 +216,25 @@ def fft_rows(n: int, inverse: bool):
             else:
                 wp.tile_fft(t)
             wp.tile_store(a, t, offset=(i, 0))
-        body.__name__ = f"fft_rows_{n}_{'inv' if inverse else 'fwd'}"
-        _FFT_KERNELS[key] = wp.kernel(body, module="unique")
+        body.__name__ = f"fft_rows_{n}_{'inv' if inverse else 'fwd'}_{'dx' if mathdx else 'r2'}"
+        _FFT_KERNELS[key] = wp.kernel(body, module="unique",
+                                      module_options={"enable_backward": False, "enable_mathdx_fft": bool(mathdx)})
     return _FFT_KERNELS[key]
+
+
+def _rows_fft(a, n_rows: int, n: int, inverse: bool, device) -> None:
+    """Every row of ``a`` (``n_rows`` rows of length ``n``) transformed in place. Should cuFFTDx fail to build
+    the kernel on CUDA, Warp's own tile FFT is used from then on and the reason kept in ``FFT_STATE``."""
+    if FFT_STATE["mathdx"]:
+        try:
+            wp.launch_tiled(fft_rows(n, inverse, True), dim=[n_rows], inputs=[a], block_dim=_block(n), device=device)
+            return
+        except Exception as err:  # noqa: BLE001 - a cuFFTDx build failure: fall back, say so
+            if not wp.get_device(device).is_cuda:
+                raise
+            FFT_STATE["mathdx"] = False
+            FFT_STATE["note"] = f"cuFFTDx tile FFT unavailable ({type(err).__name__}: {err}); Warp's radix-2 tile FFT"
+    wp.launch_tiled(fft_rows(n, inverse, False), dim=[n_rows], inputs=[a], block_dim=_block(n), device=device)
 
 
 def _pow2(n: int) -> int:
@@ -227,13 +246,13 @@ def _fft2(buf, tmp, slabs: int, p: int, q: int, inverse: bool, device) -> None:
     in ``tmp`` (transposed) for a forward transform; an inverse one starts from ``tmp`` (transposed) and ends in
     ``buf``."""
     if not inverse:
-        wp.launch_tiled(fft_rows(q, False), dim=[slabs * p], inputs=[buf], block_dim=_block(q), device=device)
+        _rows_fft(buf, slabs * p, q, False, device)
         wp.launch(_transpose, dim=(slabs, p, q), inputs=[buf, p, q, tmp], device=device)
-        wp.launch_tiled(fft_rows(p, False), dim=[slabs * q], inputs=[tmp], block_dim=_block(p), device=device)
+        _rows_fft(tmp, slabs * q, p, False, device)
     else:
-        wp.launch_tiled(fft_rows(p, True), dim=[slabs * q], inputs=[tmp], block_dim=_block(p), device=device)
+        _rows_fft(tmp, slabs * q, p, True, device)
         wp.launch(_transpose, dim=(slabs, q, p), inputs=[tmp, q, p, buf], device=device)
-        wp.launch_tiled(fft_rows(q, True), dim=[slabs * p], inputs=[buf], block_dim=_block(q), device=device)
+        _rows_fft(buf, slabs * p, q, True, device)
 
 
 def _block(n: int) -> int:
