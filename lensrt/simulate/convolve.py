@@ -10,9 +10,17 @@ i.e. each node's PSF convolves the image *weighted by that node's tent* (Nagy &
 O'Leary, "Restoring images degraded by spatially variant blur", SIAM J. Sci.
 Comput. 19(4), 1998; Hirsch et al., "Efficient filter flow", CVPR 2010). A tent
 is non-zero only over the two cells either side of its node, so each node
-convolves one overlapping tile (2 x 2 cells) by FFT (``scipy.signal.fftconvolve``),
-and the tiles add. There are no seams: the weights are continuous and sum to 1,
-a point source anywhere gets exactly the blended PSF, and light is conserved.
+convolves one overlapping tile (2 x 2 cells) by FFT, and the tiles add. There
+are no seams: the weights are continuous and sum to 1, a point source anywhere
+gets exactly the blended PSF, and light is conserved.
+
+Work per depth layer (:func:`convolve_layer`): only the tiles that hold some of
+the layer are transformed (:func:`tile_plan`), once for all wavelength bands
+(channel-first arrays, single-precision real FFTs on every core); each band's
+PSF spectrum multiplies them. The response to a full layer of ones (the
+normalisation of :mod:`.compose`) is formed for every tile whose blur reaches
+where the layer's does, and the outputs only over that box. The device path
+(:mod:`.device`) runs the same tiles with Warp's tile FFTs.
 """
 from __future__ import annotations
 

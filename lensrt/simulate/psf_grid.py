@@ -200,7 +200,7 @@ def _save(path: Path, grid: PsfGrid) -> None:
         tmp = path.with_suffix(".tmp.npz")
         # uncompressed: a warm run reads hundreds of MB of PSFs (12 MP) in a fraction of a second, not seconds
         np.savez(tmp, landed=grid.rays_landed, off=grid.off_window, meta=np.array(meta),
-                            **{f"psf{i}": p for i, p in enumerate(grid.psf)})
+                 **{f"psf{i}": p for i, p in enumerate(grid.psf)})
         os.replace(tmp, path)
     except OSError as err:
         raise LensrtError(f"cannot write the PSF cache {path}: {err}", hint="give --cache-dir or --no-cache") from None
