@@ -35,11 +35,12 @@ def texture(rows: int, cols: int, seed: int = 0) -> np.ndarray:
     return np.clip(img, 0.02, 0.98)
 
 
-def scene_toml(image: Path, size_m: tuple[float, float], depth_m: float, extension_mm: float, sensor: str,
-               pixels: tuple[int, int], spp: int, f_number: float | None) -> str:
+def scene_header(extension_mm: float, sensor: str, pixels: tuple[int, int], spp: int, f_number: float | None,
+                 name: str = "simulate_acceptance") -> str:
+    """The scene's sections before its planes: the lens focused by ``extension_mm``, sensor, render, light."""
     fn = f"f_number = {f_number}\n" if f_number else ""
     return f"""[scene]
-name = "simulate_acceptance"
+name = "{name}"
 units = "m"
 
 [camera]
@@ -58,14 +59,25 @@ seed = 1
 [illumination]
 spectrum = "D65"
 illuminance_lux = 1000
+"""
 
+
+def plane_toml(name: str, image: Path, center_m: tuple[float, float, float], size_m: tuple[float, float]) -> str:
+    """One [[plane]] with an image texture."""
+    return f"""
 [[plane]]
-name = "texture"
-center = [0.0, 0.0, {-float(depth_m)!r}]
+name = "{name}"
+center = [{float(center_m[0])!r}, {float(center_m[1])!r}, {float(center_m[2])!r}]
 size = [{float(size_m[0])!r}, {float(size_m[1])!r}]
 texture = "image"
 image = "{image.name}"
 """
+
+
+def scene_toml(image: Path, size_m: tuple[float, float], depth_m: float, extension_mm: float, sensor: str,
+               pixels: tuple[int, int], spp: int, f_number: float | None) -> str:
+    return (scene_header(extension_mm, sensor, pixels, spp, f_number)
+            + plane_toml("texture", image, (0.0, 0.0, -float(depth_m)), size_m))
 
 
 def parser() -> argparse.ArgumentParser:
