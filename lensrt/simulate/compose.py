@@ -36,7 +36,7 @@ from ..errors import LensrtError
 from .convolve import TilePlan, convolve_layer, tile_plan
 from .optics import Camera, LayerOptics, picture_positions_mm
 
-__all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "warp_layer",
+__all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "extend_hidden", "warp_layer",
            "layer_channels", "Compositor", "blur_and_composite", "TABLE_SAMPLES"]
 
 #: samples of the per-layer radial tables (real radius -> pinhole radius, relative illumination)
@@ -110,11 +110,45 @@ def radial_tables(cam: Camera, opt: LayerOptics) -> tuple[float, np.ndarray, np.
     return float(r[1] - r[0]), scale, opt.ri_at(r)
 
 
-def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, layer_index: np.ndarray | None,
-               li: int, gain: float) -> tuple[np.ndarray, np.ndarray, float]:
+def extend_hidden(image: np.ndarray, layer_index: np.ndarray, li: int, reach_px: int,
+                  block: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """(colour (H, W, 3), mask (H, W) bool) of input layer ``li``, continued behind the nearer layers.
+
+    Where a nearer layer hides it (``layer_index > li``) and within ``reach_px`` of where it shows, the layer
+    is taken to go on, with the colour of its nearest visible block (``block`` x ``block`` pixels, the mean of
+    its visible pixels there): the lens looks that far behind a nearer layer's blurred edge (``reach_px``: the
+    nearer layers' largest PSF half-width). This is the disocclusion fill of layered depth of field (Kraus &
+    Strengert 2007, by nearest block instead of their pyramid); without it, the blurred edge of a foreground
+    would be filled with the foreground itself where the background shows through it.
+    """
+    from scipy.ndimage import binary_dilation, distance_transform_edt
+    visible = layer_index == li
+    if visible.all() or not visible.any():
+        return image, visible
+    h, w = visible.shape
+    hb, wb = -(-h // block), -(-w // block)
+    pad = ((0, hb * block - h), (0, wb * block - w))
+    cnt = np.pad(visible, pad).reshape(hb, block, wb, block).sum(axis=(1, 3))
+    col = np.stack([np.pad(np.where(visible, image[..., k], 0.0), pad).reshape(hb, block, wb, block).sum(axis=(1, 3))
+                    for k in range(3)], axis=-1) / np.maximum(cnt, 1)[..., None]
+    dist, (ir, ic) = distance_transform_edt(cnt == 0, return_indices=True)
+    mask = visible.copy()
+    if reach_px > 0:
+        near = dist * block <= reach_px + block  # blocks within reach (a block's size of slack)
+        mask |= (layer_index > li) & near[np.arange(h)[:, None] // block, np.arange(w)[None, :] // block]
+    # the ring just outside the mask gets the fill colour too, so that the warp's bilinear samples at the
+    # mask's edge see the layer's own colour, not whatever lies beyond it
+    rr, cc = np.nonzero(binary_dilation(mask, np.ones((3, 3), bool)) & ~visible)
+    out = image.copy()
+    out[rr, cc] = col[ir[rr // block, cc // block], ic[rr // block, cc // block]]
+    return out, mask
+
+
+def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,
+               gain: float) -> tuple[np.ndarray, np.ndarray, float]:
     """(sharp linear image x RI x gain (3, H, W) -- zero where the layer is absent, alpha (H, W), fraction of
-    pixels from beyond the input frame) of layer ``li`` (``layer_index`` (H, W) the layer of each input pixel,
-    None: one layer everywhere)."""
+    pixels from beyond the input frame) of a layer: ``mask`` (H, W) where the layer is in the input (None:
+    everywhere)."""
     from scipy.ndimage import map_coordinates
     rows, cols = cam.shape
     step, scale_tab, ri_tab = radial_tables(cam, opt)
@@ -122,12 +156,12 @@ def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, 
     ci = geo.u_mm * s / cam.pitch_mm + 0.5 * (cols - 1)
     ri_row = 0.5 * (rows - 1) - geo.v_mm * s / cam.pitch_mm
     outside = float(np.mean((ci < -0.5) | (ci > cols - 0.5) | (ri_row < -0.5) | (ri_row > rows - 0.5)))
-    if layer_index is None:
+    if mask is None:
         alpha = np.ones((rows, cols), dtype=np.float32)
     else:  # the layer's mask, sampled nearest
         rn = np.clip(np.floor(ri_row + 0.5), 0, rows - 1).astype(np.intp)
         cn = np.clip(np.floor(ci + 0.5), 0, cols - 1).astype(np.intp)
-        alpha = (layer_index[rn, cn] == li).astype(np.float32)
+        alpha = mask[rn, cn].astype(np.float32)
     sel = np.nonzero(alpha)
     coords = np.stack([ri_row[sel], ci[sel]])
     gain_px = np.interp(geo.r_mm[sel], np.arange(len(ri_tab)) * step, ri_tab) * gain

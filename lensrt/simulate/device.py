@@ -41,11 +41,12 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.kernel
-def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.int32), li: int, has_index: int,
+def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.int32), inside: int, has_index: int,
                 scale_tab: wp.array(dtype=wp.float64), ri_tab: wp.array(dtype=wp.float64), step: float,
                 pitch: float, gain: float, yw: wp.array2d(dtype=wp.float32), shared: wp.array3d(dtype=wp.float32),
                 own: wp.array3d(dtype=wp.float32), outside: wp.array(dtype=wp.int32)):
-    """One layer's channels: colour x alpha, alpha (shared) and Y_b^2 alpha per band (own)."""
+    """One layer's channels: colour x alpha, alpha (shared) and Y_b^2 alpha per band (own); the layer is where
+    ``index`` (its input mask) equals ``inside``."""
     r, c = wp.tid()
     rows = image.shape[0]
     cols = image.shape[1]
@@ -66,7 +67,7 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
     if has_index != 0:
         rn = wp.clamp(int(wp.floor(rr + half)), 0, rows - 1)
         cn = wp.clamp(int(wp.floor(ci + half)), 0, cols - 1)
-        if index[rn, cn] != li:
+        if index[rn, cn] != inside:
             alpha = float(0.0)
     # bilinear, edge pixels repeated beyond the frame (scipy's map_coordinates, order 1, mode "nearest")
     y = wp.clamp(rr, wp.float64(0.0), wp.float64(rows - 1))
@@ -291,19 +292,17 @@ def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, rows, cols, device):
     return blurred, ones
 
 
-def simulate_on_device(image: np.ndarray, cam, optics: list, idx: np.ndarray | None, gains: list[float], grid,
-                       y_weights: np.ndarray, rays: np.ndarray, to_rgb: np.ndarray, device: str):
+def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_weights: np.ndarray, rays: np.ndarray,
+                       to_rgb: np.ndarray, device: str):
     """Warp, blur and composite every layer on ``device``: (coefficients (K, H, W, 3), linear sRGB (H, W, 3),
     variance of Y (H, W), fraction of pixels from beyond the input frame) -- as the host path in
-    :func:`lensrt.simulate.pipeline.simulate`."""
+    :func:`lensrt.simulate.pipeline.simulate`. ``layers`` yields per layer, far first, its input (colour
+    (H, W, 3), mask (H, W) bool or None: everywhere)."""
     from .psf_grid import hat_weights
     wp.init()
     dev = wp.get_device(device)
     rows, cols = cam.shape
     n_b = len(y_weights)
-    img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
-    index = wp.array(idx.astype(np.int32) if idx is not None else np.zeros((1, 1), np.int32), dtype=wp.int32,
-                     device=dev)
     yw = wp.array(np.asarray(y_weights, np.float32), dtype=wp.float32, device=dev)
     wr_h, wc_h = hat_weights(grid.node_rows, rows), hat_weights(grid.node_cols, cols)
     col = wp.zeros((n_b, 3, rows, cols), dtype=wp.float32, device=dev)
@@ -315,16 +314,19 @@ def simulate_on_device(image: np.ndarray, cam, optics: list, idx: np.ndarray | N
     wr = wp.array(wr_h.astype(np.float32), dtype=wp.float32, device=dev)
     wc = wp.array(wc_h.astype(np.float32), dtype=wp.float32, device=dev)
     worst = 0
-    for li, opt in enumerate(optics):
+    for li, (opt, (image, mask)) in enumerate(zip(optics, layers)):
         step, scale_tab, ri_tab = radial_tables(cam, opt)
         outside.zero_()
+        img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
+        index = wp.array(mask.astype(np.int32) if mask is not None else np.zeros((1, 1), np.int32), dtype=wp.int32,
+                         device=dev)
         wp.launch(_warp_layer, dim=(rows, cols), device=dev,
-                  inputs=[img, index, li, int(idx is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
+                  inputs=[img, index, 1, int(mask is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
                           wp.array(ri_tab, dtype=wp.float64, device=dev), step, cam.pitch_mm, float(gains[li]), yw,
                           shared, own, outside])
         worst = max(worst, int(outside.numpy()[0]))
         psf = grid.psf[li]
-        alpha = shared[3].numpy() if idx is not None else np.ones((rows, cols), np.float32)
+        alpha = shared[3].numpy() if mask is not None else np.ones((rows, cols), np.float32)
         plan = tile_plan(alpha, grid.node_rows, grid.node_cols, psf.shape[-1] // 2)
         if not plan.active.any():
             continue

@@ -22,7 +22,8 @@ import numpy as np
 from ..colour.rgb import linear_srgb_to_xyz
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .compose import Compositor, assign_layers, blur_and_composite, geometry, layer_depths_mm, warp_layer
+from .compose import (Compositor, assign_layers, blur_and_composite, extend_hidden, geometry, layer_depths_mm,
+                      warp_layer)
 from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
 from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
@@ -194,7 +195,8 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     to_rgb = _rgb_matrix(bands)
     if _use_device(options):
         from .device import FFT_STATE, simulate_on_device
-        coef, rgb, var_y, outside = simulate_on_device(image, cam, optics, idx, gains, grid, yw, rays, to_rgb,
+        layers = (_layer_input(image, idx, li, grid) for li in range(len(optics)))
+        coef, rgb, var_y, outside = simulate_on_device(layers, cam, optics, gains, grid, yw, rays, to_rgb,
                                                        options.device or "cpu")
         note = f"; {FFT_STATE['note']}" if FFT_STATE["note"] else ""
         return coef, rgb, var_y, outside, f"{options.device or 'cpu'} (Warp tile FFTs{note})"
@@ -203,7 +205,8 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     comp = Compositor(bands.count, shape, yw)
     outside = 0.0
     for li, opt in enumerate(optics):
-        sharp, alpha, out = warp_layer(cam, geo, opt, image, idx, li, gains[li])
+        layer_img, mask = _layer_input(image, idx, li, grid)
+        sharp, alpha, out = warp_layer(cam, geo, opt, layer_img, mask, gains[li])
         outside = max(outside, out)
         blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr, wc, grid.node_rows, grid.node_cols)
         del sharp, alpha
@@ -212,6 +215,16 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     rgb = (to_rgb.reshape(3, -1).astype(np.float32) @ coef.reshape(3 * n_b, -1)).reshape(3, rows, cols)
     return (np.ascontiguousarray(coef.transpose(0, 2, 3, 1)), np.ascontiguousarray(rgb.transpose(1, 2, 0)), var_y,
             outside, "host (NumPy/SciPy FFTs)")
+
+
+def _layer_input(image: np.ndarray, idx: np.ndarray | None, li: int, grid: PsfGrid) -> tuple[np.ndarray,
+                                                                                           np.ndarray | None]:
+    """(colour, mask) of input layer ``li``: the layer continued behind nearer layers as far as their blur
+    reaches (:func:`lensrt.simulate.compose.extend_hidden`); the whole picture without a depth map."""
+    if idx is None:
+        return image, None
+    reach = max((grid.psf[k].shape[-1] // 2 for k in range(li + 1, len(grid.psf))), default=0)
+    return extend_hidden(image, idx, li, reach)
 
 
 def _rgb_matrix(bands: Bands) -> np.ndarray:
