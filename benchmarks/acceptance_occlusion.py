@@ -45,13 +45,20 @@ def parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _width_10_90(profile: np.ndarray) -> float:
-    """10-90 % width (pixels) of a monotone-ish step profile (linear interpolation of the crossings)."""
-    lo, hi = float(profile[:5].mean()), float(profile[-5:].mean())
-    x = np.arange(len(profile), dtype=float)
-    t = (profile - lo) / (hi - lo)
-    order = np.argsort(t)  # crossings of a (near) monotone profile
-    return abs(float(np.interp(0.9, t[order], x[order]) - np.interp(0.1, t[order], x[order])))
+def width_10_90(profile: np.ndarray, centre: int, span: int = 20) -> float:
+    """10-90 % width (pixels) of the step at ``centre`` (a pixel boundary): the distance between the first
+    crossings of 10 % and 90 % of the way between plateaus taken 16 to ``span`` pixels either side (local, so
+    that the frame's relative illumination does not enter)."""
+    lo, hi = float(profile[centre - span:centre - 16].mean()), float(profile[centre + 16:centre + span].mean())
+    t = (profile[centre - 16:centre + 16] - lo) / (hi - lo)  # rising from 0 to 1 either way
+    x = np.arange(centre - 16, centre + 16, dtype=float) + 0.5 - centre  # distance from the edge
+
+    def cross(level: float) -> float:
+        k = int(np.argmax(t >= level))
+        if k == 0:
+            return float(x[0])
+        return float(x[k - 1] + (level - t[k - 1]) / (t[k] - t[k - 1]) * (x[k] - x[k - 1]))
+    return cross(0.9) - cross(0.1)
 
 
 def _case(args, name: str, out: Path) -> dict:
@@ -108,15 +115,15 @@ def _case(args, name: str, out: Path) -> dict:
     band = slice(rows // 4, rows - rows // 4)
     p_sim, p_ren = ys[band].mean(axis=0), yr[band].mean(axis=0)
     p_noise = np.sqrt((y_se[band] ** 2).mean(axis=0) / (band.stop - band.start))
-    step = abs(float(p_ren[-5:].mean() - p_ren[:5].mean()))
+    centre = cols // 2
+    step = abs(float(p_ren[centre + 16:centre + 20].mean() - p_ren[centre - 20:centre - 16].mean()))
     d = (p_sim - p_ren) / step
     # the sharp side: the in-focus plane's side beyond 2 pixels from the edge (its PSF's reach)
-    centre = cols // 2
     sharp = np.arange(cols) < centre - 2 if name == "sharp-front" else np.arange(cols) >= centre + 2
     np.savez(out / "profiles.npz", sim=p_sim, render=p_ren, noise=p_noise)
     return {"case": name, "focus_m": focus_m, "near_m": args.near_m, "far_m": args.far_m,
             "near_value": near_v, "far_value": far_v, "render_seconds": t_render, "simulate_seconds": t_sim,
-            "halo_width_10_90_px": {"simulate": _width_10_90(p_sim), "render": _width_10_90(p_ren)},
+            "halo_width_10_90_px": {"simulate": width_10_90(p_sim, centre), "render": width_10_90(p_ren, centre)},
             "leak_max": float(np.abs(d).max()), "leak_max_at_px_from_edge": float(np.argmax(np.abs(d)) + 0.5 - centre),
             "leak_sharp_side": float(np.abs(d[sharp]).max()),
             "render_noise_of_profile_max": float((p_noise / step).max()),
