@@ -36,7 +36,7 @@ from ..errors import LensrtError
 from .convolve import TilePlan, convolve_layer, tile_plan
 from .optics import Camera, LayerOptics, picture_positions_mm
 
-__all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "extend_hidden", "warp_layer",
+__all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "LayerFill", "warp_layer",
            "layer_channels", "Compositor", "blur_and_composite", "TABLE_SAMPLES"]
 
 #: samples of the per-layer radial tables (real radius -> pinhole radius, relative illumination)
@@ -110,38 +110,79 @@ def radial_tables(cam: Camera, opt: LayerOptics) -> tuple[float, np.ndarray, np.
     return float(r[1] - r[0]), scale, opt.ri_at(r)
 
 
-def extend_hidden(image: np.ndarray, layer_index: np.ndarray, li: int, reach_px: int,
-                  block: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """(colour (H, W, 3), mask (H, W) bool) of input layer ``li``, continued behind the nearer layers.
+class LayerFill:
+    """The input of each depth layer: the picture's pixels of that layer, continued behind the nearer layers
+    as far as their blur reaches.
 
-    Where a nearer layer hides it (``layer_index > li``) and within ``reach_px`` of where it shows, the layer
-    is taken to go on, with the colour of its nearest visible block (``block`` x ``block`` pixels, the mean of
-    its visible pixels there): the lens looks that far behind a nearer layer's blurred edge (``reach_px``: the
-    nearer layers' largest PSF half-width). This is the disocclusion fill of layered depth of field (Kraus &
-    Strengert 2007, by nearest block instead of their pyramid); without it, the blurred edge of a foreground
-    would be filled with the foreground itself where the background shows through it.
+    Where a nearer layer hides layer ``li`` (``layer_index > li``) and within ``reach_px`` of where it shows,
+    the layer is taken to go on, with the colour of its nearest visible block (``block`` x ``block`` pixels,
+    the mean of its visible pixels there): the lens looks that far behind a nearer layer's blurred edge
+    (``reach_px``: the nearer layers' largest PSF half-width). This is the disocclusion fill of layered depth
+    of field (Kraus & Strengert 2007, by nearest block instead of their pyramid); without it, the blurred edge
+    of a foreground would be filled with the foreground itself where the background shows through it. The
+    ring just outside the mask gets the fill colour too, so that the warp's bilinear samples at the mask's
+    edge see the layer's own colour. The work is confined to the layer's bounding box grown by the reach, and
+    one scratch copy of the picture is patched and restored layer by layer.
     """
-    from scipy.ndimage import binary_dilation, distance_transform_edt
-    visible = layer_index == li
-    if visible.all() or not visible.any():
-        return image, visible
-    h, w = visible.shape
-    hb, wb = -(-h // block), -(-w // block)
-    pad = ((0, hb * block - h), (0, wb * block - w))
-    cnt = np.pad(visible, pad).reshape(hb, block, wb, block).sum(axis=(1, 3))
-    col = np.stack([np.pad(np.where(visible, image[..., k], 0.0), pad).reshape(hb, block, wb, block).sum(axis=(1, 3))
-                    for k in range(3)], axis=-1) / np.maximum(cnt, 1)[..., None]
-    dist, (ir, ic) = distance_transform_edt(cnt == 0, return_indices=True)
-    mask = visible.copy()
-    if reach_px > 0:
-        near = dist * block <= reach_px + block  # blocks within reach (a block's size of slack)
-        mask |= (layer_index > li) & near[np.arange(h)[:, None] // block, np.arange(w)[None, :] // block]
-    # the ring just outside the mask gets the fill colour too, so that the warp's bilinear samples at the
-    # mask's edge see the layer's own colour, not whatever lies beyond it
-    rr, cc = np.nonzero(binary_dilation(mask, np.ones((3, 3), bool)) & ~visible)
-    out = image.copy()
-    out[rr, cc] = col[ir[rr // block, cc // block], ic[rr // block, cc // block]]
-    return out, mask
+
+    def __init__(self, image: np.ndarray, layer_index: np.ndarray, block: int = 8):
+        self.image, self.index, self.block = image, layer_index, int(block)
+        self._work: np.ndarray | None = None
+        self._patched: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __call__(self, li: int, reach_px: int) -> tuple[np.ndarray, np.ndarray]:
+        """(colour (H, W, 3) -- valid until the next call, mask (H, W) bool) of layer ``li``."""
+        visible = self.index == li
+        rows_any, cols_any = visible.any(axis=1), visible.any(axis=0)
+        if not rows_any.any() or visible.all():
+            return self.image, visible
+        h, w = visible.shape
+        bl, grow = self.block, max(int(reach_px), 0) + 2 * self.block + 1
+        nz_r, nz_c = np.flatnonzero(rows_any), np.flatnonzero(cols_any)
+        r0, c0 = max(nz_r[0] - grow, 0) // bl * bl, max(nz_c[0] - grow, 0) // bl * bl
+        r1, c1 = min(nz_r[-1] + 1 + grow, h), min(nz_c[-1] + 1 + grow, w)
+        mask_c, fill_rr, fill_cc, col = self._crop(li, reach_px, visible[r0:r1, c0:c1], (r0, r1, c0, c1))
+        mask = visible.copy()
+        mask[r0:r1, c0:c1] = mask_c
+        if self._work is None:
+            self._work = self.image.copy()
+        elif self._patched is not None:  # undo the previous layer's patch
+            pr, pc = self._patched
+            self._work[pr, pc] = self.image[pr, pc]
+        self._work[fill_rr + r0, fill_cc + c0] = col
+        self._patched = (fill_rr + r0, fill_cc + c0)
+        return self._work, mask
+
+    def _crop(self, li: int, reach_px: int, vis: np.ndarray, box: tuple[int, int, int, int]):
+        """Within the box: (mask, rows and cols of the pixels to fill, their colours)."""
+        from scipy.ndimage import distance_transform_edt
+        r0, r1, c0, c1 = box
+        bl = self.block
+        img, idx = self.image[r0:r1, c0:c1], self.index[r0:r1, c0:c1]
+        h, w = vis.shape
+        hb, wb = -(-h // bl), -(-w // bl)
+        pad = ((0, hb * bl - h), (0, wb * bl - w))
+        cnt = np.pad(vis, pad).reshape(hb, bl, wb, bl).sum(axis=(1, 3))
+        col = np.stack([np.pad(np.where(vis, img[..., k], np.float32(0.0)), pad).reshape(hb, bl, wb, bl).sum(axis=(1, 3))
+                        for k in range(3)], axis=-1) / np.maximum(cnt, 1)[..., None]
+        dist, (ir, ic) = distance_transform_edt(cnt == 0, return_indices=True)
+        mask = vis.copy()
+        if reach_px > 0:
+            near = dist * bl <= reach_px + bl  # blocks within reach (a block's size of slack)
+            mask |= (idx > li) & near[np.arange(h)[:, None] // bl, np.arange(w)[None, :] // bl]
+        rr, cc = np.nonzero(_dilate3(mask) & ~vis)
+        return mask, rr, cc, col[ir[rr // bl, cc // bl], ic[rr // bl, cc // bl]].astype(self.image.dtype)
+
+
+def _dilate3(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one pixel (3 x 3 neighbourhood), by shifted ORs."""
+    out = mask.copy()
+    out[1:] |= mask[:-1]
+    out[:-1] |= mask[1:]
+    grown = out.copy()
+    out[:, 1:] |= grown[:, :-1]
+    out[:, :-1] |= grown[:, 1:]
+    return out
 
 
 def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,

@@ -22,7 +22,7 @@ import numpy as np
 from ..colour.rgb import linear_srgb_to_xyz
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .compose import (Compositor, assign_layers, blur_and_composite, extend_hidden, geometry, layer_depths_mm,
+from .compose import (Compositor, LayerFill, assign_layers, blur_and_composite, geometry, layer_depths_mm,
                       warp_layer)
 from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
 from .psf_grid import cache_dir
@@ -195,8 +195,7 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     to_rgb = _rgb_matrix(bands)
     if _use_device(options):
         from .device import FFT_STATE, simulate_on_device
-        layers = (_layer_input(image, idx, li, grid) for li in range(len(optics)))
-        coef, rgb, var_y, outside = simulate_on_device(layers, cam, optics, gains, grid, yw, rays, to_rgb,
+        coef, rgb, var_y, outside = simulate_on_device(_layer_inputs(image, idx, grid), cam, optics, gains, grid, yw, rays, to_rgb,
                                                        options.device or "cpu")
         note = f"; {FFT_STATE['note']}" if FFT_STATE["note"] else ""
         return coef, rgb, var_y, outside, f"{options.device or 'cpu'} (Warp tile FFTs{note})"
@@ -204,8 +203,7 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     geo = geometry(cam)
     comp = Compositor(bands.count, shape, yw)
     outside = 0.0
-    for li, opt in enumerate(optics):
-        layer_img, mask = _layer_input(image, idx, li, grid)
+    for li, (opt, (layer_img, mask)) in enumerate(zip(optics, _layer_inputs(image, idx, grid))):
         sharp, alpha, out = warp_layer(cam, geo, opt, layer_img, mask, gains[li])
         outside = max(outside, out)
         blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr, wc, grid.node_rows, grid.node_cols)
@@ -217,14 +215,17 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
             outside, "host (NumPy/SciPy FFTs)")
 
 
-def _layer_input(image: np.ndarray, idx: np.ndarray | None, li: int, grid: PsfGrid) -> tuple[np.ndarray,
-                                                                                           np.ndarray | None]:
-    """(colour, mask) of input layer ``li``: the layer continued behind nearer layers as far as their blur
-    reaches (:func:`lensrt.simulate.compose.extend_hidden`); the whole picture without a depth map."""
+def _layer_inputs(image: np.ndarray, idx: np.ndarray | None, grid: PsfGrid):
+    """Per layer, far first: (colour, mask) -- the layer continued behind nearer layers as far as their blur
+    reaches (:class:`lensrt.simulate.compose.LayerFill`); the whole picture without a depth map. Each colour
+    is valid until the next one is drawn."""
     if idx is None:
-        return image, None
-    reach = max((grid.psf[k].shape[-1] // 2 for k in range(li + 1, len(grid.psf))), default=0)
-    return extend_hidden(image, idx, li, reach)
+        yield image, None
+        return
+    fill = LayerFill(image, idx)
+    for li in range(len(grid.psf)):
+        reach = max((grid.psf[k].shape[-1] // 2 for k in range(li + 1, len(grid.psf))), default=0)
+        yield fill(li, reach)
 
 
 def _rgb_matrix(bands: Bands) -> np.ndarray:

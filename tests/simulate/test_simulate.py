@@ -346,3 +346,24 @@ def test_acceptance_against_the_path_tracer_on_a_textured_plane(tmp_path):
     assert abs(res["mean_ratio_sim_over_render"] - 1.0) < 0.01, res
     assert res["rel_rms_beyond_noise"] < 0.02, res
     assert res["corners_rel_rms"] < 0.02 + res["corners_noise_rel_rms"], res
+
+
+def test_layer_fill_continues_a_layer_behind_nearer_ones_only():
+    """The disocclusion fill: a layer goes on behind nearer layers (never over farther ones) as far as the
+    reach, with its own colour; each layer's input is independent of the layers drawn before it."""
+    from lensrt.simulate.compose import LayerFill
+    h, w = 40, 64
+    img = np.zeros((h, w, 3), np.float32)
+    idx = np.zeros((h, w), np.int32)
+    idx[:, 20:40], idx[:, 40:] = 1, 2          # far (0) | middle (1) | near (2)
+    img[:, :20], img[:, 20:40], img[:, 40:] = 0.2, 0.5, 0.9
+    col, mask = LayerFill(img, idx)(1, 10)
+    assert not mask[:, :20].any()              # not over the farther layer
+    assert mask[:, 20:40].all() and mask[:, 40:50].all() and not mask[:, 60:].any()  # reach 10 (+ a block)
+    np.testing.assert_allclose(col[mask], 0.5)  # its own colour
+    fill = LayerFill(img, idx)
+    fill(0, 30)
+    again, mask1 = fill(1, 10)
+    np.testing.assert_array_equal(again, col)
+    np.testing.assert_array_equal(mask1, mask)
+    np.testing.assert_array_equal(fill(2, 0)[0][:, 40:], img[:, 40:])  # the nearest layer is not continued
