@@ -86,14 +86,14 @@ UNSUPPORTED = {
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
     "NSO": "a non-sequential object",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
-    "KC": "a conic variable code", "CUF": "a Fresnel/base curvature",
+    "KC": "a conic variable code",
 }
 _ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
 _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
 _KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
     "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
-    "RDY", "CUY", "THI", "GLA", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
+    "RDY", "CUY", "THI", "GLA", "CUF", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -260,6 +260,9 @@ class _Seq:
         if name in ("ASP", "CON"):
             self.cur(name, line)
             return True
+        if name == "CUF":
+            self.fresnel_curvature(args, line)
+            return True
         if name == "K":
             self.cur(name, line)["conic"] = self.num(args[0], "conic constant", line)
             return True
@@ -296,6 +299,17 @@ class _Seq:
                            "a CODE V command starts with letters; a number belongs on the line before (& continues)")
         self.keywords.unread(toks[0], line)
         return True
+
+    def fresnel_curvature(self, args: list[str], line: int) -> None:
+        """``CUF c``: CODE V writes ``CUF 0`` in every ASP block it saves; 0 (no Fresnel base curvature) is a
+        no-op, any other value is a Fresnel surface and an error."""
+        self.cur("CUF", line)
+        if not args:
+            raise self.err("CUF without a value", line, "write 'CUF 0' or leave the command out")
+        value = self.num(args[0], "CUF (Fresnel base curvature)", line)
+        if value != 0.0:
+            raise self.err(f"CUF {args[0]}: a Fresnel surface (a non-zero Fresnel base curvature) is not supported",
+                           line, "lensrt traces the ASP profile as a real surface; CUF 0 (the default) reads")
 
     # -- assembly -----------------------------------------------------------
     def material(self, glass: str | None, line: int, surface: int | None = None) -> Material:
