@@ -52,6 +52,7 @@ from ..materials import AIR, Material
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
 from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 from .codev_glass import PrivateCatalog, fictitious_glass
+from .codev_solves import SOLVE_KINDS, apply_solves
 from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
 from .codev_geometry import GEOMETRY_COMMANDS, geometry_command, image_transform, new_row_geometry, row_geometry
@@ -63,7 +64,7 @@ INFINITE_THICKNESS = 1.0e10
 
 IGNORED = {
     "LEN": "lens start", "INI": "designer initials", "CCY": "variable code", "THC": "variable code",
-    "GLC": "variable code", "PIM": "paraxial image solve (solved thickness kept)", "DER": "derivative increments",
+    "GLC": "variable code", "DER": "derivative increments",
     "VAL": "constraint value", "POL": "polarisation switch", "PIK": "pickup (picked value kept)",
     "PUX": "solve (solved value kept)", "PUY": "solve (solved value kept)", "PUI": "solve (solved value kept)",
     "PUC": "solve (solved value kept)", "PCY": "solve (solved value kept)", "PCX": "solve (solved value kept)",
@@ -93,7 +94,7 @@ _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
 _KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
     "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
-    "RDY", "CUY", "THI", "GLA", "CUF", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
+    "RDY", "CUY", "THI", "GLA", "CUF", "PIM", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -273,6 +274,9 @@ class _Seq:
         if name == "SLB":
             self.cur(name, line)["label"] = " ".join(a.strip("'\"") for a in args)
             return True
+        if name == "PIM" or name in ("CUY", "THI") and args and args[0].upper() in SOLVE_KINDS:
+            self.solve(name, args, line)
+            return True
         if name in ("RDY", "CUY", "THI", "GLA"):
             if args and re.match(r"^S(\d+|O|I)$", args[0], re.IGNORECASE):
                 raise self.err(f"{name} {args[0]}: commands that change another surface are not supported", line,
@@ -299,6 +303,21 @@ class _Seq:
                            "a CODE V command starts with letters; a number belongs on the line before (& continues)")
         self.keywords.unread(toks[0], line)
         return True
+
+    def solve(self, name: str, args: list[str], line: int) -> None:
+        """Record ``PIM``, ``CUY UMY|UCY u`` or ``THI HMY|HCY h`` on the current surface (:mod:`.codev_solves`)."""
+        row = self.cur(name, line)
+        kind = "PIM" if name == "PIM" else args[0].upper()
+        if (name == "CUY") != (SOLVE_KINDS[kind][0] == "curvature"):
+            raise self.err(f"{name} {kind}: a {SOLVE_KINDS[kind][0]} solve given as a {name.lower()} command", line,
+                           "curvature solves are CUY UMY/UCY, thickness solves THI HMY/HCY or PIM")
+        if kind == "PIM":
+            value = 0.0
+        elif len(args) < 2:
+            raise self.err(f"{name} {kind} without a value", line, f"write e.g. '{name} {kind} 0'")
+        else:
+            value = self.num(args[1], f"{kind} solve value", line)
+        row.setdefault("solves", []).append((kind, value, line))
 
     def fresnel_curvature(self, args: list[str], line: int) -> None:
         """``CUF c``: CODE V writes ``CUF 0`` in every ASP block it saves; 0 (no Fresnel base curvature) is a
@@ -408,6 +427,28 @@ class _Seq:
             if any(vals):
                 self.notes.append((f"vignetting_{key.lower()}", fmt_list(vals)))
 
+    def solved(self, surfaces: list[Surface], dist: float, obj_mat: Material, aperture: Aperture, fields: Fields,
+               wavelengths: Wavelengths, f: float) -> list[Surface]:
+        """The surfaces with the file's paraxial solves applied (:mod:`.codev_solves`); zoom files keep the
+        values CODE V wrote for each position."""
+        body = [r for r in self.rows[1:] if r["kind"] == "S"]
+        solves = {k: r["solves"] for k, r in enumerate(body) if r.get("solves")}
+        if not solves:
+            return surfaces
+        if self.zoom.count is not None:
+            self.warnings.append(LoadWarning("keyword_ignored", "paraxial solves in a zoom file: the values "
+                                             "written for each position are used", None, None))
+            return surfaces
+        ref = wavelengths.nm[wavelengths.primary]
+        stop = next(k for k, s in enumerate(surfaces) if s.is_stop)
+        img = self.rows[-1] if self.rows[-1]["kind"] == "SI" else None
+        out, found = apply_solves(
+            surfaces, solves, stop=stop, object_distance_mm=dist, object_index=float(obj_mat.index(ref)),
+            indices=[float(s.material.index(ref)) for s in surfaces], aperture=aperture, fields=fields,
+            unit_mm=f, defocus_mm=(img["thick"] * f if img is not None else 0.0), path=self.path)
+        self.warnings += found
+        return out
+
     def values(self, key: str, what: str) -> tuple[list[float], int] | None:
         if key not in self.spec:
             return None
@@ -482,6 +523,7 @@ class _Seq:
                            "SO's thickness is the distance from the object to surface 1")
         if self.prv is not None:
             raise self.err("PRV without END", None, "close the private catalog with END")
+        surfaces = self.solved(surfaces, dist, obj_mat, aperture, fields, wavelengths, f)
         found = tuple(self.warnings + self.keywords.warnings)
         emit_load_warnings(path, found)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
