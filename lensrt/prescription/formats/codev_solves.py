@@ -127,7 +127,7 @@ def apply_solves(surfaces: list[Surface], solves: dict[int, list[tuple[str, floa
         raise PrescriptionError(f"a marginal-ray solve to a non-zero value with a {aperture.kind} aperture is not "
                                 "supported", path=path, line=scaled[0],
                                 hint="give the aperture as EPD or write the solved values")
-    if any(not s.is_centred for s in surfaces):
+    if any(s.transform_before is not None or s.transform_after is not None for s in surfaces):
         raise PrescriptionError("a paraxial solve in a lens with decenters or tilts is not supported", path=path,
                                 line=first, hint="write the solved values")
     n, sign = [object_index], 1.0
