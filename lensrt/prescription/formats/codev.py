@@ -13,8 +13,11 @@ starts a comment, ``&`` continues a line):
   ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
 * zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
+* paraxial solves ``PIM``, ``CUY UMY|UCY``, ``THI HMY|HCY``: applied at load
+  time (:mod:`.codev_solves`); ``CUF 0`` (written in every ASP block) is read,
+  a non-zero ``CUF`` (a Fresnel surface) is an error;
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
-  codes), ``PIM`` and other solves/pickups (the value on the S line is the
+  codes), other solves and pickups (the value on the S line is the
   solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
   non-optical commands of :data:`~lensrt.prescription.formats.keywords.CODEV_NON_OPTICAL`
   (``DOR``, ``UID``, ...).
@@ -306,7 +309,10 @@ class _Seq:
 
     def solve(self, name: str, args: list[str], line: int) -> None:
         """Record ``PIM``, ``CUY UMY|UCY u`` or ``THI HMY|HCY h`` on the current surface (:mod:`.codev_solves`)."""
-        row = self.cur(name, line)
+        if name == "PIM" and len(self.rows) > 1 and self.rows[-1]["kind"] == "SI":
+            row = self.rows[-2]  # PIM after the lens data: the image solve on the last surface
+        else:
+            row = self.cur(name, line)
         kind = "PIM" if name == "PIM" else args[0].upper()
         if (name == "CUY") != (SOLVE_KINDS[kind][0] == "curvature"):
             raise self.err(f"{name} {kind}: a {SOLVE_KINDS[kind][0]} solve given as a {name.lower()} command", line,
@@ -435,9 +441,12 @@ class _Seq:
         solves = {k: r["solves"] for k, r in enumerate(body) if r.get("solves")}
         if not solves:
             return surfaces
-        if self.zoom.count is not None:
-            self.warnings.append(LoadWarning("keyword_ignored", "paraxial solves in a zoom file: the values "
-                                             "written for each position are used", None, None))
+        kept = "a zoom file" if self.zoom.count is not None else "a lens with decenters or tilts" if any(
+            s.transform_before is not None or s.transform_after is not None for s in surfaces) or \
+            self.image_transform is not None else None
+        if kept:
+            self.warnings.append(LoadWarning("keyword_ignored", f"paraxial solves in {kept}: the values the file "
+                                             "writes are used (not re-solved)", None, None))
             return surfaces
         ref = wavelengths.nm[wavelengths.primary]
         stop = next(k for k, s in enumerate(surfaces) if s.is_stop)

@@ -28,8 +28,11 @@ differs (other glass data, a hand-edited file) the solved value is used and a
 Not read, each with an error naming the construct: solves on other surfaces
 (``CUY S3 UMY``), marginal-ray solves to a non-zero value with ``FNO``/``NAO``
 apertures (``PIM`` and ``HMY 0`` do not depend on the ray's scale and are
-read), chief-ray solves with image-height fields,
-solves in lenses with decenters/tilts, and solve kinds other than those above.
+read), chief-ray solves with image-height fields, and solve kinds other than
+those above. In zoom files and in lenses with decenters or tilts the reader
+keeps the written values (CODE V's solutions) with a ``keyword_ignored``
+warning instead of re-solving. ``PIM`` after the lens data (a system command,
+rayoptics' ``threemir.seq``) is the image solve on the last surface.
 """
 from __future__ import annotations
 
