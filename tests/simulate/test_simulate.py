@@ -236,6 +236,10 @@ def test_cli_bad_inputs_end_in_one_line(tmp_path, capsys):
         ([str(good), "--sensor-preset", "no_such_sensor"], "unknown sensor preset"),
         ([str(good), "--iso", "100"], "need --sensor-preset"),
     ]
+    import warp as wp
+    wp.init()
+    if not wp.is_cuda_available():  # a GPU asked for and not there: never a silent CPU run
+        cases.append(([str(good), "--sensor", "16x12", "--device", "cuda"], "no CUDA device"))
     for argv, text in cases:
         rc, err = _cli(capsys, "simulate", *argv, "--sensor", "16x12", "--device", "cpu", "-o",
                        str(tmp_path / "o")) if "--sensor" not in argv else _cli(capsys, "simulate", *argv, "-o",
