@@ -2,7 +2,13 @@
 
 Stage: beside :mod:`lensrt.pipeline` and :mod:`lensrt.studies`, above :mod:`lensrt.analysis`; it uses
 the analysis stage's real-ray tools (chief-ray placement, pupil boxes, the stream kernel), the sensor
-and ISP stages and :mod:`lensrt.io`; only the CLI imports it. See docs/guide/simulate.md. In Python::
+and ISP stages and :mod:`lensrt.io`; only the CLI imports it. See docs/guide/simulate.md.
+
+Files: ``inputs.py`` (image and depth readers), ``spectral.py`` (RGB -> bands), ``optics.py`` (camera,
+real mapping, relative illumination), ``psf_grid.py`` (PSF nodes, cached), ``convolve.py`` (FFT tiles on
+the host), ``compose.py`` (layers, fill, warp, compositing), ``device.py`` (the same blur with Warp kernels
+and tile FFTs on a device), ``pipeline.py`` (``simulate``), ``outputs.py`` (files, sensor and ISP). In
+Python::
 
     from lensrt import load_lens
     from lensrt.simulate import SimulateOptions, read_image_linear, simulate, write_outputs
