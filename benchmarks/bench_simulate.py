@@ -65,7 +65,8 @@ def main() -> None:
         for k in range(max(args.runs, 2)):
             t0, c0 = time.perf_counter(), time.process_time()
             sim = simulate(img, lens, depth, opts)
-            runs.append({"run": "warm" if k or sim.psf_grid.cached else "cold", "wall_s": round(time.perf_counter() - t0, 3),
+            runs.append({"run": "warm" if k or sim.psf_grid.cached else "cold",
+                         "wall_s": round(time.perf_counter() - t0, 3),
                          "cpu_s": round(time.process_time() - c0, 3),
                          **{f"{name}_s": round(v, 3) for name, v in sim.seconds.items()}})
             print(json.dumps(runs[-1]), flush=True)

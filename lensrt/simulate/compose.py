@@ -163,8 +163,9 @@ class LayerFill:
         hb, wb = -(-h // bl), -(-w // bl)
         pad = ((0, hb * bl - h), (0, wb * bl - w))
         cnt = np.pad(vis, pad).reshape(hb, bl, wb, bl).sum(axis=(1, 3))
-        col = np.stack([np.pad(np.where(vis, img[..., k], np.float32(0.0)), pad).reshape(hb, bl, wb, bl).sum(axis=(1, 3))
-                        for k in range(3)], axis=-1) / np.maximum(cnt, 1)[..., None]
+        sums = [np.pad(np.where(vis, img[..., k], np.float32(0.0)), pad).reshape(hb, bl, wb, bl).sum(axis=(1, 3))
+                for k in range(3)]
+        col = np.stack(sums, axis=-1) / np.maximum(cnt, 1)[..., None]
         dist, (ir, ic) = distance_transform_edt(cnt == 0, return_indices=True)
         mask = vis.copy()
         if reach_px > 0:

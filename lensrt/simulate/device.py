@@ -29,7 +29,7 @@ import warp as wp
 
 from ..errors import LensrtError
 from .compose import radial_tables
-from .convolve import tile_bounds, tile_plan, tile_window
+from .convolve import tile_plan, tile_window
 
 __all__ = ["simulate_on_device", "fft_rows", "MAX_FFT"]
 
@@ -280,7 +280,8 @@ def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, rows, cols, device):
         buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
         tmp = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
         k_psf = wp.array(np.ascontiguousarray(psf[:, i, j]), dtype=wp.float32, device=device)
-        wp.launch(_pack, dim=(slabs, p, q), inputs=[shared, own, wr[int(i)], wc[int(j)], k_psf, r0, c0, h, w, p, buf], device=device)
+        wp.launch(_pack, dim=(slabs, p, q), inputs=[shared, own, wr[int(i)], wc[int(j)], k_psf, r0, c0, h, w, p, buf],
+                  device=device)
         _fft2(buf, tmp, slabs, p, q, False, device)
         prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
         wp.launch(_multiply, dim=(3 * n_b, q, p), inputs=[tmp, n_b, q, prod], device=device)

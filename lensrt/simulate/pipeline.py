@@ -195,8 +195,8 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     to_rgb = _rgb_matrix(bands)
     if _use_device(options):
         from .device import FFT_STATE, simulate_on_device
-        coef, rgb, var_y, outside = simulate_on_device(_layer_inputs(image, idx, grid), cam, optics, gains, grid, yw, rays, to_rgb,
-                                                       options.device or "cpu")
+        coef, rgb, var_y, outside = simulate_on_device(_layer_inputs(image, idx, grid), cam, optics, gains, grid, yw,
+                                                       rays, to_rgb, options.device or "cpu")
         note = f"; {FFT_STATE['note']}" if FFT_STATE["note"] else ""
         return coef, rgb, var_y, outside, f"{options.device or 'cpu'} (Warp tile FFTs{note})"
     wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
