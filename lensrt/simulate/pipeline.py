@@ -132,9 +132,10 @@ class Simulation:
 
 def memory_bytes(shape: tuple[int, int], bands: int, layers: int) -> int:
     """Working memory of a simulation of ``shape`` (bytes; float32 channels: per band the compositing
-    accumulators (5), one layer's blur and its temporaries (11); the layer's channels, the float64 geometry and
-    warp temporaries and the outputs (40); layers are processed one at a time, so ``layers`` does not count)."""
-    return int(shape[0] * shape[1] * 4 * (16 * bands + 40))
+    accumulators (5), one layer's blur and its temporaries (11), the output coefficients (3); the picture and
+    its per-layer fill, the layer's channels, the float64 geometry and warp temporaries and the sRGB output
+    (44); layers are processed one at a time, so ``layers`` does not count)."""
+    return int(shape[0] * shape[1] * 4 * (19 * bands + 44))
 
 
 def _depth_plan(cam: Camera, depth_m: np.ndarray | None, n_layers: int) -> tuple[np.ndarray, np.ndarray | None, float]:
