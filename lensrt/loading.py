@@ -14,7 +14,7 @@ from .prescription.configurations import MultiConfigLens, single_configuration
 from .prescription.formats import read_any
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
-from .paraxial.aperture_check import check_aperture
+from .paraxial.aperture_check import check_aperture, paraxial_image_distance_mm
 from .paraxial.crossing import check_axial_beam_crossing
 from .library import resolve_lens_path
 
@@ -38,7 +38,7 @@ def complete_lens(lens: Lens) -> Lens:
         if any(s.semi_diameter_mm is None for s in lens.surfaces):
             from .trace.apertures import compute_clear_apertures
             lens = compute_clear_apertures(lens)
-        check_geometry(lens)
+        check_geometry(lens, image_distance_mm=paraxial_image_distance_mm(lens))
         check_axial_beam_crossing(lens)
     lens.check_wavelengths(lens.wavelengths.nm)  # warns where a glass's formula is extrapolated
     return lens
@@ -89,5 +89,5 @@ def _complete_family(family: MultiConfigLens) -> MultiConfigLens:
     completed = family.with_base(base.replace(surfaces=tuple(surfaces), notes=notes))
     with located(base.path):
         for lens in completed.configurations():
-            check_geometry(lens)
+            check_geometry(lens, image_distance_mm=paraxial_image_distance_mm(lens))
     return completed
