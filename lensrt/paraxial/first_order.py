@@ -186,6 +186,12 @@ def _power(system: ParaxialSystem) -> float:
     return phi
 
 
+def _petzval_sum(lens: Lens, sysm: ParaxialSystem) -> float:
+    """sum Phi / (n n') over the surfaces; an ideal paraxial lens (flat-field, perfect) adds nothing."""
+    real = np.array([not s.is_ideal for s in lens.surfaces])
+    return float(np.sum((sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:]))[real]))
+
+
 def is_afocal(system: ParaxialSystem) -> bool:
     """True when the system's power vanishes (a telescope, or a plate): no focal points."""
     return abs(float(system.matrix(0, system.n_surfaces - 1)[1, 0])) < 1e-15
@@ -327,7 +333,7 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
     h_img = c_ray.height_at(image_offset)
     lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
-    petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
+    petzval = _petzval_sum(lens, sysm)
     half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
     return FirstOrder(
         wavelength_nm=sysm.wavelength_nm,
@@ -373,7 +379,7 @@ def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> First
     fmax = lens.fields.max_radial
     c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
     lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
-    petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
+    petzval = _petzval_sum(lens, sysm)
     half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
     return FirstOrder(
         wavelength_nm=sysm.wavelength_nm, object_distance_mm=None if math.isinf(d_obj) else d_obj,

@@ -192,6 +192,13 @@ class Surface:
     obscurations that always clip; ``semi_diameter_fixed`` marks a
     user-defined semi-diameter (OpticStudio's ``DIAM v 1``), the one kind that
     vignettes under the ``opticstudio`` aperture rule.
+
+    ``ideal_focal_mm`` makes the surface an ideal paraxial lens (OpticStudio's
+    ``TYPE PARAXIAL``, PARM 1): a plane of power Phi = 1 / f, perfect at every
+    conjugate (:func:`lensrt.trace.ray_surface.ideal_lens`); ``ideal_opd_mode``
+    is OpticStudio's PARM 2, kept for the record (the trace uses only the
+    direction change; ``docs/guide/first-order.md`` says what the optical path
+    lengths through it mean).
     """
 
     curvature_per_mm: float = 0.0
@@ -209,6 +216,8 @@ class Surface:
     transform_after: CoordinateTransform | None = None
     apertures: tuple[SurfaceAperture, ...] = ()
     semi_diameter_fixed: bool = False
+    ideal_focal_mm: float | None = None
+    ideal_opd_mode: int = 0
     #: line of the source file this surface came from (not part of equality)
     line: int | None = field(default=None, compare=False)
 
@@ -235,7 +244,27 @@ class Surface:
                     hint="a semi-diameter must not exceed |R| (the surface would not exist there)")
             object.__setattr__(self, "semi_diameter_mm", sd)
 
+    def _check_ideal(self) -> None:
+        if self.ideal_focal_mm is None:
+            return
+        f = _finite(self.ideal_focal_mm, "ideal lens focal length")
+        if f == 0.0:
+            raise PrescriptionError("an ideal paraxial lens with focal length 0", line=self.line,
+                                    hint="give a non-zero focal length (PARM 1 of TYPE PARAXIAL)")
+        if self.curvature_per_mm != 0.0 or self.conic != 0.0 or any(a != 0.0 for a in self.asphere) \
+                or self.mirror:
+            raise PrescriptionError("an ideal paraxial lens is a plane: it has no curvature, conic, asphere or "
+                                    "mirror", line=self.line, hint="leave those out of a TYPE PARAXIAL surface")
+        object.__setattr__(self, "ideal_focal_mm", f)
+        object.__setattr__(self, "ideal_opd_mode", int(self.ideal_opd_mode))
+
+    @property
+    def is_ideal(self) -> bool:
+        """An ideal paraxial lens (``ideal_focal_mm`` set)."""
+        return self.ideal_focal_mm is not None
+
     def _check_geometry(self) -> None:
+        self._check_ideal()
         object.__setattr__(self, "mirror", bool(self.mirror))
         object.__setattr__(self, "semi_diameter_fixed", bool(self.semi_diameter_fixed))
         for name in ("transform_before", "transform_after"):
@@ -364,7 +393,13 @@ class Lens:
 
     def _check_mirrors(self, surfaces: tuple[Surface, ...]) -> None:
         before = self.object_material
+        mirrors = 0
         for i, s in enumerate(surfaces):
+            if s.is_ideal and mirrors % 2:
+                raise PrescriptionError(f"surface {i + 1} is an ideal paraxial lens after an odd number of mirrors",
+                                        surface=i, line=s.line,
+                                        hint="lensrt models ideal lenses in light travelling toward +z only")
+            mirrors += bool(s.mirror)
             if s.mirror and s.material != before:
                 raise PrescriptionError(
                     f"mirror surface {i + 1} has material {s.material.describe()} but the light before it "
@@ -376,6 +411,11 @@ class Lens:
     @property
     def has_mirrors(self) -> bool:
         return any(s.mirror for s in self.surfaces)
+
+    @property
+    def has_ideal_lens(self) -> bool:
+        """At least one surface is an ideal paraxial lens (``Surface.ideal_focal_mm``)."""
+        return any(s.is_ideal for s in self.surfaces)
 
     @property
     def is_centred(self) -> bool:

@@ -6,7 +6,8 @@ One row per surface plus one for the image surface (a plane)::
                1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
-A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+An ideal paraxial lens stores its power 1/f in ``S_IDEAL`` (``S_IDEAL_ANY`` = 1 in
+every row of a lens that has one). A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
 carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
 direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
 odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
@@ -39,7 +40,7 @@ from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
            "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "S_APER", "MAX_SURFACE_APERTURES", "APERTURE_COLS",
-           "APERTURE_SHAPE_CODES", "pack_geometry",
+           "APERTURE_SHAPE_CODES", "pack_geometry", "S_IDEAL", "S_IDEAL_ANY",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
            "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
@@ -57,7 +58,11 @@ S_AXES = S_ORIGIN + 3
 S_APER = S_AXES + 9
 MAX_SURFACE_APERTURES = 2
 APERTURE_COLS = 8
-SURF_COLS = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+#: ideal paraxial lenses (Surface.ideal_focal_mm): the power 1/f at the surface (0: none), and a lens-wide flag in
+#: every row (1: the lens has one), so the kernels look for them only in lenses that have one
+S_IDEAL = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+S_IDEAL_ANY = S_IDEAL + 1
+SURF_COLS = S_IDEAL_ANY + 1
 APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
@@ -90,6 +95,9 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
         surf[i, S_KIND] = 2.0 if s.asphere else (1.0 if s.curvature_per_mm != 0.0 else 0.0)
         surf[i, S_NASPH] = len(s.asphere)
         surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
+        if s.ideal_focal_mm is not None:
+            surf[i, S_IDEAL] = 1.0 / s.ideal_focal_mm
+    surf[:, S_IDEAL_ANY] = 1.0 if lens.has_ideal_lens else 0.0
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
     pack_geometry(lens, surf)

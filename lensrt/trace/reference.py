@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 
 from ..prescription.model import Iris, Lens
-from .ray_surface import (NEWTON_MAX_ITER, NEWTON_TOL_MM, ReferenceRay, SurfaceHit, conic_t, inside_iris,
-                          intersect, reflect, refract, sag_and_slope)
+from .ray_surface import (NEWTON_MAX_ITER, NEWTON_TOL_MM, ReferenceRay, SurfaceHit, conic_t, ideal_lens,
+                          inside_iris, intersect, reflect, refract, sag_and_slope)
 from .reference_general import trace_general
 from .status import APERTURE_TOLERANCE, INVALID, MISSED, OK, VIGNETTED
 
@@ -99,7 +99,13 @@ def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction
                 ray.status, ray.surface = VIGNETTED, i
                 ray.hits.append(SurfaceHit(x, y, z, L, M, N, 0.0, 0.0, t))
                 break
-        status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
+        if s.ideal_focal_mm is not None:  # an ideal paraxial lens: the direction change of a perfect lens
+            status, L, M, N, ang_i, ang_r, added = ideal_lens(L, M, N, x, y, 1.0 / s.ideal_focal_mm, index[i],
+                                                              index[i + 1])
+            opl += added
+            ray.opl_mm = opl
+        else:
+            status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
         ray.hits.append(SurfaceHit(x, y, z, L, M, N, ang_i, ang_r, t))
         ray.L, ray.M, ray.N = L, M, N
         if status != OK:

@@ -32,7 +32,7 @@ from functools import lru_cache
 
 from ..prescription.frames import surface_frames, travel_signs
 from ..prescription.model import Iris, Lens
-from .ray_surface import ReferenceRay, SurfaceHit, inside_iris, intersect, reflect, refract
+from .ray_surface import ReferenceRay, SurfaceHit, ideal_lens, inside_iris, intersect, reflect, refract
 from .status import APERTURE_TOLERANCE, INVALID, MISSED, OK, VIGNETTED
 
 __all__ = ["trace_general", "local_frames"]
@@ -135,6 +135,11 @@ def trace_general(lens: Lens, origin_mm: tuple[float, float, float], direction: 
             break
         if s.mirror:  # type: ignore[union-attr]
             status, L, M, N, ang_i, ang_r = reflect(L, M, N, normal)
+        elif s.ideal_focal_mm is not None:  # type: ignore[union-attr]  # an ideal paraxial lens (local frame)
+            status, L, M, N, ang_i, ang_r, added = ideal_lens(L, M, N, x, y, 1.0 / s.ideal_focal_mm, index[i],
+                                                              index[i + 1])
+            opl += added
+            ray.opl_mm = opl
         else:
             status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
         ray.hits.append(SurfaceHit(x, y, sign * z, L, M, sign * N, ang_i, ang_r, t))

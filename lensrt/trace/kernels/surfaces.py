@@ -19,13 +19,13 @@ import warp as wp
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
                     IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_GEOM, S_KIND, S_KP1,
                     S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
-                    APERTURE_COLS)
+                    APERTURE_COLS, S_IDEAL, S_IDEAL_ANY)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
 __all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
-           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
+           "ideal_lens", "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -252,6 +252,33 @@ def reflect(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, angles: int):
 
 
 @wp.func
+def ideal_lens(L: Any, M: Any, N: Any, x: Any, y: Any, power: Any, n1: Any, n2: Any):
+    # an ideal paraxial lens (ray_surface.ideal_lens): n' t' = n t - (x, y) Phi on the direction tangents;
+    # returns status, L', M', N', I, I', min(cos I, cos I'), the optical path the perfect lens adds
+    status = int(MISSED)
+    L2 = L
+    M2 = M
+    N2 = N
+    ang_i = type(L)(0.0)
+    ang_r = type(L)(0.0)
+    added = type(L)(0.0)
+    if N > type(L)(0.0):
+        tx = (n1 * L / N - x * power) / n2
+        ty = (n1 * M / N - y * power) / n2
+        t2 = tx * tx + ty * ty
+        N2 = type(L)(1.0) / wp.sqrt(type(L)(1.0) + t2)
+        L2 = tx * N2
+        M2 = ty * N2
+        fp = n2 / power
+        h2 = x * x + y * y
+        added = -n2 * wp.sign(fp) * h2 / (wp.abs(fp) + wp.sqrt(h2 + fp * fp))
+        ang_i = wp.atan2(wp.sqrt(L * L + M * M), N)
+        ang_r = wp.atan(wp.sqrt(t2))
+        status = int(OK)
+    return status, L2, M2, N2, ang_i, ang_r, wp.min(N, N2), added
+
+
+@wp.func
 def to_local(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
     # global point and direction into surface i's frame, mirrored in z when light travels toward -z
     # there: p_local = A^T (p - o), d_local = A^T d (A's columns are the local axes; row-major storage)
@@ -385,6 +412,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
     # mirrors or coordinate transforms: the ray travels in global coordinates between surfaces and is
     # met in each surface's (z-mirrored after odd mirrors) local frame, as in reference_general
     geom = int(surf[0, S_GEOM])
+    ideal = int(surf[0, S_IDEAL_ANY])  # the lens has an ideal paraxial lens: look for it at each surface
     sgn = type(x0)(1.0)
     i = int(0)
     while status == int(OK) and i <= end:
@@ -434,6 +462,14 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                     elif geom != 0 and surf[i, S_MIRROR] != type(x0)(0.0):
                         st, L, M, N, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
                         min_cos = wp.min(min_cos, cos_ir)
+                        n1 = n2
+                    elif ideal != 0 and surf[i, S_IDEAL] != type(x0)(0.0):
+                        st, L, M, N, ang_i, ang_r, cos_ir, added = ideal_lens(L, M, N, x, y, surf[i, S_IDEAL], n1, n2)
+                        min_cos = wp.min(min_cos, cos_ir)
+                        opl = opl + added
+                        if st != int(OK):
+                            status = st
+                            where = i
                         n1 = n2
                     else:
                         st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
