@@ -25,7 +25,7 @@ from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
 __all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
-           "ideal_lens", "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
+           "ideal_lens", "bend_ray", "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -279,6 +279,29 @@ def ideal_lens(L: Any, M: Any, N: Any, x: Any, y: Any, power: Any, n1: Any, n2: 
 
 
 @wp.func
+def bend_ray(surf: wp.array2d(dtype=Any), i: int, geom: int, ideal: int, x: Any, y: Any, L: Any, M: Any, N: Any,
+             nx: Any, ny: Any, nz: Any, n1: Any, n2: Any, record: int):
+    # the direction change at surface i: a mirror reflects, an ideal paraxial lens bends as a perfect lens
+    # (looked up only in lenses that have one), any other surface refracts; returns status, L', M', N', I, I',
+    # min(cos I, cos I') and the optical path the surface adds (0 but for an ideal lens)
+    st = int(OK)
+    L2 = L
+    M2 = M
+    N2 = N
+    ang_i = type(L)(0.0)
+    ang_r = type(L)(0.0)
+    cos_ir = type(L)(1.0)
+    added = type(L)(0.0)
+    if geom != 0 and surf[i, S_MIRROR] != type(L)(0.0):
+        st, L2, M2, N2, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
+    elif ideal != 0 and surf[i, S_IDEAL] != type(L)(0.0):
+        st, L2, M2, N2, ang_i, ang_r, cos_ir, added = ideal_lens(L, M, N, x, y, surf[i, S_IDEAL], n1, n2)
+    else:
+        st, L2, M2, N2, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
+    return st, L2, M2, N2, ang_i, ang_r, cos_ir, added
+
+
+@wp.func
 def to_local(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
     # global point and direction into surface i's frame, mirrored in z when light travels toward -z
     # there: p_local = A^T (p - o), d_local = A^T d (A's columns are the local axes; row-major storage)
@@ -459,21 +482,11 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                     if not (n2 > type(x0)(0.0)):
                         status = int(INVALID)
                         where = i
-                    elif geom != 0 and surf[i, S_MIRROR] != type(x0)(0.0):
-                        st, L, M, N, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
-                        min_cos = wp.min(min_cos, cos_ir)
-                        n1 = n2
-                    elif ideal != 0 and surf[i, S_IDEAL] != type(x0)(0.0):
-                        st, L, M, N, ang_i, ang_r, cos_ir, added = ideal_lens(L, M, N, x, y, surf[i, S_IDEAL], n1, n2)
+                    else:
+                        st, L, M, N, ang_i, ang_r, cos_ir, added = bend_ray(surf, i, geom, ideal, x, y, L, M, N,
+                                                                            nx, ny, nz, n1, n2, record)
                         min_cos = wp.min(min_cos, cos_ir)
                         opl = opl + added
-                        if st != int(OK):
-                            status = st
-                            where = i
-                        n1 = n2
-                    else:
-                        st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
-                        min_cos = wp.min(min_cos, cos_ir)
                         if st != int(OK):
                             status = st
                             where = i
