@@ -255,6 +255,8 @@ class Surface:
                 or self.mirror:
             raise PrescriptionError("an ideal paraxial lens is a plane: it has no curvature, conic, asphere or "
                                     "mirror", line=self.line, hint="leave those out of a TYPE PARAXIAL surface")
+        if self.ideal_opd_mode not in (0, 1, 2, 3):
+            raise PrescriptionError(f"ideal lens OPD mode {self.ideal_opd_mode!r} is not 0, 1, 2 or 3", line=self.line)
         object.__setattr__(self, "ideal_focal_mm", f)
         object.__setattr__(self, "ideal_opd_mode", int(self.ideal_opd_mode))
 

@@ -27,13 +27,15 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            ROOT / "data" / "glass_syntax.seq", ROOT / "data" / "glass_syntax.zmx",
            # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
            # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
-           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq"]
+           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq",
+           # the ideal paraxial lens (issue 22): TYPE PARAXIAL with PARM 1 (focal length) and PARM 2 (OPD mode)
+           ROOT / "data" / "kepler_paraxial_eyepiece.zmx"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
           "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
-          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45"]
+          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "PARAXIAL"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:
@@ -77,6 +79,7 @@ def _floats(lens: Lens) -> list[float]:
     vals += list(lens.wavelengths.nm) + list(lens.wavelengths.weights)
     for s in lens.surfaces:
         vals += [s.curvature_per_mm, s.thickness_mm, s.conic, s.semi_diameter_mm, *s.asphere]
+        vals += [] if s.ideal_focal_mm is None else [s.ideal_focal_mm]
     vals += [float(v) for v in np.ravel(lens.indices(np.array(lens.wavelengths.nm)))]
     return vals
 

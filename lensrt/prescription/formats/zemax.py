@@ -86,7 +86,7 @@ UNSUPPORTED: dict[str, str] = {
     "TILT": "a surface tilt", "NSOB": "a non-sequential object", "GRAT": "a grating",
 }
 
-_SUPPORTED_TYPES = ("STANDARD", "EVENASPH", "COORDBRK")
+_SUPPORTED_TYPES = ("STANDARD", "EVENASPH", "COORDBRK", "PARAXIAL")
 _TYPE_NAMES = {
     "DGRATING": "a diffraction grating",
     "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
@@ -457,6 +457,9 @@ class _Reader:
                 if s.type == "COORDBRK":
                     surfaces.append(self._coordbrk(s, before, f))
                     continue
+                if s.type == "PARAXIAL":
+                    surfaces.append(self._paraxial(s, k, f))
+                    continue
                 asph: tuple[float, ...] = ()
                 if s.type == "EVENASPH":
                     n = max(s.parm) if s.parm else 0
@@ -485,6 +488,32 @@ class _Reader:
         label = s.label or "coordinate break"
         return Surface(thickness_mm=(s.disz or 0.0) * f, material=before, is_stop=s.stop, label=label, line=s.line,
                        transform_before=coordbrk_transform(s.parm, f, self.path, s.type_line or s.line))
+
+    def _paraxial(self, s: _Surf, k: int, f: float) -> Surface:
+        """A TYPE PARAXIAL surface: an ideal lens of focal length PARM 1 (lens units), OPD mode PARM 2."""
+        line = s.type_line or s.line
+        bad = [i for i, (v, _) in s.parm.items() if i > 2 and v != 0.0]
+        if bad or s.mirror or s.apertures:
+            raise self.err(f"TYPE PARAXIAL with {'PARM ' + str(bad[0]) if bad else 'a mirror or surface aperture'}",
+                           line, "an ideal paraxial lens has a focal length (PARM 1) and an OPD mode (PARM 2) only")
+        focal, mode = s.parm.get(1, (0.0, line))[0], s.parm.get(2, (0.0, line))[0]
+        if focal == 0.0:
+            raise self.err("TYPE PARAXIAL with focal length 0 (PARM 1)", s.parm.get(1, (0.0, line))[1],
+                           "give the ideal lens's focal length in lens units")
+        if mode not in (0.0, 1.0, 2.0, 3.0):
+            raise self.err(f"TYPE PARAXIAL OPD mode {mode:g} (PARM 2) is not 0, 1, 2 or 3", s.parm[2][1])
+        if s.curv != 0.0 or s.conic != 0.0:
+            self.warnings.append(LoadWarning("keyword_ignored", "CURV/CONI of a TYPE PARAXIAL surface: an ideal "
+                                             "lens is a plane (OpticStudio ignores them too)", k, s.line))
+        self.warnings.append(LoadWarning(
+            "ideal_lens_opd", f"TYPE PARAXIAL (f = {focal:g}, OPD mode {int(mode)}): rays leave it as from a perfect "
+            "lens; optical path lengths carry the lens's phase for an axial object at infinity, so wavefronts, PSFs "
+            "and MTFs through it are exact only for a collimated axial beam entering it", k, line))
+        sd = s.diam if s.diam is not None and s.diam > 0.0 else None
+        return Surface(thickness_mm=(s.disz or 0.0) * f, material=self.material(s, k),
+                       semi_diameter_mm=None if sd is None else sd * f, is_stop=s.stop,
+                       label=s.label or "ideal paraxial lens", line=s.line, semi_diameter_fixed=s.diam_fixed,
+                       ideal_focal_mm=focal * f, ideal_opd_mode=int(mode))
 
     def _aperture(self, surfaces: list[Surface], f: float) -> Aperture:
         """The system aperture; FLOA floats on the stop's semi-diameter, or, where the stop has none, on the
