@@ -27,7 +27,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
 
-__all__ = ["FirstOrder", "first_order", "is_afocal", "pupils", "Pupils", "entrance_pupil_diameter_mm",
+__all__ = ["FirstOrder", "first_order", "is_afocal", "refuse_afocal", "pupils", "Pupils", "entrance_pupil_diameter_mm",
            "marginal_ray", "chief_ray", "field_slope_and_height", "paraxial_rays"]
 
 #: a matrix element below this (relative) counts as zero: a pupil or image at infinity
@@ -190,6 +190,23 @@ def _petzval_sum(lens: Lens, sysm: ParaxialSystem) -> float:
     """sum Phi / (n n') over the surfaces; an ideal paraxial lens (flat-field, perfect) adds nothing."""
     real = np.array([not s.is_ideal for s in lens.surfaces])
     return float(np.sum((sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:]))[real]))
+
+
+def refuse_afocal(lens: Lens, what: str, wavelength_nm: float | None = None) -> None:
+    """Raise one clear :class:`LensrtError` when ``lens`` is afocal: ``what`` (an analysis) needs an image.
+
+    An afocal lens (a telescope, a beam expander) sends every object point at infinity to infinity: its
+    image lies in angle space, and analyses on an image plane (focus, distortion, spots, PSFs, bokeh) are
+    not defined there.
+    """
+    sysm = paraxial_system(lens, wavelength_nm)
+    if not is_afocal(sysm):
+        return
+    m = float(sysm.matrix(0, sysm.n_surfaces - 1)[1, 1]) * float(sysm.index[0] / sysm.index[-1])
+    raise LensrtError(f"{what} needs an image, but the lens is afocal (angular magnification {m:.6g}): its image "
+                      "lies at infinity, in angle space",
+                      hint="lensrt info gives its angular magnification and pupils; to image it, add an ideal lens "
+                           "behind it (ideal_focal_mm, or TYPE PARAXIAL in a Zemax file)")
 
 
 def is_afocal(system: ParaxialSystem) -> bool:

@@ -130,3 +130,14 @@ def test_afocal_telescope_reports_angular_magnification(tmp_path: Path, capsys) 
     assert d["afocal"] is True and d["angular_magnification"] == pytest.approx(-4.0, rel=1e-6)
     assert d["efl_mm"] is None and d["warnings"] == []  # inf is null in JSON
     assert np.isfinite(d["exit_pupil_z_mm"])
+
+
+def test_image_plane_analyses_refuse_an_afocal_lens_in_one_line(tmp_path: Path, capsys) -> None:
+    from lensrt.prescription.formats.native import dumps_native
+    path = tmp_path / "kepler.toml"
+    path.write_text(dumps_native(_kepler(100.0, 25.0)))
+    for argv in (["psf", str(path), "--out", str(tmp_path / "o")], ["bokeh", str(path), "--out", str(tmp_path / "o")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "afocal (angular magnification -4)" in err[0], err
+    assert not (tmp_path / "o").exists()

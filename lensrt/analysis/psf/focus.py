@@ -107,6 +107,8 @@ def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | N
     is from the lens file's image surface.
     """
     spec = parse_focus(spec) if not isinstance(spec, FocusSpec) else spec
+    from ...paraxial.first_order import refuse_afocal
+    refuse_afocal(lens, "a PSF, MTF or wavefront (observed on an image plane)")
     info: dict = {"focus": str(spec), "base": spec.base, "offset_mm": spec.offset_mm}
     if spec.base == "image":
         base = lens.image_z_mm
