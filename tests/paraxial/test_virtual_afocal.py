@@ -141,3 +141,38 @@ def test_image_plane_analyses_refuse_an_afocal_lens_in_one_line(tmp_path: Path, 
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "afocal (angular magnification -4)" in err[0], err
     assert not (tmp_path / "o").exists()
+
+
+def _ideal_pair(f1_mm: float, f2_mm: float) -> Lens:
+    """Two ideal lenses f1 + f2 apart: a perfect afocal system of angular magnification -f1/f2."""
+    return Lens(surfaces=(Surface(thickness_mm=f1_mm + f2_mm, ideal_focal_mm=f1_mm, is_stop=True, semi_diameter_mm=8.0),
+                          Surface(thickness_mm=20.0, ideal_focal_mm=f2_mm, semi_diameter_mm=8.0)),
+                aperture=Aperture("epd", 10.0), fields=Fields("angle", (0.0, math.radians(2.0))),
+                wavelengths=Wavelengths((587.5618,)), name="ideal pair")
+
+
+def test_angular_spots_of_a_perfect_afocal_pair_vanish() -> None:
+    from lensrt.analysis.compare.afocal import angular_spots
+    lens = load_lens(_ideal_pair(100.0, 25.0))
+    assert first_order(lens).angular_magnification == pytest.approx(-4.0, rel=1e-15)
+    spots = angular_spots(lens, device="cpu")
+    assert [s.rays for s in spots] == [spots[0].rays] * 2 and spots[0].rays > 300
+    for s in spots:
+        assert s.max_mrad < 1e-9  # every ray of a field leaves parallel to its chief ray
+        assert s.chief_exit_deg == pytest.approx(s.paraxial_exit_deg, abs=1e-12)  # tan theta' = M tan theta exactly
+
+
+def test_compare_prints_angular_spots_for_a_real_telescope(tmp_path: Path, capsys) -> None:
+    from lensrt.prescription.formats.native import dumps_native
+    small = math.radians(0.01)
+    path = tmp_path / "kepler.toml"
+    path.write_text(dumps_native(_kepler(100.0, 25.0).replace(fields=Fields("angle", (0.0, small)))))
+    assert main(["compare", str(path), "--json", "--device", "cpu"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["afocal"] is True and d["angular_magnification"] == pytest.approx(-4.0, rel=1e-6)
+    axial, off = d["angular_spots"]
+    assert axial["rms_mrad"] > 0.0  # the singlets' spherical aberration: a real telescope is not perfect
+    # near the axis the real chief ray follows the paraxial angular magnification
+    assert math.tan(math.radians(off["chief_exit_deg"])) / math.tan(small) == pytest.approx(-4.0, rel=1e-3)
+    assert main(["compare", str(path), "--device", "cpu"]) == 0
+    assert "spots in angle space" in capsys.readouterr().out
