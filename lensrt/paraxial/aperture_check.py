@@ -9,6 +9,8 @@ files in the rayoptics test set do that on purpose, the CIR clipping the beam.)
 """
 from __future__ import annotations
 
+import math
+
 from ..errors import LensrtError, PrescriptionError
 from ..prescription.model import Lens
 from .first_order import first_order
@@ -44,4 +46,4 @@ def paraxial_image_distance_mm(lens: Lens) -> float | None:
         fo = first_order(lens)
     except LensrtError:
         return None
-    return None if fo.afocal else float(fo.image_distance_mm)
+    return float(fo.image_distance_mm) if math.isfinite(fo.image_distance_mm) else None

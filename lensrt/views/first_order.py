@@ -94,7 +94,10 @@ def afocal_line(d: dict[str, Any]) -> str:
     return (f"afocal: angular magnification {d['angular_magnification']:.6g}; entrance pupil z = "
             f"{d['entrance_pupil_z_mm']:.6g} mm, diameter {d['entrance_pupil_diameter_mm']:.6g} mm; exit pupil "
             f"z = {format_value(d['exit_pupil_z_mm'], '.6g')} mm, diameter {d['exit_pupil_diameter_mm']:.6g} mm "
-            f"(pupil magnification {d['pupil_magnification']:.6g}); no focal points, image or f-number")
+            f"(pupil magnification {d['pupil_magnification']:.6g}); no focal points or f-number"
+            + ("; an object at infinity has its image at infinity" if d["object_distance_mm"] is None else
+               f"; the object's image lies at z = {d['image_z_mm']:.6g} mm"
+               f"{' (virtual)' if d['image_virtual'] else ''}, magnification {d['magnification']:.6g}"))
 
 
 def format_value(v: Any, spec: str = ".4f") -> str:

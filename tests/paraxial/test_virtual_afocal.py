@@ -176,3 +176,20 @@ def test_compare_prints_angular_spots_for_a_real_telescope(tmp_path: Path, capsy
     assert math.tan(math.radians(off["chief_exit_deg"])) / math.tan(small) == pytest.approx(-4.0, rel=1e-3)
     assert main(["compare", str(path), "--device", "cpu"]) == 0
     assert "spots in angle space" in capsys.readouterr().out
+
+
+def test_afocal_lens_images_a_finite_object_with_magnification_one_over_m() -> None:
+    """An afocal system has the same lateral magnification 1/M at every conjugate; real rays through the
+    perfect ideal pair meet at the paraxial image point (float64 reference tracer)."""
+    d_obj = 500.0
+    lens = load_lens(_ideal_pair(100.0, 25.0).replace(object_distance_mm=d_obj,
+                                                     fields=Fields("object_height", (0.0, 10.0))))
+    fo = first_order(lens)
+    assert fo.afocal and fo.magnification == pytest.approx(-0.25, rel=1e-14)
+    assert math.isfinite(fo.image_z_mm) and fo.field_image_heights_mm[1] == pytest.approx(-2.5, rel=1e-12)
+    at_image = lens.replace_surface(lens.n_surfaces - 1, thickness_mm=fo.image_distance_mm)
+    for y0 in (0.0, 10.0):
+        for py in (-4.0, 0.5, 4.5):
+            d = np.array([0.0, py - y0, d_obj])
+            ray = trace_reference(at_image, (0.0, y0, -d_obj), d / np.linalg.norm(d), 587.5618, clip=False)
+            assert ray.status == 0 and abs(ray.y_mm + 0.25 * y0) < 1e-9
