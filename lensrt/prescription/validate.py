@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PrescriptionError
-from .model import Lens
+from .model import Lens, LoadWarning
 
 __all__ = ["check_geometry"]
 
@@ -16,13 +16,22 @@ __all__ = ["check_geometry"]
 CROSSING_TOL_MM = 1e-6
 
 
-def check_geometry(lens: Lens, samples: int = 65, image_distance_mm: float | None = None) -> None:
+def check_geometry(lens: Lens, samples: int = 65, beam_heights_mm: np.ndarray | None = None,
+                   image_distance_mm: float | None = None) -> list[LoadWarning]:
     """Raise :class:`PrescriptionError` if adjacent surfaces cross inside their clear apertures.
 
     For surfaces i and i+1 with semi-diameters given by the file, the later surface must
     never lie in front of the earlier one over the common aperture:
     ``z_i(r) <= t_i + z_{i+1}(r)`` for ``0 <= r <= min(sd_i, sd_{i+1})``. A
     negative thickness is thus allowed only where the sags make room for it.
+    With ``beam_heights_mm`` (the axial beam's height at each surface, mm: the
+    paraxial marginal ray, :func:`lensrt.paraxial.crossing.axial_beam_heights`)
+    a crossing that begins beyond the axial beam on both surfaces is not an
+    error but a returned ``edge_thickness`` :class:`LoadWarning`: the element's
+    edge is negative at the file's semi-diameters (OpticStudio's automatic
+    ones often reach there; CODE V, OpticStudio and rayoptics trace such files)
+    while the on-axis light passes where it is positive. A crossing inside
+    the axial beam stays an error.
     The image surface must lie behind the last vertex, unless the paraxial
     image is virtual: ``image_distance_mm`` (last vertex to the paraxial image;
     the loader passes :attr:`lensrt.paraxial.first_order.FirstOrder.image_distance_mm`)
@@ -39,11 +48,15 @@ def check_geometry(lens: Lens, samples: int = 65, image_distance_mm: float | Non
     lens : Lens
     samples : int
         Heights sampled per pair of surfaces.
+    beam_heights_mm : ndarray, optional
+        The axial beam's height at each surface (mm).
     image_distance_mm : float, optional
         Last vertex to the paraxial image (mm, a z offset like the last
-        thickness, so negative after an odd number of mirrors); None when unknown (a negative last thickness is then refused).
+        thickness, so negative after an odd number of mirrors); None when unknown (a negative last
+        thickness is then refused).
     """
     surfaces = lens.surfaces
+    found: list[LoadWarning] = []
     sign = 1.0
     for i in range(len(surfaces) - 1):
         a, b = surfaces[i], surfaces[i + 1]
@@ -61,6 +74,15 @@ def check_geometry(lens: Lens, samples: int = 65, image_distance_mm: float | Non
         gap = sign * (a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)))
         worst = int(np.argmin(gap))
         if gap[worst] < -CROSSING_TOL_MM:
+            begins = float(r[int(np.argmax(gap < -CROSSING_TOL_MM))])
+            if beam_heights_mm is not None and begins > max(beam_heights_mm[i], beam_heights_mm[i + 1]):
+                found.append(LoadWarning(
+                    "edge_thickness",
+                    f"surfaces {i + 1} and {i + 2} cross beyond the axial beam: from height {begins:.4g} mm (the "
+                    f"marginal ray reaches {max(beam_heights_mm[i], beam_heights_mm[i + 1]):.4g} mm) to the "
+                    f"semi-diameter {r[-1]:.4g} mm surface {i + 2} lies up to {-gap[worst]:.4g} mm in front of "
+                    f"surface {i + 1}; rays through that zone cross the gap backwards", i, a.line))
+                continue
             raise PrescriptionError(
                 f"surfaces {i + 1} and {i + 2} cross: at height {r[worst]:.4g} mm surface {i + 2} lies "
                 f"{-gap[worst]:.4g} mm in front of surface {i + 1} (thickness {a.thickness_mm:g} mm)",
@@ -70,10 +92,11 @@ def check_geometry(lens: Lens, samples: int = 65, image_distance_mm: float | Non
     sign = -sign if last.mirror else sign
     if sign * last.thickness_mm < 0.0 and last.transform_after is None and lens.is_centred:
         if image_distance_mm is not None and sign * image_distance_mm < 0.0:
-            return  # a virtual image: the image surface sits where the backward-extended rays meet
+            return found  # a virtual image: the image surface sits where the backward-extended rays meet
         real = "" if image_distance_mm is None else \
             f", but the paraxial image is real ({sign * image_distance_mm:.6g} mm behind the last vertex)"
         raise PrescriptionError(f"the image surface lies {-sign * last.thickness_mm:g} mm in front of the last "
                                 f"surface{real}", surface=len(surfaces) - 1, line=last.line,
                                 hint="the last thickness runs to the image; it may be negative only for a "
                                      "virtual image (a diverging beam leaving the lens)")
+    return found

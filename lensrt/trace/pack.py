@@ -6,8 +6,9 @@ One row per surface plus one for the image surface (a plane)::
                1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
-An ideal paraxial lens stores its power 1/f in ``S_IDEAL`` (``S_IDEAL_ANY`` = 1 in
-every row of a lens that has one). A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+An ideal paraxial lens stores its power 1/f in ``S_IDEAL`` (and makes the lens one for the
+general kernel variant, with its frames). A lens with mirrors, coordinate transforms or
+an ideal lens (``S_GEOM`` = 1 in every row) also
 carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
 direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
 odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
@@ -40,7 +41,7 @@ from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
            "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "S_APER", "MAX_SURFACE_APERTURES", "APERTURE_COLS",
-           "APERTURE_SHAPE_CODES", "pack_geometry", "S_IDEAL", "S_IDEAL_ANY",
+           "APERTURE_SHAPE_CODES", "pack_geometry", "S_IDEAL",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
            "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
@@ -58,11 +59,10 @@ S_AXES = S_ORIGIN + 3
 S_APER = S_AXES + 9
 MAX_SURFACE_APERTURES = 2
 APERTURE_COLS = 8
-#: ideal paraxial lenses (Surface.ideal_focal_mm): the power 1/f at the surface (0: none), and a lens-wide flag in
-#: every row (1: the lens has one), so the kernels look for them only in lenses that have one
+#: ideal paraxial lenses (Surface.ideal_focal_mm): the power 1/f at the surface (0: none); only the general
+#: kernel variant looks at it (a lens with one is packed as a general lens)
 S_IDEAL = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
-S_IDEAL_ANY = S_IDEAL + 1
-SURF_COLS = S_IDEAL_ANY + 1
+SURF_COLS = S_IDEAL + 1
 APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
@@ -97,7 +97,6 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
         surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
         if s.ideal_focal_mm is not None:
             surf[i, S_IDEAL] = 1.0 / s.ideal_focal_mm
-    surf[:, S_IDEAL_ANY] = 1.0 if lens.has_ideal_lens else 0.0
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
     pack_geometry(lens, surf)
@@ -128,7 +127,7 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
     surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
-    if lens.is_centred and not lens.has_mirrors:
+    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens:
         return
     from ..prescription.frames import surface_frames, travel_signs
     signs = travel_signs(lens)
@@ -185,6 +184,12 @@ class PackedLens:
     @property
     def n_surfaces(self) -> int:
         return self.lens.n_surfaces
+
+    @property
+    def general(self) -> bool:
+        """Whether the kernels need the general variant (mirrors, frames or surface apertures:
+        ``S_GEOM`` set); a rotationally symmetric lens runs the symmetric one, which leaves that code out."""
+        return bool(self.host_surf[0, S_GEOM] != 0.0)
 
     @property
     def vertex_z_mm(self) -> np.ndarray:

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
-                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_GEOM, S_IDEAL_ANY, S_KP1, S_NASPH,
+                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_GEOM, S_IDEAL, S_KP1, S_NASPH,
                    S_SD2, S_THICK)
 
 __all__ = ["PLANE", "SPHERE", "CONIC", "ASPHERE", "IRIS_NONE", "IRIS_CIRCLE", "IRIS_POLYGON", "MediumShape",
@@ -71,7 +71,7 @@ class LensShape:
     same_index: tuple[bool, ...]
     #: mirrors or coordinate transforms (pack.S_GEOM): only the generic kernel traces those
     geometry: bool = False
-    #: an ideal paraxial lens (pack.S_IDEAL_ANY): only the generic kernel traces it
+    #: an ideal paraxial lens (pack.S_IDEAL): only the generic kernel traces it (general variant)
     ideal: bool = False
 
 
@@ -178,7 +178,8 @@ def lens_shape(surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray, clip: 
         if mode == IRIS_CIRCLE:
             blades = 0
     return LensShape(n, tuple(kinds), tuple(n_asph), tuple(clips), stop, mode, blades, obstruction, rounded,
-                     mshapes, tuple(same), bool(surf[0, S_GEOM] != 0.0), bool(surf[0, S_IDEAL_ANY] != 0.0))
+                     mshapes, tuple(same), bool(surf[0, S_GEOM] != 0.0),
+                     bool((surf[:, S_IDEAL] != 0.0).any()))
 
 
 def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray) -> np.ndarray:
