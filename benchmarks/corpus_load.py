@@ -110,11 +110,12 @@ def own_corpus_report(opts: dict) -> dict:
         names = ", ".join(f"`{n}`" for n, r in res.items()
                           if r != "ok" and (rules.refusal_rule(r) or f"no named rule: {r.split(': ', 1)[-1][:60]}") == reason)
         print(f"| {reason} | {count}: {names} |")
-    print("\n| file | stated EFL (mm) | lensrt EFL (mm) | difference |\n| --- | --- | --- | --- |")
+    print("\n| file | stated EFL (mm) | held to | lensrt EFL (mm) | difference |\n| --- | --- | --- | --- | --- |")
     for name, entry in sorted(expected.items()):
         got = efl.get(name)
         diff = f"{(got - entry['efl_mm']) / entry['efl_mm']:+.2%}" if got is not None else "not loaded"
-        print(f"| `{name}` | {entry['efl_mm']:g} | {'' if got is None else f'{got:.4f}'} | {diff} |")
+        held = f"{rules.NOMINAL_TOLERANCE:.0%} (nominal)" if entry.get("nominal") else "1%"
+        print(f"| `{name}` | {entry['efl_mm']:g} | {held} | {'' if got is None else f'{got:.4f}'} | {diff} |")
     return res
 
 

@@ -39,28 +39,11 @@ KNOWN_GAPS: dict[str, tuple[str, str]] = {
         "refusal",
         "CODE V curvature solve `CUY UMY -0.1` on the last surface: the reader stops with "
         "\"CUY 'UMY' is not a number\", which names no rule (solves are not read; lensrt should say so)"),
-    "petzval.12deg.50.0mm.dat": (
-        "refusal",
-        "ISET's variant of the pbrt lens table has a focal-length line before the rows; the reader stops with "
-        "'1 columns where a pbrt lens row has 4' instead of reading or naming the variant"),
-    "AC080-010-A.zmx": (
-        "efl",
-        "Thorlabs' nominal f = 10 mm is rounded: the file's own prescription gives 10.105 mm (+1.05 %) in lensrt "
-        "and in optiland 0.6.3's paraxial trace of the same file (10.1051), so the 1 % rule against the NAME "
-        "line fails without a lensrt error"),
-    "Otus55.zmx": (
-        "efl",
-        "the NAME line's 55 mm is the marketed focal length of the lens this file models; the prescription's EFL is "
-        "53.912 mm in lensrt and 53.912 mm in an independent y-nu trace with the GLAS lines' n_d (-2.0 %)"),
-    "leica-noctilux-50mm-f1-01.zmx": (
-        "efl",
-        "the NAME line's 50 mm is the marketed focal length; the prescription's EFL is 51.461 mm in lensrt and "
-        "51.461 mm in an independent y-nu trace with the GLAS lines' n_d (+2.9 %)"),
-    "JP1993-034592_Example02.zmx": (
-        "efl",
-        "the NAME line's 14 mm is the marketed focal length (Canon EF 14 mm); the patent example's EFL is 14.2012 mm "
-        "in lensrt and 14.2013 mm in an independent y-nu trace with the GLAS lines' n_d (+1.4 %)"),
 }
+
+#: a stated focal length marked ``nominal = true`` in expected.toml (a rounded or marketed number, with the evidence
+#: that the design value differs) is held to this instead of 1 %: it still catches a wrong glass or geometry
+NOMINAL_TOLERANCE = 0.03
 
 
 def _outcome(name: str) -> dict:
@@ -116,11 +99,20 @@ def test_stated_focal_length(outcomes: dict, name: str) -> None:
     if result["status"] != "ok":
         pytest.skip(f"not loaded ({result.get('message', '')[:80]}); the EFL is checked once it loads")
     stated = EXPECTED[name]["efl_mm"]
+    tol = NOMINAL_TOLERANCE if EXPECTED[name].get("nominal", False) else 0.01
     rel = (result["efl_mm"] - stated) / stated
-    assert abs(rel) <= 0.01, f"{name}: lensrt EFL {result['efl_mm']:.4f} mm vs stated {stated} mm ({rel:+.2%})"
+    assert abs(rel) <= tol, f"{name}: lensrt EFL {result['efl_mm']:.4f} mm vs stated {stated} mm ({rel:+.2%})"
 
 
-@pytest.mark.xfail(strict=True, reason="issue 25 asks for >= 85 % of the corpus to load; see docs/guide/corpus.md")
+def test_nominal_values_carry_their_evidence() -> None:
+    """A value exempt from the 1 % rule says why, with the design value that differs (never silently)."""
+    nominal = {n: e for n, e in EXPECTED.items() if e.get("nominal", False)}
+    assert nominal, "expected.toml documents the nominal rule; some entries use it"
+    for name, entry in nominal.items():
+        assert len(entry.get("evidence", "")) > 40, f"{name}: nominal = true without evidence"
+    assert all(set(e) <= {"efl_mm", "source", "nominal", "evidence"} for e in EXPECTED.values())
+
+
 def test_load_rate_reaches_85_percent(outcomes: dict) -> None:
     loaded = sum(r["status"] == "ok" for r in outcomes.values())
     assert loaded / len(outcomes) >= 0.85, f"{loaded}/{len(outcomes)} load"
