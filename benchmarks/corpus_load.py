@@ -119,11 +119,12 @@ def own_corpus_report(opts: dict) -> dict:
     return res
 
 
-def line_nd_efl_mm(path: Path) -> float:
+def line_nd_efl_mm(path: Path, text: str | None = None) -> float:
     """Independent paraxial EFL of a Zemax file from its CURV/DISZ and the n_d written on each GLAS line
-    (y-nu trace, object at infinity; no lensrt code). For files whose GLAS lines carry real n_d values."""
+    (y-nu trace, object at infinity; no lensrt code). For files whose GLAS lines carry real n_d values.
+    ``text``: the decoded file, when it is not plain UTF-8 (OpticStudio's UTF-16)."""
     surfaces, current = [], None
-    for line in path.read_text(errors="replace").splitlines():
+    for line in (text if text is not None else path.read_text(errors="replace")).splitlines():
         words = line.split()
         if not words:
             continue

@@ -11,8 +11,9 @@ Order (:func:`resolve_glass`):
    name or alias (``F_SILICA``, ``CAF2``, ``GERMANIUM`` ...) and the obsolete
    glasses of the 1980 catalogs (:mod:`~lensrt.prescription.robb1983`: Schott
    ``BK7``, ``SK19``, ``KZFSN5``) -- with a warning naming the catalog used;
-   then a vendor's variant name that no catalog lists (Ohara ``S-LAL7Q`` ->
-   ``S-LAL7``), only where the line's n_d/V_d confirm it;
+   then another grade of a vendor's glass for a name that no catalog lists
+   (Ohara ``S-LAL7Q`` -> ``S-LAL7``, Schott ``LF5HT`` -> ``LF5HTi``), only where
+   the line's n_d/V_d confirm it;
 3. only with ``substitute``: a successor or another vendor's equivalent
    (``SK16`` -> ``N-SK16``), with a warning naming both glasses and the index
    difference at the primary wavelength;
@@ -46,8 +47,8 @@ from .rii import find_rii_glass, find_rii_material
 from .robb1983 import find_robb_glass
 
 __all__ = ["GlassPolicy", "glass_policy", "current_policy", "user_catalogs", "resolve_glass", "GlassRequest",
-           "LINE_TOLERANCE", "NEAREST_TOLERANCE",
-           "VARIANT_SUFFIXES", "VARIANT_TOLERANCE", "split_catalog_suffix", "lookup_any", "vendor_of", "nearest_glass"]
+           "LINE_TOLERANCE", "NEAREST_TOLERANCE", "VARIANT_SUFFIXES", "VARIANT_TOLERANCE", "CATALOG_PREFIXES",
+           "split_catalog_suffix", "lookup_any", "vendor_of", "nearest_glass"]
 
 #: largest |n_d(line) - n_d(catalog)| taken without a word
 LINE_TOLERANCE = 1e-3
@@ -141,7 +142,14 @@ def _in_catalogs(name: str, cats: Sequence[str], agfs: Sequence[AgfCatalog]) -> 
             return g
     if not cats:
         return None
-    return find_rii_glass(name, tuple(cats)) or find_robb_glass(name, tuple(cats))
+    g = find_rii_glass(name, tuple(cats)) or find_robb_glass(name, tuple(cats))
+    for cat in cats if g is None else ():
+        prefix = CATALOG_PREFIXES.get(cat.upper())
+        if prefix and name.upper().startswith(prefix) and len(name) > len(prefix):
+            g = find_rii_glass(name[len(prefix):], (cat,))
+            if g is not None:
+                break
+    return g
 
 
 def vendor_of(catalog: str, agfs: Sequence[AgfCatalog] = ()) -> str | None:
@@ -216,24 +224,32 @@ def _provenance(glass: Material, req: GlassRequest, out: list[LoadWarning]) -> N
                                f"only: {glass.formula}", req.surface, req.line))
 
 
-#: variant suffixes a vendor adds to a glass without changing its n_d/V_d: Ohara's ``Q`` (its catalog's
-#: S-LAL54Q, S-LAH52Q and S-LAH63Q list the same n_d and V_d as S-LAL54, S-LAH52 and S-LAH63)
-VARIANT_SUFFIXES: dict[str, str] = {"Ohara": "Q"}
-#: how close the line's (n_d, V_d) must be to the base glass's for a variant name to be read as that glass
+#: suffixes a vendor adds to a glass without changing its n_d/V_d: Ohara's ``Q`` (its catalog's S-LAL54Q, S-LAH52Q
+#: and S-LAH63Q list the same n_d and V_d as S-LAL54, S-LAH52 and S-LAH63) and Schott's transmission grades ``HT``,
+#: ``HTi``, ``HTultra`` (N-BK7 = N-BK7HT = N-BK7HTi: 1.5168/64.17); the first entry is the plain name
+VARIANT_SUFFIXES: dict[str, tuple[str, ...]] = {"Ohara": ("", "Q"), "Schott": ("", "HT", "HTi", "HTultra")}
+#: how close the line's (n_d, V_d) must be to the other grade's for a variant name to be read as that glass
 VARIANT_TOLERANCE = (1e-3, 0.5)
+#: the prefix OpticStudio's catalog of a vendor puts before that vendor's glass names (``LZ_K8`` in LZOS.AGF)
+CATALOG_PREFIXES: dict[str, str] = {"LZOS": "LZ_"}
 
 
 def _variant(base: str, req: GlassRequest) -> CatalogGlass | None:
-    """The base glass of a vendor variant name (``S-LAL7Q`` -> Ohara ``S-LAL7``) that no catalog lists.
+    """Another grade of a vendor's glass for a name that no catalog lists (``S-LAL7Q`` -> Ohara ``S-LAL7``,
+    ``LF5HT`` -> Schott ``LF5HTi``).
 
     Taken only when the line's n_d and V_d confirm it within :data:`VARIANT_TOLERANCE` (the catalogs
-    cannot: they do not list the variant).
+    cannot: they do not list the name).
     """
     if req.nd is None or req.vd is None:
         return None
-    for vendor, suffix in VARIANT_SUFFIXES.items():
-        if len(base) > len(suffix) + 1 and base.upper().endswith(suffix):
-            g = find_exact_vendor_glass(base[: -len(suffix)], vendor)
+    for vendor, suffixes in VARIANT_SUFFIXES.items():
+        own = max((s for s in suffixes if base.upper().endswith(s.upper())), key=len)
+        root = base[: len(base) - len(own)]
+        for other in suffixes:
+            if other == own or not root:
+                continue
+            g = find_exact_vendor_glass(root + other, vendor) or find_rii_glass(root + other, (vendor,))
             if g is None:
                 continue
             nd = float(g.index(FRAUNHOFER_NM["d"]))
@@ -297,8 +313,8 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
     g = _variant(base, req)
     if g is not None:
         out.append(LoadWarning("glass_variant", f"glass {name}: in no catalog lensrt has; read as {g.describe()} "
-                               f"from {g.source}, a variant name of it, as the line's n_d = {req.nd:g}, V_d = "
-                               f"{req.vd:g} confirm (n_d differs by "
+                               f"from {g.source}, another grade of the same glass, as the line's n_d = "
+                               f"{req.nd:g}, V_d = {req.vd:g} confirm (n_d differs by "
                                f"{float(g.index(FRAUNHOFER_NM['d'])) - req.nd:+.2e})",
                                req.surface, req.line))
         return g, out

@@ -79,6 +79,8 @@ def test_four_pole_page_folded_exactly_enough() -> None:
     ("SK19_Schott", None, None, None, "SK19", "glass_obsolete"),                    # rayoptics achroMangin.seq
     ("B270", ("SCHOTT",), 1.5, 40.0, "B270", "glass_fitted"),                        # Thorlabs ACL2520-A
     ("S-LAL7Q", ("SCHOTT", "OHARA"), 1.6516, 58.54, "S-LAL 7", "glass_variant"),     # US 2025/0155694
+    ("LF5HT", ("SCHOTT", "HOYA"), 1.58148, 40.9, "LF5", "glass_variant"),           # Beam42 Noct-Nikkor 58 mm
+    ("LZ_K8", ("LZOS", "HIKARI"), None, None, "K8", "glass_fitted"),                # ZemaxUtils (LZOS.AGF's prefix)
 ])
 def test_corpus_glass_names_resolve_with_a_warning(name, cats, nd, vd, found, code) -> None:
     mat, out = resolve_glass(GlassRequest(name, cats, nd, vd))
