@@ -4,7 +4,7 @@ Files come from the repository snapshots that the session's ``fetch`` tool mirro
 ``/work/.mirror``: one bare git directory per repository, ``owner+name/repo``), read straight from git, or from
 paths given on the command line. Excluded: every file whose text equals one the project ships
 (``tests/data/**``) or one of the peer corpora (rayoptics' and optiland's test folders), and any path inside a
-``tests`` folder of rayoptics or optiland. At most ``--max-per-repo`` files per repository, drawn with ``--seed``.
+``tests`` folder of rayoptics or optiland (:data:`PEER_REPOS`). At most ``--max-per-repo`` files per repository, drawn with ``--seed``.
 
 For each file: loads, or the refusal's first line (grouped by the rules of ``tests/prescription/test_corpus.py``),
 or a traceback (a bug). For each Zemax file whose GLAS lines carry n_d (and no mirror or coordinate break),
@@ -34,7 +34,8 @@ sys.path.insert(0, str(HERE))
 import corpus_load  # noqa: E402 - the sibling benchmark: try_load, line_nd_efl_mm, the corpus rules
 
 EXTENSIONS = (".zmx", ".seq")
-PEER_TEST_DIRS = ("rayoptics/zemax/tests", "rayoptics/codev/tests", "optiland/tests", "tests/zemax_files")
+#: repositories whose test folders the peer corpora are (issue 22/24 use them): no file under a ``tests`` folder
+PEER_REPOS = ("mjhoptics/ray-optics", "HarrisonKramer/optiland")
 
 
 def _digest(data: bytes) -> str:
@@ -56,17 +57,18 @@ def shipped_digests() -> set[str]:
 
 def mirror_files(root: Path, max_per_repo: int, seed: int, out: Path, skip: set[str]) -> list[tuple[str, Path]]:
     """Lens files of every mirrored repository, written to ``out``: [(repo/path@commit, local path)]."""
-    rng = random.Random(seed)
     chosen = []
     for git_dir in sorted(root.glob("*/repo")):
         repo = git_dir.parent.name.replace("+", "/", 1)
+        rng = random.Random(f"{seed}:{repo}")  # per repository: adding a mirror leaves the others' draws alone
         run = lambda *a: subprocess.run(["git", "-C", str(git_dir), *a], capture_output=True, check=True).stdout
         try:
             commit = run("rev-parse", "HEAD").decode().strip()
             names = run("ls-tree", "-r", "--name-only", "-z", "HEAD").decode().split("\0")
         except subprocess.CalledProcessError:
             continue
-        names = [n for n in names if n.lower().endswith(EXTENSIONS) and not any(d in n for d in PEER_TEST_DIRS)]
+        names = [n for n in names if n.lower().endswith(EXTENSIONS)
+                 and not (repo in PEER_REPOS and "tests/" in n)]
         rng.shuffle(names)
         taken, seen = 0, set()
         for name in names:
