@@ -157,14 +157,17 @@ def own_corpus_oracles() -> None:
     from lensrt.loading import load_lens
     from lensrt.paraxial import first_order
     print("\n| file | lensrt EFL (mm) | oracle | oracle EFL (mm) | relative difference |\n| --- | --- | --- | --- | --- |")
+    # against optiland, "EFL" is the rear focal length n'/Phi on both sides (= 1/Phi in air)
     for path in sorted(OWN.glob("*.zmx")):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if try_load(path) != "ok":
                 continue
-            mine = first_order(load_lens(path)).efl_mm
-            try:
+            fo = first_order(load_lens(path))
+            mine = fo.efl_mm
+            try:  # optiland's f2 is the rear focal length n'/Phi (an immersion objective's image space is water)
                 ref, how = float(be.to_numpy(load_zemax_file(str(path)).paraxial.f2())), "optiland"
+                mine = fo.rear_focal_length_mm
             except Exception:  # noqa: BLE001 - optiland cannot read every file; fall back to the line's n_d
                 ref, how = line_nd_efl_mm(path), "y-nu, line n_d"
         print(f"| `{path.name}` | {mine:.5f} | {how} | {ref:.5f} | {(mine - ref) / ref:+.1e} |")

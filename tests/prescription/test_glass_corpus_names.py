@@ -123,3 +123,22 @@ def test_corpus_files_with_these_glasses_load() -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             load_lens(CORPUS / f)
+
+
+def test_obsolete_glass_patent_matches_rayoptics() -> None:
+    """DiffOptics' US 2,532,751 double Gauss names Schott SSK4, SK1, F15, SK16 (1980) with placeholder lines
+    (1.5, 40): rayoptics (test-only oracle) reads the same Robb & Mercado data as Buchdahl models; the EFLs agree
+    (issue 25 quoted 27.4 mm for this lens, and 22.9 mm loaded before)."""
+    pytest.importorskip("rayoptics")
+    from rayoptics.environment import open_model
+
+    from lensrt.paraxial import first_order
+    path = CORPUS / "US02532751-1.zmx"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lens = load_lens(path)
+        om = open_model(str(path))
+        om.update_model()
+    assert [s.material.catalog for s in lens.surfaces if not s.material.is_air] == ["Schott 1980"] * 6
+    theirs = om["analysis_results"]["parax_data"].fod.efl
+    assert first_order(lens).efl_mm == pytest.approx(theirs, rel=2e-5)
