@@ -36,12 +36,7 @@ REFUSAL_RULES: dict[str, str] = {
 }
 
 #: files whose outcome is a known gap: file -> (kind, reason); xfail(strict=True) in the matching test
-KNOWN_GAPS: dict[str, tuple[str, str]] = {
-    "opticspy_singlet.seq": (
-        "refusal",
-        "CODE V curvature solve `CUY UMY -0.1` on the last surface: the reader stops with "
-        "\"CUY 'UMY' is not a number\", which names no rule (solves are not read; lensrt should say so)"),
-}
+KNOWN_GAPS: dict[str, tuple[str, str]] = {}
 
 #: a stated focal length marked ``nominal = true`` in expected.toml (a rounded or marketed number, with the evidence
 #: that the design value differs) is held to this instead of 1 %: it still catches a wrong glass or geometry
@@ -148,4 +143,4 @@ def test_refusal_rules_recognise_their_messages() -> None:
     }
     for rule, message in samples.items():
         assert refusal_rule(message) == rule
-    assert refusal_rule("CUY 'UMY' is not a number") is None
+    assert refusal_rule("CUY 'UMY' is not a number") is None  # (solves are read now: codev_solves)
