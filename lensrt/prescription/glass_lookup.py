@@ -182,6 +182,11 @@ def lookup_any(name: str, agfs: Sequence[AgfCatalog] = ()) -> CatalogGlass | Non
         g = find_exact_vendor_glass(name, cat)
         if g is not None:
             return g
+    for cat, prefix in CATALOG_PREFIXES.items():  # OpticStudio's LZ_K8 without its GCAT LZOS
+        if name.upper().startswith(prefix) and len(name) > len(prefix):
+            g = find_rii_glass(name[len(prefix):], (cat,))
+            if g is not None:
+                return g
     return find_rii_glass(name) or find_robb_glass(name)
 
 

@@ -207,13 +207,21 @@ def load_page(page: str, name: str, catalog: str, range_is_limit: bool) -> Catal
                                     hint="give the glass as an .agf catalog entry or an n_d/V_d model") from None
         return CatalogGlass(name=name, catalog=catalog, coefficients=packed, range_nm=(lo, hi),
                             source=f"refractiveindex.info {database_version()}: {page}",
-                            formula=f"refractiveindex.info {kind}", range_is_limit=range_is_limit)
+                            formula=f"refractiveindex.info {kind}" + _folded_note(kind, coefs),
+                            range_is_limit=range_is_limit)
     fitted = _fit_table(doc, page, name, catalog, range_is_limit)
     if fitted is not None:
         return fitted
     raise PrescriptionError(f"{name}: the refractiveindex.info page {page} has no formula and no table lensrt "
                             f"can fit within {TABLE_FIT_TOLERANCE:g}",
                             hint="lensrt needs a dispersion formula; use another page or an .agf catalog")
+
+
+def _folded_note(kind: str, coefs: list[float]) -> str:
+    """Say so when a Sellmeier page's fourth pole was folded into power terms (:func:`_fold_far_poles`)."""
+    poles = [c for c in coefs[1::2] if c != 0.0] if kind in ("formula 1", "formula 2") else []
+    return f" (its far-infrared pole beyond the third folded into w^2, w^4 terms, < {FOLD_TOLERANCE:g} in n^2)" \
+        if len(poles) > 3 else ""
 
 
 def _fit_table(doc: dict, page: str, name: str, catalog: str, range_is_limit: bool) -> CatalogGlass | None:

@@ -66,6 +66,7 @@ def test_four_pole_page_folded_exactly_enough() -> None:
     formula, evaluated here term by term, within 1e-6 over its range and 1e-9 in the visible."""
     g = find_rii_glass("NICF-A")
     c = [0, 0.581797965, 0.002477442, 0.373232342, 0.01032026, 0.083677196, 0.010323473, 2.36293749, 738.225998]
+    assert "folded" in g.formula
     for lo, hi, tol in ((g.range_nm[0], g.range_nm[1], 1e-6), (400.0, 700.0, 1e-9)):
         w_um = np.linspace(lo, hi, 41) / 1000.0
         n = np.sqrt(1 + sum(c[i] * w_um ** 2 / (w_um ** 2 - c[i + 1]) for i in (1, 3, 5, 7)))
@@ -96,6 +97,13 @@ def test_nicf_a_found_in_the_files_catalog() -> None:
                                           1.43387, 95.1))
     assert mat.catalog == "Hikari" and abs(float(mat.index(FRAUNHOFER_NM["d"])) - 1.43387) < 1e-4
     assert out == []
+
+
+def test_lzos_prefix_without_its_catalog() -> None:
+    """LZ_K8 with no GCAT: still LZOS's K8, with a warning that names the database page it came from."""
+    mat, out = resolve_glass(GlassRequest("LZ_K8", None))
+    assert (mat.name, mat.catalog) == ("K8", "LZOS")
+    assert {"glass_other_catalog", "glass_fitted"} <= set(_codes(out))
 
 
 def test_variant_needs_the_line_to_confirm() -> None:
