@@ -55,7 +55,10 @@ def robb_table() -> dict[str, dict[str, tuple[str, float, float, float]]]:
     """Catalog -> normalised glass name -> (name as printed, N0, nu1, nu2), read from opticalglass's data file."""
     out: dict[str, dict[str, tuple[str, float, float, float]]] = {}
     catalog = None
-    for line in _data_file().read_text(encoding="utf-8", errors="replace").splitlines():
+    path = _data_file()
+    if not path.is_file():  # an opticalglass without the table: no 1980 glasses, never a traceback
+        return out
+    for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
         if line.startswith("#"):
             if "GLASS CATALOGUE" in line:
                 head = line[1:].split()[0].upper()
