@@ -19,12 +19,13 @@ import warp as wp
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
                     IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_GEOM, S_KIND, S_KP1,
                     S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
-                    APERTURE_COLS)
+                    APERTURE_COLS, S_X, X_CX, X_KXP1, X_NT, X_RN, X_TERMS)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
-__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
+__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "even_terms", "radial_terms", "shape_sag_grad",
+           "intersect_shape", "intersect", "refract", "reflect",
            "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
@@ -124,6 +125,194 @@ def sag_slope(surf: wp.array2d(dtype=Any), i: int, c: Any, kp1: Any, r2: Any):
 
 
 @wp.func
+def even_terms(surf: wp.array2d(dtype=Any), i: int, r2: Any):
+    # sum a_j r^(2j+2) and its derivative d/d(r^2) (the even asphere block), Horner
+    nasph = int(surf[i, S_NASPH])
+    poly = type(r2)(0.0)
+    dpoly = type(r2)(0.0)
+    for jj in range(nasph):
+        j = nasph - 1 - jj
+        a = surf[i, S_ASPH + j]
+        poly = poly * r2 + a
+        dpoly = dpoly * r2 + type(r2)(j + 1) * a
+    return poly * r2, dpoly
+
+
+@wp.func
+def radial_terms(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: Any, r2: Any):
+    # a rotational shape's departure from the conic and (d/dr) / r of it (lensrt.prescription.shapes._radial)
+    rn = surf[i, S_X + X_RN]
+    nt = int(surf[i, S_X + X_NT])
+    x = r2 / (rn * rn)
+    z = type(r2)(0.0)
+    g = type(r2)(0.0)
+    if kind == 3:  # odd: sum a_{i-1} u^i
+        r = wp.sqrt(r2)
+        u = r / rn
+        poly = type(r2)(0.0)
+        dpoly = type(r2)(0.0)
+        for jj in range(nt):
+            j = nt - jj
+            a = surf[i, S_X + X_TERMS + j - 1]
+            poly = poly * u + a
+            dpoly = dpoly * u + type(r2)(j) * a
+        z = poly * u
+        if r > type(r2)(0.0):
+            g = dpoly / (rn * r)
+    elif kind == 4:  # Q^bfs: Clenshaw on P_m (terms already in the P basis)
+        p = type(r2)(2.0) - type(r2)(4.0) * x
+        a1 = type(r2)(0.0)
+        a2 = type(r2)(0.0)
+        d1 = type(r2)(0.0)
+        d2 = type(r2)(0.0)
+        for jj in range(nt):
+            b = surf[i, S_X + X_TERMS + nt - 1 - jj]
+            a0 = b + p * a1 - a2
+            d0 = p * d1 - type(r2)(4.0) * a1 - d2
+            a2 = a1
+            a1 = a0
+            d2 = d1
+            d1 = d0
+        sq = type(r2)(2.0) * a1
+        dsq = type(r2)(2.0) * d1
+        if nt > 1:
+            sq = sq + type(r2)(2.0) * a2
+            dsq = dsq + type(r2)(2.0) * d2
+        c2 = c * c
+        num = type(r2)(1.0) - (kp1 - type(r2)(1.0)) * c2 * r2
+        den = type(r2)(1.0) - kp1 * c2 * r2
+        phi = wp.sqrt(num / den)
+        dphi = c2 / (wp.sqrt(num) * den * wp.sqrt(den))
+        d = x * (type(r2)(1.0) - x) * sq
+        dd = (type(r2)(1.0) - type(r2)(2.0) * x) * sq + x * (type(r2)(1.0) - x) * dsq
+        z = phi * d
+        g = dphi * d + phi * dd * type(r2)(2.0) / (rn * rn)
+    else:  # Q^con: Clenshaw on the Jacobi P^(0,4) recurrence in t = 2x - 1 (shapes.jacobi04_abc)
+        t = type(r2)(2.0) * x - type(r2)(1.0)
+        b1 = type(r2)(0.0)
+        b2 = type(r2)(0.0)
+        d1 = type(r2)(0.0)
+        d2 = type(r2)(0.0)
+        for jj in range(nt):
+            n = nt - 1 - jj
+            fn = type(r2)(n)
+            A = (type(r2)(2.0) * fn + type(r2)(5.0)) * (type(r2)(2.0) * fn + type(r2)(6.0)) / (
+                type(r2)(2.0) * (fn + type(r2)(1.0)) * (fn + type(r2)(5.0)))
+            B = type(r2)(-8.0) * (type(r2)(2.0) * fn + type(r2)(5.0)) / (
+                (fn + type(r2)(1.0)) * (fn + type(r2)(5.0)) * (type(r2)(2.0) * fn + type(r2)(4.0)))
+            f1 = fn + type(r2)(1.0)
+            C = f1 * (f1 + type(r2)(4.0)) * (type(r2)(2.0) * f1 + type(r2)(6.0)) / (
+                (f1 + type(r2)(1.0)) * (f1 + type(r2)(5.0)) * (type(r2)(2.0) * f1 + type(r2)(4.0)))
+            a = surf[i, S_X + X_TERMS + n]
+            b0 = a + (A * t + B) * b1 - C * b2
+            d0 = A * b1 + (A * t + B) * d1 - C * d2
+            b2 = b1
+            b1 = b0
+            d2 = d1
+            d1 = d0
+        z = x * x * b1
+        g = (type(r2)(2.0) * x * b1 + x * x * type(r2)(2.0) * d1) * type(r2)(2.0) / (rn * rn)
+    return z, g
+
+
+@wp.func
+def shape_sag_grad(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: Any, x: Any, y: Any):
+    # sag z(x, y) and gradient of a surface kind >= 3 (lensrt.prescription.shapes.sag_grad); ok = 0 where
+    # the surface does not exist
+    ok = int(0)
+    z = type(x)(0.0)
+    zx = type(x)(0.0)
+    zy = type(x)(0.0)
+    one = type(x)(1.0)
+    if kind == 6:  # biconic
+        cx = surf[i, S_X + X_CX]
+        qx = surf[i, S_X + X_KXP1] * cx * cx * x * x
+        qy = kp1 * c * c * y * y
+        s2 = one - qx - qy
+        if s2 > type(x)(0.0):
+            s = wp.sqrt(s2)
+            num = cx * x * x + c * y * y
+            z = num / (one + s)
+            common = num / (s * (one + s) * (one + s))
+            zx = type(x)(2.0) * cx * x / (one + s) + common * surf[i, S_X + X_KXP1] * cx * cx * x
+            zy = type(x)(2.0) * c * y / (one + s) + common * kp1 * c * c * y
+            ok = int(1)
+    elif kind == 7:  # toroidal: the y-profile swept about the axis at z = 1 / cx
+        y2 = y * y
+        q = one - kp1 * c * c * y2
+        if q > type(x)(0.0):
+            root = wp.sqrt(q)
+            ez, edz = even_terms(surf, i, y2)
+            gy = c * y2 / (one + root) + ez
+            dg = type(x)(2.0) * y * (c / (type(x)(2.0) * root) + edz)
+            cx = surf[i, S_X + X_CX]
+            w = one - cx * gy
+            s2 = w * w - cx * cx * x * x
+            if s2 > type(x)(0.0) and w > type(x)(0.0):
+                s = wp.sqrt(s2)
+                z = gy + cx * x * x / (w + s)
+                zx = cx * x / s
+                zy = w * dg / s
+                ok = int(1)
+    else:  # rotational: odd, Q^bfs, Q^con over the conic + even asphere
+        r2 = x * x + y * y
+        q = one - kp1 * c * c * r2
+        if q > type(x)(0.0):
+            root = wp.sqrt(q)
+            ez, edz = even_terms(surf, i, r2)
+            dz, g = radial_terms(surf, i, kind, c, kp1, r2)
+            z = c * r2 / (one + root) + ez + dz
+            g = g + type(x)(2.0) * (c / (type(x)(2.0) * root) + edz)
+            zx = g * x
+            zy = g * y
+            ok = int(1)
+    return ok, z, zx, zy
+
+
+@wp.func
+def intersect_shape(surf: wp.array2d(dtype=Any), i: int, kind: int, x: Any, y: Any, z: Any, L: Any, M: Any,
+                    N: Any):
+    # Newton in 3-D from the base conic's root (lensrt.trace.ray_shapes); status, t, normal (nx, ny, 1)
+    c = surf[i, S_C]
+    kp1 = surf[i, S_KP1]
+    status = int(OK)
+    ok, t = conic_t(c, kp1, x, y, z, L, M, N)
+    if ok == 0:
+        if N == type(x)(0.0):
+            status = int(MISSED)
+        else:
+            t = -z / N
+    converged = int(0)
+    it = int(0)
+    while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
+        oks, sag, zx, zy = shape_sag_grad(surf, i, kind, c, kp1, x + t * L, y + t * M)
+        if oks == 0:
+            status = int(MISSED)
+        else:
+            df = N - (zx * L + zy * M)
+            if df == type(x)(0.0):
+                status = int(NO_CONVERGE)
+            else:
+                dt = (z + t * N - sag) / df
+                t = t - dt
+                if wp.abs(dt) <= newton_tol_mm(x):
+                    converged = int(1)
+        it = it + 1
+    nx = type(x)(0.0)
+    ny = type(x)(0.0)
+    if status == int(OK):
+        if converged == 0:
+            status = int(NO_CONVERGE)
+        else:
+            oks, sag, zx, zy = shape_sag_grad(surf, i, kind, c, kp1, x + t * L, y + t * M)
+            if oks == 0:
+                status = int(MISSED)
+            nx = -zx
+            ny = -zy
+    return status, t, nx, ny  # the normal (nx, ny, 1), not normalised
+
+
+@wp.func
 def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
     # returns status, t, unit normal (nx, ny, nz) toward +z
     c = surf[i, S_C]
@@ -145,7 +334,7 @@ def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: An
             nx = -c * px
             ny = -c * py
             nz = type(x)(1.0) - c * kp1 * pz
-    else:
+    elif kind == 2:
         ok, t = conic_t(c, kp1, x, y, z, L, M, N)
         if ok == 0:
             if N == type(x)(0.0):
@@ -183,6 +372,8 @@ def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: An
                 nx = type(x)(-2.0) * slope * px
                 ny = type(x)(-2.0) * slope * py
                 nz = type(x)(1.0)
+    else:  # a surface kind of lensrt.prescription.shapes (pack.SHAPE_KIND_CODES)
+        status, t, nx, ny = intersect_shape(surf, i, kind, x, y, z, L, M, N)
     inv = type(x)(1.0) / wp.sqrt(nx * nx + ny * ny + nz * nz)
     return status, t, nx * inv, ny * inv, nz * inv
 
