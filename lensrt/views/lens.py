@@ -34,8 +34,10 @@ def clipping(lens, i: int) -> str:
 
 
 def surface_kind(s) -> str:
-    """plane/sphere/conic/asph, with "mirror" and "tilt/dec" where they apply."""
+    """plane/sphere/conic/asph or the shape's kind (odd, qbfs, ...), with "mirror" and "tilt/dec" where they apply."""
     kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
+    if getattr(s, "shape", None) is not None:
+        kind = s.shape.kind
     if s.mirror:
         kind += " mirror"
     if s.transform_before is not None or s.transform_after is not None:

@@ -72,3 +72,28 @@ def test_newton_status_on_a_ray_that_misses_the_surface() -> None:
     # far outside the biconic's x extent (|x| > 1 / (|cx| sqrt(1 + kx)) ~ 14.9 mm): no surface there
     ref = trace_reference(lens, (16.0, 0.0, -2.0), (0.0, 0.0, 1.0), WL_NM, clip=False)
     assert ref.status != OK and ref.surface == 0
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_stream_kernel_traces_shapes(precision: str, device: str) -> None:
+    """The stream kernel (same surface code, rays generated in the kernel) through the Thorlabs Q^bfs asphere
+    with its stop on the aspheric surface: on axis the transmitted area is the stop circle's, pi r^2."""
+    import math
+    import warnings
+    from pathlib import Path
+
+    from lensrt.loading import load_lens
+    from lensrt.trace.sampling import spectrum_discrete
+    from lensrt.trace.stream import Grid, stream, stream_source
+    ro = pytest.importorskip("rayoptics")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lens = load_lens(str(Path(ro.__file__).parent / "zemax" / "tests" / "ASL5040-UV-Zemax(ZMX).zmx"))
+    wl = [lens.wavelengths.primary_nm]
+    src = stream_source(lens, 0.0, 0.0, wavelengths_nm=wl, device=device)
+    res = stream(lens, [src], Grid(32, 32, 0.01), 1 << 15, spectrum=spectrum_discrete(wl), sampler="sobol", seed=4,
+                 precision=precision, device=device)
+    assert res.extra["kernel"] == "generic"
+    area, se = res.transmitted_area_mm2(0)
+    r = lens.surfaces[lens.stop_index].semi_diameter_mm
+    assert 0 < se and abs(area - math.pi * r * r) < 4 * se + 1e-3 * math.pi * r * r
