@@ -31,6 +31,21 @@ swept about an axis parallel to y at z = R_x = 1 / cx (cx = 0: a cylinder along 
 
     z = g + cx x^2 / (w + sqrt(w^2 - cx^2 x^2)),   w = 1 - cx g
 
+``xy`` -- Zemax XPOLYNOM (extended polynomial), u = x / R_n, v = y / R_n, terms in the order
+x, y, x^2, x y, y^2, x^3, x^2 y, ... (degree by degree, falling powers of x)::
+
+    z = conic(c, k; r) + sum_j asphere_j r^(2j+2) + sum_i a_i u^p_i v^q_i
+
+``zernike`` -- Zemax SZERNSAG (Zernike standard sag): ``coefficients`` on Noll's normalised
+Zernike polynomials Z_1, Z_2, ... (Noll, JOSA 66, 207 (1976): Z_j = sqrt(n + 1) R_n^0 for m = 0,
+sqrt(2 (n + 1)) R_n^|m| cos(m theta) (even j) or sin(|m| theta) (odd j)) of (rho, theta) with
+rho = r / R_n, theta from +x toward +y::
+
+    z = conic(c, k; r) + sum_j asphere_j r^(2j+2) + sum_j A_j Z_j(rho, theta)
+
+Both are evaluated as one polynomial in (u, v) (:func:`zernike_to_xy` expands the Zernike terms
+once per surface), by Horner's rule in u within Horner's rule in v.
+
 The Q polynomials are summed by Clenshaw's recurrence: Q^bfs after Forbes's change of basis to
 P_m (P_{m+1} = (2 - 4x) P_m - P_{m-1}; :func:`qbfs_to_p_basis`, done once per surface), Q^con by
 the Jacobi three-term recurrence (DLMF 18.9.2). Both the NumPy reference tracer
@@ -46,15 +61,18 @@ from typing import Sequence
 
 from ..errors import PrescriptionError
 
-__all__ = ["SHAPE_KINDS", "ROTATIONAL_KINDS", "MAX_SHAPE_TERMS", "SurfaceShape", "Profile", "profile_of",
+__all__ = ["SHAPE_KINDS", "ROTATIONAL_KINDS", "POLYNOMIAL_KINDS", "MAX_SHAPE_TERMS", "poly_degree", "noll_nm",
+           "zernike_to_xy", "SurfaceShape", "Profile", "profile_of",
            "sag_grad", "qbfs_to_p_basis", "qbfs_sum", "qcon_sum", "jacobi04_abc", "vertex_expansion"]
 
 #: the surface kinds a :class:`SurfaceShape` may name
-SHAPE_KINDS = ("odd", "qbfs", "qcon", "biconic", "toroidal")
+SHAPE_KINDS = ("odd", "qbfs", "qcon", "biconic", "toroidal", "xy", "zernike")
 #: kinds whose sag depends on r only
 ROTATIONAL_KINDS = ("odd", "qbfs", "qcon")
-#: most terms a shape may carry (Zemax's extended surfaces allow up to 480; 40 covers every real file seen)
-MAX_SHAPE_TERMS = 40
+#: kinds evaluated as a polynomial in (x, y) over the conic + even asphere
+POLYNOMIAL_KINDS = ("xy", "zernike")
+#: most terms a shape may carry (Zemax's extended surfaces allow up to 480; 66 is an XY polynomial of degree 10)
+MAX_SHAPE_TERMS = 66
 
 
 def _num(v: object, what: str) -> float:
@@ -92,6 +110,9 @@ class SurfaceShape:
         if len(coef) > MAX_SHAPE_TERMS:
             raise PrescriptionError(f"{self.kind} surface with {len(coef)} terms; lensrt takes at most "
                                     f"{MAX_SHAPE_TERMS}", hint="drop the trailing (zero) terms")
+        if len(coef) > MAX_SHAPE_TERMS - 1 and self.kind == "xy":
+            raise PrescriptionError(f"xy surface with {len(coef)} terms; lensrt takes at most {MAX_SHAPE_TERMS - 1}",
+                                    hint="drop the trailing (zero) terms")
         if coef and self.kind in ("biconic", "toroidal"):
             raise PrescriptionError(f"a {self.kind} surface takes no polynomial coefficients",
                                     hint="give the y-profile's even asphere terms as the surface's asphere")
@@ -208,9 +229,81 @@ def profile_of(surface: object, sign: float = 1.0) -> Profile:
     asph = tuple(getattr(surface, "asphere"))
     if sh is None:
         return Profile("even", sign * c, k, tuple(sign * a for a in asph), (), 1.0, 0.0, 0.0)
-    terms = qbfs_to_p_basis(sh.coefficients) if sh.kind == "qbfs" else sh.coefficients
+    if sh.kind == "qbfs":
+        terms = qbfs_to_p_basis(sh.coefficients)
+    elif sh.kind == "xy":  # the constant term first, then padded to a whole triangle of degrees
+        terms = _triangle((0.0,) + sh.coefficients)
+    elif sh.kind == "zernike":
+        terms = zernike_to_xy(sh.coefficients)
+    else:
+        terms = sh.coefficients
     return Profile(sh.kind, sign * c, k, tuple(sign * a for a in asph), tuple(sign * a for a in terms),
                    sh.norm_radius_mm, sign * sh.curvature_x_per_mm, sh.conic_x)
+
+
+def _triangle(t: Sequence[float]) -> tuple[float, ...]:
+    """``t`` padded with zeros to (D + 1)(D + 2) / 2 terms: every monomial of degree <= D."""
+    d = poly_degree(len(t))
+    return tuple(t) + (0.0,) * ((d + 1) * (d + 2) // 2 - len(t))
+
+
+def poly_degree(n_terms: int) -> int:
+    """Smallest degree D whose triangle (D + 1)(D + 2) / 2 holds ``n_terms`` monomials."""
+    d = 0
+    while (d + 1) * (d + 2) // 2 < n_terms:
+        d += 1
+    return d
+
+
+def noll_nm(j: int) -> tuple[int, int]:
+    """Radial order n and signed azimuthal order m of Noll's Z_j (j >= 1; m < 0: sin, m > 0: cos)."""
+    n = int((math.isqrt(8 * (j - 1) + 1) - 1) // 2)
+    p = j - n * (n + 1) // 2
+    k = n % 2
+    m = 2 * ((p + k) // 2) - k
+    return n, (m if j % 2 == 0 else -m) if m else 0
+
+
+def zernike_to_xy(coefficients: Sequence[float]) -> tuple[float, ...]:
+    """Monomial coefficients (u^(d-k) v^k at d (d + 1) / 2 + k) of sum_j A_j Z_j (Noll, normalised)."""
+    if not coefficients:
+        return ()
+    deg = max(noll_nm(j + 1)[0] for j in range(len(coefficients)))
+    out = [0.0] * ((deg + 1) * (deg + 2) // 2)
+    for j, a in enumerate(coefficients):
+        if a == 0.0:
+            continue
+        n, m = noll_nm(j + 1)
+        am = abs(m)
+        norm = math.sqrt(n + 1.0) if m == 0 else math.sqrt(2.0 * (n + 1.0))
+        # (u + i v)^|m|: its real (cos) or imaginary (sin) part, as {power of v: coefficient} with u^(|m| - b)
+        ang = {b: math.comb(am, b) * (1, 0, -1, 0)[b % 4] for b in range(0, am + 1) if b % 2 == 0} if m >= 0 else \
+            {b: math.comb(am, b) * (0, 1, 0, -1)[b % 4] for b in range(1, am + 1, 2)}
+        for s_ in range((n - am) // 2 + 1):
+            rad = (-1) ** s_ * math.factorial(n - s_) / (
+                math.factorial(s_) * math.factorial((n + am) // 2 - s_) * math.factorial((n - am) // 2 - s_))
+            q = (n - 2 * s_ - am) // 2  # rho^(n - 2s) = rho^|m| (u^2 + v^2)^q
+            for t in range(q + 1):  # (u^2 + v^2)^q = sum C(q, t) u^(2(q-t)) v^(2t)
+                for b, cb in ang.items():
+                    pv = 2 * t + b
+                    d = 2 * q + am
+                    out[d * (d + 1) // 2 + pv] += a * norm * rad * math.comb(q, t) * cb
+    return tuple(out)
+
+
+def _poly_xy(terms: Sequence[float], u: float, v: float) -> tuple[float, float, float]:
+    """P(u, v) = sum t_(d,k) u^(d-k) v^k and its partial derivatives (Horner in u within Horner in v)."""
+    deg = poly_degree(len(terms))
+    p = pu = pv = 0.0
+    for k in range(deg, -1, -1):
+        q = dq = 0.0
+        for d in range(deg, k - 1, -1):
+            dq = dq * u + q
+            q = q * u + terms[d * (d + 1) // 2 + k]
+        pv = pv * v + p
+        p = p * v + q
+        pu = pu * v + dq
+    return p, pu, pv
 
 
 def _conic(c: float, k: float, r2: float) -> tuple[float, float] | None:
@@ -270,10 +363,13 @@ def _radial(p: Profile, r2: float) -> tuple[float, float] | None:
 
 def sag_grad(p: Profile, x: float, y: float) -> tuple[float, float, float] | None:
     """Sag z(x, y) and its gradient (dz/dx, dz/dy), float64; None where the surface does not exist."""
-    if p.kind in ("even", "odd", "qbfs", "qcon"):
+    if p.kind in ("even", "odd", "qbfs", "qcon", "xy", "zernike"):
         out = _radial(p, x * x + y * y)
         if out is None:
             return None
+        if p.kind in POLYNOMIAL_KINDS:
+            pz, pu, pv = _poly_xy(p.terms, x / p.rn, y / p.rn)
+            return out[0] + pz, out[1] * x + pu / p.rn, out[1] * y + pv / p.rn
         return out[0], out[1] * x, out[1] * y
     if p.kind == "biconic":
         qx, qy = (1.0 + p.kx) * p.cx * p.cx * x * x, (1.0 + p.k) * p.c * p.c * y * y
@@ -324,4 +420,8 @@ def vertex_expansion(p: Profile) -> tuple[float, float]:
         a4 += (s1 - s0) / (rn2 * rn2) + s0 * c * c / (2.0 * rn2)
     elif p.kind == "qcon":
         a4 += qcon_sum(p.terms, 0.0)[0] / (rn2 * rn2)
+    elif p.kind in POLYNOMIAL_KINDS:  # the y-section's v^2 and v^4 terms (constant, tilt and odd terms left out)
+        t = p.terms
+        a2 += (t[5] if len(t) > 5 else 0.0) / rn2
+        a4 += (t[14] if len(t) > 14 else 0.0) / (rn2 * rn2)
     return a2, a4

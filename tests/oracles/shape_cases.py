@@ -56,3 +56,16 @@ def ray_fan(half_width_mm: float, angle_deg: float = 0.0, n: int = 7, z0_mm: flo
     o = np.stack([x, y, np.full_like(x, z0_mm)], axis=1)
     d = np.tile([0.3 * math.sin(t), math.sin(t), math.cos(t)], (len(x), 1))
     return o, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def freeform() -> Lens:
+    """An XY polynomial front (tilt, astigmatism, coma-like and trefoil terms) and a Zernike rear (defocus,
+    astigmatism, coma, trefoil, spherical) over conics and even terms."""
+    xy = (1e-3, -2e-3, 0.02, 0.01, -0.015, 0.004, -0.003, 0.002, 0.005, -0.002, 0.0, 0.001, 0.0, 0.003)
+    zern = (0.01, 0.002, -0.003, 0.05, 0.02, -0.03, 0.01, 0.008, -0.006, 0.004, 0.015)
+    return _lens([
+        Surface(1 / 15.0, 3.0, GLASS, 5.0, conic=-0.4, asphere=(0.0, 1e-5), is_stop=True,
+                shape=SurfaceShape("xy", xy, 5.0)),
+        Surface(-1 / 25.0, 20.0, semi_diameter_mm=5.0, asphere=(0.0, -2e-5),
+                shape=SurfaceShape("zernike", zern, 5.0)),
+    ], 8.0)

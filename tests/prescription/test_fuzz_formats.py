@@ -28,7 +28,8 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
            # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
            ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq",
-           # surface types (issue 22): ODDASPHE, QED_TYPE (Qbfs, Qcon), XASPHERE, XOSPHERE, BICONICX, TOROIDAL
+           # surface types (issue 22): ODDASPHE, QED_TYPE (Qbfs, Qcon), XASPHERE, XOSPHERE, BICONICX, TOROIDAL,
+           # XPOLYNOM, SZERNSAG
            ROOT / "data" / "shape_types.zmx"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
@@ -36,7 +37,8 @@ TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
           "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
           "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45",
-          "ODDASPHE", "QED_TYPE", "XASPHERE", "XOSPHERE", "BICONICX", "TOROIDAL", "XDAT", "PARM", "41", "2"]
+          "ODDASPHE", "QED_TYPE", "XASPHERE", "XOSPHERE", "BICONICX", "TOROIDAL", "XPOLYNOM", "SZERNSAG", "XDAT",
+          "PARM", "67", "2"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:

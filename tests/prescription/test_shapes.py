@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from shape_cases import anamorphic, phone_odd_qcon
+from shape_cases import anamorphic, freeform, phone_odd_qcon
 
 from lensrt.errors import PrescriptionError
 from lensrt.prescription.model import Surface
-from lensrt.prescription.shapes import (SurfaceShape, profile_of, qbfs_sum, qbfs_to_p_basis, qcon_sum, sag_grad,
-                                        vertex_expansion)
+from lensrt.prescription.shapes import (SurfaceShape, noll_nm, profile_of, qbfs_sum, qbfs_to_p_basis, qcon_sum,
+                                        sag_grad, vertex_expansion)
 
 XS = np.linspace(0.0, 1.0, 11)
 
@@ -76,10 +76,10 @@ def test_sags_match_optiland_geometries() -> None:
 
 
 def _surfaces() -> list[Surface]:
-    return list(phone_odd_qcon().surfaces) + list(anamorphic().surfaces)
+    return list(phone_odd_qcon().surfaces) + list(anamorphic().surfaces) + list(freeform().surfaces)
 
 
-@pytest.mark.parametrize("k", range(6))
+@pytest.mark.parametrize("k", range(8))
 def test_gradient_is_the_derivative_of_the_sag(k: int) -> None:
     p = profile_of(_surfaces()[k])
     h = 1e-6
@@ -103,7 +103,8 @@ def test_biconic_and_toroid_reduce_to_closed_forms() -> None:
 
 
 def test_vertex_expansion_and_paraxial_curvature() -> None:
-    for s in _surfaces():
+    xy_even = Surface(1 / 15.0, conic=-0.4, shape=SurfaceShape("xy", (0.0,) * 4 + (0.02,) + (0.0,) * 8 + (0.004,), 5.0))
+    for s in [s for s in _surfaces() if s.shape.kind not in ("xy", "zernike")] + [xy_even]:
         p = profile_of(s)
         a2, a4 = vertex_expansion(p)
         odd = s.shape.kind == "odd"
@@ -133,7 +134,8 @@ def test_surface_refuses_mixed_terms(kw: dict, match: str) -> None:
     ({"kind": "odd", "curvature_x_per_mm": 0.1}, "x curvature on a odd"),
     ({"kind": "toroidal", "conic_x": 0.1}, "x conic on a toroidal"),
     ({"kind": "biconic", "coefficients": (1.0,)}, "no polynomial coefficients"),
-    ({"kind": "odd", "coefficients": (1.0,) * 41}, "at most 40"),
+    ({"kind": "odd", "coefficients": (1.0,) * 67}, "at most 66"),
+    ({"kind": "xy", "coefficients": (1.0,) * 66}, "at most 65"),
 ])
 def test_shape_validation_is_one_clear_error(kw: dict, match: str) -> None:
     with pytest.raises(PrescriptionError, match=match):
@@ -144,3 +146,37 @@ def test_default_surface_is_unchanged() -> None:
     s = Surface(0.1, 1.0, conic=-0.5, asphere=(0.0, 1e-4))
     assert s.shape is None and s == Surface(0.1, 1.0, conic=-0.5, asphere=(0.0, 1e-4), shape=None)
     assert s.paraxial_curvature_per_mm == 0.1
+
+
+def _noll_closed(j: int, rho: float, th: float) -> float:
+    """Noll (1976) Table I, Z_1 .. Z_11."""
+    s3, s6, s8 = math.sqrt(3), math.sqrt(6), math.sqrt(8)
+    return {1: 1.0, 2: 2 * rho * math.cos(th), 3: 2 * rho * math.sin(th), 4: s3 * (2 * rho ** 2 - 1),
+            5: s6 * rho ** 2 * math.sin(2 * th), 6: s6 * rho ** 2 * math.cos(2 * th),
+            7: s8 * (3 * rho ** 3 - 2 * rho) * math.sin(th), 8: s8 * (3 * rho ** 3 - 2 * rho) * math.cos(th),
+            9: s8 * rho ** 3 * math.sin(3 * th), 10: s8 * rho ** 3 * math.cos(3 * th),
+            11: math.sqrt(5) * (6 * rho ** 4 - 6 * rho ** 2 + 1)}[j]
+
+
+@pytest.mark.parametrize("j", range(1, 12))
+def test_zernike_terms_match_noll(j: int) -> None:
+    s = Surface(0.0, shape=SurfaceShape("zernike", (0.0,) * (j - 1) + (1.0,), 2.0))
+    p = profile_of(s)
+    for x, y in ((0.3, 0.1), (-1.2, 0.7), (0.0, -1.9), (1.5, 1.1)):
+        assert sag_grad(p, x, y)[0] == pytest.approx(_noll_closed(j, math.hypot(x, y) / 2.0, math.atan2(y, x)),
+                                                     abs=1e-13)
+
+
+def test_noll_indices() -> None:
+    assert [noll_nm(j) for j in range(1, 12)] == [(0, 0), (1, 1), (1, -1), (2, 0), (2, -2), (2, 2), (3, -1), (3, 1),
+                                                  (3, -3), (3, 3), (4, 0)]
+    assert noll_nm(22) == (6, 0) and noll_nm(37) == (8, 0)
+
+
+def test_xy_terms_are_zemax_extended_polynomial_order() -> None:
+    coef = (0.1, -0.2, 0.3, 0.4, -0.5, 0.6, 0.7, -0.8, 0.9)  # x y x2 xy y2 x3 x2y xy2 y3
+    p = profile_of(Surface(0.0, shape=SurfaceShape("xy", coef, 3.0)))
+    for x, y in ((0.3, 0.1), (-1.2, 0.7), (2.0, -2.5)):
+        u, v = x / 3.0, y / 3.0
+        mono = (u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3)
+        assert sag_grad(p, x, y)[0] == pytest.approx(sum(a * m for a, m in zip(coef, mono)), abs=1e-15)

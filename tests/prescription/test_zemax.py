@@ -210,7 +210,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
 @pytest.mark.parametrize("edit,needle", [
     (("TYPE STANDARD", "TYPE COORDBRK"), "coordinate break with a curvature"),
     (("TYPE STANDARD", "TYPE DGRATING"), "grating"),
-    (("TYPE STANDARD", "TYPE SZERNSAG"), "Zernike sag"),
+    (("TYPE STANDARD", "TYPE GRID_SAG"), "grid sag"),
     (("TYPE STANDARD", "TYPE XYZZY"), "surface type XYZZY"),
     (("MODE SEQ", "MODE NSC"), "only sequential"),
     (("DISZ 5", "DISZ 5\n  DECX 1"), "decenter"),
@@ -245,10 +245,10 @@ def test_unsupported_constructs_name_file_line_construct(edit: tuple[str, str], 
 
 
 def test_error_line_numbers() -> None:
-    text = zmx().replace("TYPE STANDARD", "TYPE SZERNSAG")
+    text = zmx().replace("TYPE STANDARD", "TYPE GRID_SAG")
     with pytest.raises(PrescriptionError) as err:
         loads_zmx(text, "bad.zmx")
-    assert text.splitlines()[err.value.line - 1].strip() == "TYPE SZERNSAG"
+    assert text.splitlines()[err.value.line - 1].strip() == "TYPE GRID_SAG"
 
 
 def _rayoptics_files(sub: str, pattern: str) -> list[Path]:

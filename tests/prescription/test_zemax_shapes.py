@@ -1,4 +1,5 @@
-"""Zemax surface types beyond STANDARD/EVENASPH: ODDASPHE, XOSPHERE, XASPHERE, QED_TYPE, BICONICX, TOROIDAL."""
+"""Zemax surface types beyond STANDARD/EVENASPH: ODDASPHE, XOSPHERE, XASPHERE, QED_TYPE, BICONICX, TOROIDAL,
+XPOLYNOM, SZERNSAG."""
 from __future__ import annotations
 
 import warnings
@@ -47,6 +48,13 @@ def test_types_read_with_units(unit: str, f: float) -> None:
         t = loads_zmx(zmx(unit, "TOROIDAL", "PARM 0 0\n  PARM 1 -80\n  PARM 2 1e-3\n  PARM 3 1e-5")).surfaces[0]
     assert t.shape.curvature_x_per_mm == pytest.approx(-1 / (80 * f), rel=1e-15)
     assert t.asphere == pytest.approx((1e-3 / f, 1e-5 * f ** -3), rel=1e-15)
+    with pytest.warns(UserWarning, match="not rotationally symmetric"):
+        xy = loads_zmx(zmx(unit, "XPOLYNOM", "XDAT 1 5\n  XDAT 2 8\n  XDAT 3 1e-3\n  XDAT 7 -2e-3")).surfaces[0]
+    assert xy.shape == SurfaceShape("xy", (1e-3 * f, 0.0, 0.0, 0.0, -2e-3 * f), 8 * f)
+    with pytest.warns(UserWarning, match="not rotationally symmetric"):
+        z = loads_zmx(zmx(unit, "SZERNSAG", "PARM 2 1e-6\n  XDAT 1 4\n  XDAT 2 8\n  XDAT 6 0.01")).surfaces[0]
+    assert z.shape == SurfaceShape("zernike", (0.0, 0.0, 0.0, 0.01 * f), 8 * f)
+    assert z.asphere == pytest.approx((0.0, 1e-6 * f ** -3), rel=1e-15)
 
 
 @pytest.mark.parametrize("type1,extra,needle", [
@@ -59,6 +67,8 @@ def test_types_read_with_units(unit: str, f: float) -> None:
     ("BICONICX", "PARM 3 1", "PARM 3 = 1 on a BICONICX"),
     ("XASPHERE", "XDAT 1 1\n  XDAT 2 10\n  XDAT 3 1e308\n  XDAT 400 1", "extra data numbers"),
     ("STANDARD", "XDAT 1 1", "not supported for STANDARD"),
+    ("SZERNSAG", "PARM 9 0.5", "PARM 9 = 0.5 on a SZERNSAG"),
+    ("XPOLYNOM", "XDAT 1 70\n  XDAT 2 1", "whole number 0..66"),
 ])
 def test_bad_shape_data_is_one_error(type1: str, extra: str, needle: str) -> None:
     with pytest.raises(PrescriptionError, match=needle) as err:

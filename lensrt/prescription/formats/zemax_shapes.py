@@ -14,6 +14,12 @@ Used by :mod:`.zemax`. Lengths are in lens units in the file (``f`` = mm per len
 * ``BICONICX`` / ``BICONIC`` (biconic): ``PARM 1`` = x radius (0: flat in x), ``PARM 2`` = x conic.
 * ``TOROIDAL``: ``PARM 1`` = radius of rotation (0: infinite, a cylinder), ``PARM 2..9`` =
   alpha_1..alpha_8 on y^2, y^4, ... (the y-profile's even terms); its Zernike extra data must be zero.
+* ``XPOLYNOM`` (extended polynomial): ``XDAT 1`` = number of terms, ``XDAT 2`` = normalisation radius,
+  ``XDAT 3..`` = coefficients on x, y, x^2, x y, y^2, ... of (x, y) / R_n (lens units) -> ``xy``.
+* ``SZERNSAG`` (Zernike standard sag): ``PARM 1..8`` = alpha_1..alpha_8 on r^2 .. r^16 (as EVENASPH),
+  ``XDAT 1`` = number of terms, ``XDAT 2`` = normalisation radius, ``XDAT 3..`` = Z_1, Z_2, ... (Noll's
+  order and normalisation, OpticStudio's "Zernike Standard"; lens units) -> ``zernike``. A Zernike
+  decenter (``PARM 9``, ``PARM 10``) is refused.
 
 Any other non-zero parameter or extra data on these surfaces is refused by name, never dropped.
 """
@@ -25,7 +31,8 @@ from ..shapes import MAX_SHAPE_TERMS, SurfaceShape
 __all__ = ["SHAPE_TYPES", "zemax_shape"]
 
 #: the surface types read here
-SHAPE_TYPES = ("ODDASPHE", "XOSPHERE", "XASPHERE", "QED_TYPE", "BICONICX", "BICONIC", "TOROIDAL")
+SHAPE_TYPES = ("ODDASPHE", "XOSPHERE", "XASPHERE", "QED_TYPE", "BICONICX", "BICONIC", "TOROIDAL", "XPOLYNOM",
+               "SZERNSAG")
 
 Params = dict[int, tuple[float, int]]
 
@@ -83,6 +90,12 @@ def zemax_shape(kind: str, parm: Params, xdat: Params, f: float, path: str | Non
         _refuse_extra(kind, xdat, range(1, 1), "XDAT", path, line)
         rx = p(1) * f
         return SurfaceShape("biconic", curvature_x_per_mm=0.0 if rx == 0.0 else 1.0 / rx, conic_x=p(2)), ()
+    if kind in ("XPOLYNOM", "SZERNSAG"):
+        even = kind == "SZERNSAG"
+        _refuse_extra(kind, parm, range(1, 9 if even else 1), "PARM", path, line)
+        coef, rn = _extended(kind, xdat, 1, f, path, line)
+        asph = tuple(p(i) * f ** (1 - 2 * i) for i in range(1, 9)) if even else ()
+        return SurfaceShape("zernike" if even else "xy", tuple(coef), rn), asph
     if kind == "TOROIDAL":
         _refuse_extra(kind, parm, range(0, 10), "PARM", path, line)  # PARM 0 (unused) is written as 0
         if parm.get(0, (0.0, line))[0] != 0.0:

@@ -24,8 +24,8 @@ from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
-__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "even_terms", "radial_terms", "shape_sag_grad",
-           "intersect_shape", "intersect", "refract", "reflect",
+__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "even_terms", "radial_terms", "poly_xy",
+           "shape_sag_grad", "intersect_shape", "intersect", "refract", "reflect",
            "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
@@ -216,6 +216,30 @@ def radial_terms(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: An
 
 
 @wp.func
+def poly_xy(surf: wp.array2d(dtype=Any), i: int, u: Any, v: Any):
+    # sum t_(d,k) u^(d-k) v^k and its partial derivatives (shapes._poly_xy: Horner in u within Horner in v)
+    nt = int(surf[i, S_X + X_NT])
+    deg = int(0)
+    while (deg + 1) * (deg + 2) // 2 < nt:
+        deg = deg + 1
+    p = type(u)(0.0)
+    pu = type(u)(0.0)
+    pv = type(u)(0.0)
+    for kk in range(deg + 1):
+        k = deg - kk
+        q = type(u)(0.0)
+        dq = type(u)(0.0)
+        for dd in range(deg - k + 1):
+            d = deg - dd
+            dq = dq * u + q
+            q = q * u + surf[i, S_X + X_TERMS + d * (d + 1) // 2 + k]
+        pv = pv * v + p
+        p = p * v + q
+        pu = pu * v + dq
+    return p, pu, pv
+
+
+@wp.func
 def shape_sag_grad(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: Any, x: Any, y: Any):
     # sag z(x, y) and gradient of a surface kind >= 3 (lensrt.prescription.shapes.sag_grad); ok = 0 where
     # the surface does not exist
@@ -254,17 +278,26 @@ def shape_sag_grad(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: 
                 zx = cx * x / s
                 zy = w * dg / s
                 ok = int(1)
-    else:  # rotational: odd, Q^bfs, Q^con over the conic + even asphere
+    else:  # odd, Q^bfs, Q^con, xy, Zernike over the conic + even asphere
         r2 = x * x + y * y
         q = one - kp1 * c * c * r2
         if q > type(x)(0.0):
             root = wp.sqrt(q)
             ez, edz = even_terms(surf, i, r2)
-            dz, g = radial_terms(surf, i, kind, c, kp1, r2)
-            z = c * r2 / (one + root) + ez + dz
+            dz = type(x)(0.0)
+            g = type(x)(0.0)
+            if kind < 8:
+                dz, g = radial_terms(surf, i, kind, c, kp1, r2)
             g = g + type(x)(2.0) * (c / (type(x)(2.0) * root) + edz)
+            z = c * r2 / (one + root) + ez + dz
             zx = g * x
             zy = g * y
+            if kind == 8:  # xy polynomial / Zernike (as monomials) in (x, y) / R_n
+                rn = surf[i, S_X + X_RN]
+                pz, pu, pv = poly_xy(surf, i, x / rn, y / rn)
+                z = z + pz
+                zx = zx + pu / rn
+                zy = zy + pv / rn
             ok = int(1)
     return ok, z, zx, zy
 
