@@ -131,6 +131,11 @@ class SurfaceShape:
         object.__setattr__(self, "curvature_x_per_mm", cx)
         object.__setattr__(self, "conic_x", kx)
 
+    def mirrored_in_z(self) -> "SurfaceShape":
+        """The shape seen with z reversed (every sag term changes sign; the x conic stays)."""
+        return SurfaceShape(self.kind, tuple(-a for a in self.coefficients), self.norm_radius_mm,
+                            -self.curvature_x_per_mm, self.conic_x)
+
     @property
     def rotational(self) -> bool:
         """True when the sag depends on r only."""

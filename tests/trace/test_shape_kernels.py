@@ -121,3 +121,26 @@ def test_toroidal_mirror_behind_tilted_mirrors_matches_reference(device: str) ->
         assert ref.status == OK and res.status[k] == OK
         hits = np.array([[h.x_mm, h.y_mm, h.z_mm, h.L, h.M, h.N] for h in ref.hits])
         assert np.max(np.abs(res.records[k, :, :6] - hits)) < 1e-9
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_reversed_lens_retraces_the_ray(name: str) -> None:
+    """Image-side tracing (trace.reverse): a ray traced forward, then backward through the reversed lens (its
+    shapes mirrored in z), comes back to where it met the first surface."""
+    from lensrt.trace.reverse import from_reversed, reversed_lens, to_reversed
+    make, half = CASES[name]
+    lens = make()
+    rev = reversed_lens(lens)
+    n = lens.n_surfaces
+    z_last = float(lens.vertex_z_mm()[n - 1])
+    o, d = ray_fan(half * 0.6, 5.0, n=3)
+    for k in range(len(o)):
+        fwd = trace_reference(lens, tuple(o[k]), tuple(d[k]), WL_NM, clip=False)
+        assert fwd.status == OK
+        h = fwd.hits[n - 1]  # on the last surface, with the direction after it
+        p, dd = to_reversed(lens, np.array([[h.x_mm, h.y_mm, h.z_mm + z_last]]), -np.array([[h.L, h.M, h.N]]))
+        back = trace_reference(rev, tuple(p[0] - 1e-3 * dd[0]), tuple(dd[0]), WL_NM, clip=False, end=n - 1)
+        assert back.status == OK
+        q, _ = from_reversed(lens, np.array([[back.x_mm, back.y_mm, back.z_mm]]), np.zeros((1, 3)))
+        first = fwd.hits[0]
+        assert np.allclose(q[0], (first.x_mm, first.y_mm, first.z_mm), atol=1e-9)
