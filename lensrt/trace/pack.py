@@ -7,7 +7,7 @@ One row per surface plus one for the image surface (a plane)::
                geometry and aperture columns, (only with shapes:) R_n, n_terms, cx, 1 + kx, terms]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
-A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+A lens with mirrors, coordinate transforms or shaped surfaces (``S_GEOM`` = 1 in every row) also
 carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
 direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
 odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
@@ -144,8 +144,8 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
     surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
-    if lens.is_centred and not lens.has_mirrors:
-        return
+    if lens.is_centred and not lens.has_mirrors and not lens.has_shapes:
+        return  # surface kinds of prescription.shapes are traced by the general kernel variant only
     from ..prescription.frames import surface_frames, travel_signs
     signs = travel_signs(lens)
     for i, (origin, axes) in enumerate(surface_frames(lens)):
@@ -204,6 +204,13 @@ class PackedLens:
     @property
     def n_surfaces(self) -> int:
         return self.lens.n_surfaces
+
+    @property
+    def general(self) -> bool:
+        """Whether the kernels need the general variant (mirrors, frames, surface apertures or surface kinds of
+        :mod:`lensrt.prescription.shapes`: ``S_GEOM`` set); a rotationally symmetric lens of conics and even
+        aspheres runs the symmetric one, which leaves that code out."""
+        return bool(self.host_surf[0, S_GEOM] != 0.0)
 
     @property
     def vertex_z_mm(self) -> np.ndarray:
