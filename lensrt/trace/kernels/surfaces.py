@@ -26,6 +26,7 @@ from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
 __all__ = ["SymmetricLens", "GeneralLens", "is_general", "newton_tol_mm", "newton_rel_tol", "medium_index", "conic_t",
            "sag_slope", "even_terms", "radial_terms", "poly_xy", "shape_sag_grad", "intersect_shape", "intersect",
+           "intersect_variant",
            "refract", "reflect",
            "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
@@ -448,6 +449,31 @@ def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: An
 
 
 @wp.func
+def intersect_variant(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any,
+                      variant: Any):
+    # intersect(), or intersect_shape() for a surface kind of prescription.shapes -- general lenses only
+    # (pack.pack_geometry), so the symmetric variant leaves the shape code out at compile time
+    shaped = False
+    if is_general(variant):
+        if surf[i, S_KIND] >= type(x)(3.0):
+            shaped = True
+    st = int(OK)
+    t = type(x)(0.0)
+    nx = type(x)(0.0)
+    ny = type(x)(0.0)
+    nz = type(x)(1.0)
+    if shaped:
+        st, t, nx, ny = intersect_shape(surf, i, int(surf[i, S_KIND]), x, y, z, L, M, N)
+        inv = type(x)(1.0) / wp.sqrt(nx * nx + ny * ny + type(x)(1.0))
+        nx = nx * inv
+        ny = ny * inv
+        nz = inv
+    else:
+        st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+    return st, t, nx, ny, nz
+
+
+@wp.func
 def refract(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, n1: Any, n2: Any, angles: int):
     # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when
     # asked), min(cos I, cos I') (near 90 deg either way the ray is ill-conditioned)
@@ -655,23 +681,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             x, y, z, L, M, N = to_local(surf, i, x, y, z, L, M, N)
         if i == n_surfaces:
             z = z - sgn * plane_dz  # the plane may stand apart from the image surface
-        st = int(OK)
-        t = type(x0)(0.0)
-        nx = type(x0)(0.0)
-        ny = type(x0)(0.0)
-        nz = type(x0)(1.0)
-        shaped = False
-        if geom:  # a surface kind of prescription.shapes: general lenses only (pack.pack_geometry)
-            if surf[i, S_KIND] >= type(x0)(3.0):
-                shaped = True
-        if shaped:
-            st, t, nx, ny = intersect_shape(surf, i, int(surf[i, S_KIND]), x, y, z, L, M, N)
-            inv = type(x0)(1.0) / wp.sqrt(nx * nx + ny * ny + type(x0)(1.0))
-            nx = nx * inv
-            ny = ny * inv
-            nz = inv
-        else:
-            st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+        st, t, nx, ny, nz = intersect_variant(surf, i, x, y, z, L, M, N, variant)
         if st == int(OK) and L * nx + M * ny + N * nz < type(x0)(0.0):
             st = int(MISSED)  # met from behind (from the medium after it): no sequential path
         if st != int(OK):
