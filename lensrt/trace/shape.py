@@ -229,7 +229,8 @@ def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: n
 def specialisable(shape: LensShape) -> bool:
     """False for shapes the generator leaves to the generic kernel (too many constants or blades,
     mirrors or coordinate transforms, surface kinds beyond the even asphere)."""
-    return not shape.geometry and not shape.shapes and shape.blades <= MAX_BLADES_UNROLLED and Layout(shape).size <= MAX_CONSTANTS
+    return (not shape.geometry and not shape.shapes and shape.blades <= MAX_BLADES_UNROLLED
+            and Layout(shape).size <= MAX_CONSTANTS)
 
 
 def describe(shape: LensShape) -> dict[str, Any]:
