@@ -144,3 +144,30 @@ def test_reversed_lens_retraces_the_ray(name: str) -> None:
         q, _ = from_reversed(lens, np.array([[back.x_mm, back.y_mm, back.z_mm]]), np.zeros((1, 3)))
         first = fwd.hits[0]
         assert np.allclose(q[0], (first.x_mm, first.y_mm, first.z_mm), atol=1e-9)
+
+
+def test_render_refuses_shaped_surfaces() -> None:
+    """The render integrator runs the symmetric kernel variant only: a shaped lens is one clear error there,
+    never a render of the base conics."""
+    from lensrt.render.integrator import render
+    from lensrt.render.scene.load import loads_scene
+    scene = loads_scene("""
+[scene]
+name = "q"
+units = "m"
+[camera]
+lens = "thorlabs_asl5040_uv_qbfs"
+focus_distance = inf
+[sensor]
+format = "full-frame"
+pixels = 48
+[render]
+samples_per_pixel = 4
+[[plane]]
+name = "sky"
+center = [0.0, 0.0, -100.0]
+size = [1000.0, 1000.0]
+emission = { spectrum = { line_nm = 405.0 }, radiance_scale = 1.0 }
+""")
+    with pytest.raises(LensrtError, match="surface 1 is a qbfs surface"):
+        render(scene)
