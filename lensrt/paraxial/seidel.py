@@ -50,6 +50,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
+from ..prescription.shapes import profile_of, vertex_expansion
 from ..units import FRAUNHOFER_NM
 from .first_order import paraxial_rays
 from .ynu import ParaxialSystem
@@ -124,11 +125,13 @@ class SeidelSums:
 def _aspheric_g(lens: Lens, system: ParaxialSystem, i: int) -> float:
     """r^4 sag coefficient of surface i minus that of the sphere of its paraxial curvature."""
     s = lens.surfaces[i]
-    if s.conic == 0.0 and not s.asphere:
+    if s.conic == 0.0 and not s.asphere and s.shape is None:
         return 0.0
+    c_par = system.curvature_per_mm[i]
+    if s.shape is not None:  # odd / Q-type / y-section of biconic and toroidal: the vertex Taylor series
+        return vertex_expansion(profile_of(s))[1] - c_par ** 3 / 8.0
     c, k = s.curvature_per_mm, s.conic
     a4 = s.asphere[1] if len(s.asphere) > 1 else 0.0
-    c_par = system.curvature_per_mm[i]
     return (1.0 + k) * c ** 3 / 8.0 + a4 - c_par ** 3 / 8.0
 
 

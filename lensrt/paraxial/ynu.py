@@ -91,7 +91,7 @@ class ParaxialSystem:
 def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialSystem:
     """Reduce ``lens`` to paraxial data at ``wavelength_nm`` (default: the primary)."""
     w = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    c = np.array([s.curvature_per_mm + (2.0 * s.asphere[0] if s.asphere else 0.0) for s in lens.surfaces])
+    c = np.array([s.paraxial_curvature_per_mm for s in lens.surfaces])  # the vertex's osculating sphere
     t = np.array([s.thickness_mm for s in lens.surfaces], dtype=np.float64)
     n = np.asarray(lens.indices(w), dtype=np.float64)
     if lens.has_mirrors:

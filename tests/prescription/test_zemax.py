@@ -216,7 +216,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
 @pytest.mark.parametrize("edit,needle", [
     (("TYPE STANDARD", "TYPE COORDBRK"), "coordinate break with a curvature"),
     (("TYPE STANDARD", "TYPE DGRATING"), "grating"),
-    (("TYPE STANDARD", "TYPE TOROIDAL"), "toroidal"),
+    (("TYPE STANDARD", "TYPE GRID_SAG"), "grid sag"),
     (("TYPE STANDARD", "TYPE XYZZY"), "surface type XYZZY"),
     (("MODE SEQ", "MODE NSC"), "only sequential"),
     (("DISZ 5", "DISZ 5\n  DECX 1"), "decenter"),
@@ -251,10 +251,10 @@ def test_unsupported_constructs_name_file_line_construct(edit: tuple[str, str], 
 
 
 def test_error_line_numbers() -> None:
-    text = zmx().replace("TYPE STANDARD", "TYPE TOROIDAL")
+    text = zmx().replace("TYPE STANDARD", "TYPE GRID_SAG")
     with pytest.raises(PrescriptionError) as err:
         loads_zmx(text, "bad.zmx")
-    assert text.splitlines()[err.value.line - 1].strip() == "TYPE TOROIDAL"
+    assert text.splitlines()[err.value.line - 1].strip() == "TYPE GRID_SAG"
 
 
 def _rayoptics_files(sub: str, pattern: str) -> list[Path]:
