@@ -1,0 +1,83 @@
+"""The ring bokeh of a catadioptric (reflex) lens: the library's Reflex-Nikkor 500 mm f/8.
+
+Oracle: the obscuration ratio seen from the source point, found with real rays (the float64
+reference tracer). In the meridional plane, the rays from the point that pass the lens form
+one band of angles: its lower edge grazes the central obscuration (the secondary mirror), its
+upper edge the stop. Traced to the sensor, the two edge rays give the ring's inner and outer
+radius; the Monte Carlo bokeh (float32 stream kernel, every ray through mirrors and surface
+apertures) must give their ratio within 3 of its standard errors.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from lensrt import load_lens
+from lensrt.analysis.bokeh.entry import bokeh_spot, focus_lens, spot_source
+from lensrt.analysis.bokeh.measure import annulus_radii, polar
+from lensrt.trace.reference import trace_reference
+from lensrt.trace.status import OK
+
+D_LINE_NM = 587.6
+REFLEX = "reflex_nikkor_500mm_f8"
+
+
+def _ray(lens, source_mm: float, angle_rad: float):
+    return trace_reference(lens, (0.0, 0.0, -source_mm), (0.0, math.sin(angle_rad), math.cos(angle_rad)),
+                           D_LINE_NM)
+
+
+def _edge(lens, source_mm: float, inside: float, outside: float) -> float:
+    """The angle between a passing (``inside``) and a blocked (``outside``) ray where passing ends."""
+    for _ in range(60):
+        mid = 0.5 * (inside + outside)
+        if _ray(lens, source_mm, mid).status == OK:
+            inside = mid
+        else:
+            outside = mid
+    return inside
+
+
+def edge_rays(lens, source_mm: float) -> tuple[float, float, float, float]:
+    """(inner angle, outer angle, inner sensor radius, outer sensor radius) of the passing band."""
+    angles = np.linspace(0.0, math.atan(1.2 * lens.surfaces[0].semi_diameter_mm / source_mm), 241)
+    ok = np.array([_ray(lens, source_mm, a).status == OK for a in angles])
+    assert not ok[0] and ok.any(), "the axial ray is blocked and some ray passes"
+    first, last = int(np.argmax(ok)), len(ok) - 1 - int(np.argmax(ok[::-1]))
+    assert ok[first:last + 1].all(), "one band of passing angles"
+    t_in = _edge(lens, source_mm, angles[first], angles[first - 1])
+    t_out = _edge(lens, source_mm, angles[last], angles[last + 1])
+    return t_in, t_out, _ray(lens, source_mm, t_in).y_mm, _ray(lens, source_mm, t_out).y_mm
+
+
+def test_reflex_lens_is_obscured_and_folded() -> None:
+    lens = load_lens(REFLEX)
+    assert lens.has_mirrors and sum(s.mirror for s in lens.surfaces) == 2
+    obs = [a for s in lens.surfaces for a in s.apertures if a.obscuration]
+    assert obs, "the secondary mirror's shadow is a surface obscuration"
+    # the secondary's obscuration covers the beam it returns: no ray skips the secondary
+    secondary = next(i for i, s in enumerate(lens.surfaces) if s.mirror and i > 5)
+    assert lens.surfaces[2].apertures[0].a >= lens.surfaces[secondary].semi_diameter_mm
+
+
+@pytest.mark.parametrize("source_mm", [5000.0])
+def test_ring_ratio_equals_the_obscuration_ratio_seen_from_the_point(source_mm: float, device: str) -> None:
+    lens = load_lens(REFLEX)
+    focus = focus_lens(lens, math.inf)
+    t_in, t_out, r_in, r_out = edge_rays(lens, source_mm)
+    assert r_in > 0 and r_out > r_in
+    img = bokeh_spot(lens, focus, spot_source(lens, focus, source_mm), light=f"lines:{D_LINE_NM}",
+                     rays=200_000, device=device)
+    (inner, outer, ratio), (se_in, se_out, se_ratio) = annulus_radii(img)
+    assert 0 < se_ratio < 2e-3
+    assert abs(ratio - r_in / r_out) < 3.0 * se_ratio, (ratio, se_ratio, r_in / r_out)
+    assert abs(inner - r_in) < 3.0 * se_in and abs(outer - r_out) < 3.0 * se_out
+    # the dark centre: (almost) no light inside the inner radius
+    y = img.picture()[..., 1]
+    r, _ = polar(img)
+    assert y[r < 0.9 * r_in].sum() < 1e-3 * y.sum()
+    # seen from the point in object space the ratio is tan(t_in) / tan(t_out); the lens maps
+    # the pupil onto the defocused ring almost, not exactly, linearly (docs/guide/reflex.md)
+    assert abs(math.tan(t_in) / math.tan(t_out) - ratio) < 0.005 * ratio
