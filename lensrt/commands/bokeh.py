@@ -61,6 +61,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="iris rotation: a vertex at this angle from +x (deg)")
     a.add_argument("--blade-roundness", type=float, metavar="R",
                    help="blade curvature: 0 straight blades .. 1 a circle")
+    t = p.add_argument_group("tilt-shift (the whole lens moved in front of the fixed sensor; docs/guide/reflex.md)")
+    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
+                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
+                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
+    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
     m.add_argument("--sampler", choices=("sobol", "random", "stratified", "r2"), default="sobol",
@@ -190,6 +195,16 @@ def _iris(args: argparse.Namespace, lens: Any):
         raise LensrtError(f"iris: {err.message}", hint="--blades 0 or 3..64, --blade-roundness 0..1") from None
 
 
+def _tilt_shift(args: argparse.Namespace, lens: Any) -> tuple[Any, bool]:
+    """The lens tilted/shifted by --lens-tilt-deg/--lens-shift-mm (and whether it moved)."""
+    if args.lens_tilt_deg is None and args.lens_shift_mm is None:
+        return lens, False
+    from ..prescription.tilt_shift import tilt_shift_lens
+    tilt = math.radians(0.0 if args.lens_tilt_deg is None else args.lens_tilt_deg)
+    shift = (0.0, 0.0) if args.lens_shift_mm is None else parse_pair(args.lens_shift_mm, "--lens-shift-mm", True)
+    return tilt_shift_lens(lens, tilt, shift), True
+
+
 def cmd_bokeh(args: argparse.Namespace) -> int:
     from ..analysis.bokeh.entry import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
     from ..errors import LensrtError
@@ -203,6 +218,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         from ..paraxial.fnumber import check_f_number
         check_f_number(lens, args.f_number)  # as render and sweep refuse it: never wider than the lens opens
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
+    lens, moved = _tilt_shift(args, lens)
     rays = args.rays
     stem = _checked_name(args)
     if not rays >= args.batches >= 2:
@@ -248,7 +264,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
                          time_budget_s=args.time_budget, **common)
         name = stem or "bokeh"
         extra = {}
-        if field is None and obj is None and im is None:
+        if field is None and obj is None and im is None and not moved:
             g = gaussian_blur(lens, focus, args.source_m * MM_PER_M, stop_radius_mm=stop_r)
             extra["gaussian_blur_diameter_mm"] = g.diameter_mm
             extra["paraxial_defocus_mm"] = g.defocus_mm
