@@ -195,6 +195,22 @@ def _iris(args: argparse.Namespace, lens: Any):
         raise LensrtError(f"iris: {err.message}", hint="--blades 0 or 3..64, --blade-roundness 0..1") from None
 
 
+def _obscured(lens: Any) -> bool:
+    """True when some surface carries a central circular obscuration (a reflex lens's secondary)."""
+    return any(a.obscuration and a.shape == "circle" and not (a.decenter_x_mm or a.decenter_y_mm)
+               for s in lens.surfaces for a in s.apertures)
+
+
+def _annulus(img: Any) -> dict:
+    """The ring of an obscured lens's axial spot: radii and their ratio with standard errors."""
+    from ..analysis.bokeh.measure import annulus_radii
+    (inner, outer, ratio), (se_in, se_out, se_ratio) = annulus_radii(img)
+    return {"inner_radius_mm": float(inner), "inner_radius_stderr_mm": float(se_in),
+            "outer_radius_mm": float(outer), "outer_radius_stderr_mm": float(se_out),
+            "ratio": float(ratio), "ratio_stderr": float(se_ratio),
+            "method": "moments of r^2 about the centroid (a uniformly lit annulus), jackknife over the batches"}
+
+
 def _tilt_shift(args: argparse.Namespace, lens: Any) -> tuple[Any, bool]:
     """The lens tilted/shifted by --lens-tilt-deg/--lens-shift-mm (and whether it moved)."""
     if args.lens_tilt_deg is None and args.lens_shift_mm is None:
@@ -264,6 +280,8 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
                          time_budget_s=args.time_budget, **common)
         name = stem or "bokeh"
         extra = {}
+        if field is None and obj is None and im is None and img.batch_xyz is not None and _obscured(lens):
+            extra["annulus"] = _annulus(img)
         if field is None and obj is None and im is None and not moved:
             g = gaussian_blur(lens, focus, args.source_m * MM_PER_M, stop_radius_mm=stop_r)
             extra["gaussian_blur_diameter_mm"] = g.diameter_mm
@@ -309,6 +327,11 @@ def _report(d: dict, lens: Any) -> str:
             lines.append(f"Gaussian blur disc {d['gaussian_blur_diameter_mm'] * 1000:.5g} um (defocus "
                          f"{d['paraxial_defocus_mm']:+.4f} mm); 2 sqrt(2) x RMS radius "
                          f"{2 * math.sqrt(2) * r['rms_radius_mm'] * 1000:.5g} um")
+        if "annulus" in d:
+            a = d["annulus"]
+            lines.append(f"ring (central obscuration): radii {a['inner_radius_mm']:.4f} +- "
+                         f"{a['inner_radius_stderr_mm']:.2g} / {a['outer_radius_mm']:.4f} +- "
+                         f"{a['outer_radius_stderr_mm']:.2g} mm, ratio {a['ratio']:.4f} +- {a['ratio_stderr']:.2g}")
     nz = d["noise"]
     noise = (f"{nz['rel_stderr_median']:.3g} median, {nz['rel_stderr_max']:.3g} worst source, RMS over a disc "
              f"{nz['rel_stderr_rms_max']:.3g} worst" if nz["rel_stderr_median"] is not None else "n/a")

@@ -1,4 +1,4 @@
-"""``lensrt bokeh --lens-tilt-deg/--lens-shift-mm``: the tilted lens through the CLI, and its bad input."""
+"""``lensrt bokeh``: a tilted/shifted lens (--lens-tilt-deg/--lens-shift-mm) and its bad input; a reflex lens's ring."""
 from __future__ import annotations
 
 import json
@@ -51,3 +51,21 @@ def test_bad_tilt_shift_gets_one_clear_error(argv, needle, capsys: pytest.Captur
     rc, out, err = _run(["bokeh", "dgauss_50mm_f2", "--rays", "64", "--batches", "2", "--no-files"] + argv, capsys)
     assert rc == 2
     assert needle in err
+
+
+def test_bokeh_of_a_reflex_lens_reports_its_ring(capsys: pytest.CaptureFixture) -> None:
+    from reflex_cases import D_LINE_NM, edge_rays
+
+    from lensrt import load_lens
+    rc, out, _ = _run(["bokeh", "reflex_nikkor_500mm_f8", "--focus-m", "inf", "--source-m", "5", "--rays", "2e5",
+                       "--spectrum", f"lines:{D_LINE_NM}", "--sampler", "random", "--no-files", "--json",
+                       "--device", "cpu"], capsys)
+    assert rc == 0
+    ring = json.loads(out)["annulus"]
+    _, _, r_in, r_out = edge_rays(load_lens("reflex_nikkor_500mm_f8"), 5000.0)
+    assert 0 < ring["ratio_stderr"] < 2e-3
+    assert abs(ring["ratio"] - r_in / r_out) < 3 * ring["ratio_stderr"]
+    # a lens without an obscuration reports no ring
+    rc, out, _ = _run(["bokeh", "dgauss_50mm_f2", "--rays", "4096", "--batches", "8", "--no-files", "--json",
+                       "--device", "cpu"], capsys)
+    assert rc == 0 and "annulus" not in json.loads(out)
