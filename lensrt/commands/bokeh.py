@@ -65,6 +65,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--lens-tilt-deg", type=float, metavar="T",
                    help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
                         "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
+    t.add_argument("--lens-swing-deg", type=float, metavar="S",
+                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
     t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
@@ -212,13 +214,14 @@ def _annulus(img: Any) -> dict:
 
 
 def _tilt_shift(args: argparse.Namespace, lens: Any) -> tuple[Any, bool]:
-    """The lens tilted/shifted by --lens-tilt-deg/--lens-shift-mm (and whether it moved)."""
-    if args.lens_tilt_deg is None and args.lens_shift_mm is None:
+    """The lens tilted/swung/shifted by --lens-tilt-deg/--lens-swing-deg/--lens-shift-mm (and whether it moved)."""
+    if args.lens_tilt_deg is None and args.lens_swing_deg is None and args.lens_shift_mm is None:
         return lens, False
     from ..prescription.tilt_shift import tilt_shift_lens
     tilt = math.radians(0.0 if args.lens_tilt_deg is None else args.lens_tilt_deg)
+    swing = math.radians(0.0 if args.lens_swing_deg is None else args.lens_swing_deg)
     shift = (0.0, 0.0) if args.lens_shift_mm is None else parse_pair(args.lens_shift_mm, "--lens-shift-mm", True)
-    return tilt_shift_lens(lens, tilt, shift), True
+    return tilt_shift_lens(lens, tilt, shift, swing_rad=swing), True
 
 
 def cmd_bokeh(args: argparse.Namespace) -> int:

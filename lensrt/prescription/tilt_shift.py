@@ -13,8 +13,9 @@ Every real ray then goes through the generic (geometry) kernels; the sensor
 plane z = Z of a trace or a stream (``plane_z_mm``) is the camera's plane z = Z.
 
 Signs: ``tilt_rad`` > 0 turns the lens's axis (+z) toward +y (the tilt of
-:func:`lensrt.prescription.geometry.elementary_rotation` about x); ``shift_mm``
-moves the lens's axis to (x, y). The sensor seen from the lens is then tilted
+:func:`lensrt.prescription.geometry.elementary_rotation` about x); ``swing_rad``
+> 0 then turns it toward +x (about the lens's own y axis); ``shift_mm`` moves
+the lens's axis to (x, y). The sensor seen from the lens is then tilted
 by -tilt: the plane of sharp focus obeys the Scheimpflug condition (J. E. Greivenkamp,
 Field Guide to Geometrical Optics, "Scheimpflug condition": tan(theta') = m tan(theta)
 for the object and image planes' tilts from the plane normal to the lens axis,
@@ -37,13 +38,19 @@ from .model import Lens
 __all__ = ["tilt_shift_lens", "lens_frame"]
 
 
-def lens_frame(tilt_rad: float, shift_mm: tuple[float, float], pivot_z_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """(origin, axes) of the tilted, shifted lens's first-vertex frame in the camera frame.
+def _turn(tilt_rad: float, swing_rad: float) -> CoordinateTransform:
+    """The lens's turn: tilt about x (+z toward +y), then swing about the new y (+z toward +x)."""
+    return CoordinateTransform(tilt_x_rad=float(tilt_rad), tilt_y_rad=-float(swing_rad))
+
+
+def lens_frame(tilt_rad: float, shift_mm: tuple[float, float], pivot_z_mm: float, swing_rad: float = 0.0
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(origin, axes) of the tilted, swung, shifted lens's first-vertex frame in the camera frame.
 
     ``axes`` columns are the lens's x, y, z axes in camera coordinates; a lens-frame point p is
     the camera point ``origin + axes @ p``.
     """
-    t = CoordinateTransform(tilt_x_rad=float(tilt_rad))
+    t = _turn(tilt_rad, swing_rad)
     rot = t.rotation()
     pivot = np.array([0.0, 0.0, float(pivot_z_mm)])
     origin = np.array([float(shift_mm[0]), float(shift_mm[1]), 0.0]) + pivot - rot @ pivot
@@ -51,32 +58,37 @@ def lens_frame(tilt_rad: float, shift_mm: tuple[float, float], pivot_z_mm: float
 
 
 def tilt_shift_lens(lens: Lens, tilt_rad: float = 0.0, shift_mm: tuple[float, float] = (0.0, 0.0),
-                    pivot_z_mm: float | None = None) -> Lens:
-    """``lens`` tilted by ``tilt_rad`` about the x axis through (0, 0, ``pivot_z_mm``) and shifted
-    by ``shift_mm`` (x, y) in front of a fixed sensor (module docstring).
+                    pivot_z_mm: float | None = None, swing_rad: float = 0.0) -> Lens:
+    """``lens`` tilted by ``tilt_rad`` about the x axis through (0, 0, ``pivot_z_mm``), swung by
+    ``swing_rad`` about its own y axis (+z toward +x) and shifted by ``shift_mm`` (x, y) in front of a
+    fixed sensor (module docstring).
 
-    ``pivot_z_mm`` defaults to the stop's vertex. A zero tilt and shift return ``lens`` itself.
+    ``pivot_z_mm`` defaults to the stop's vertex. A zero tilt, swing and shift return ``lens`` itself.
     """
-    tilt = float(tilt_rad)
+    tilt, swing = float(tilt_rad), float(swing_rad)
     sx, sy = (float(v) for v in shift_mm)
-    if not all(math.isfinite(v) for v in (tilt, sx, sy)):
-        raise LensrtError("lens tilt and shift must be finite numbers")
-    if abs(tilt) >= math.radians(45.0):
-        raise LensrtError(f"lens tilt {math.degrees(tilt):g} deg is beyond 45 deg",
-                          hint="tilt-shift lenses tilt by a few degrees (about 8 to 15 at most)")
-    if tilt == 0.0 and sx == 0.0 and sy == 0.0:
+    if not all(math.isfinite(v) for v in (tilt, swing, sx, sy)):
+        raise LensrtError("lens tilt, swing and shift must be finite numbers")
+    for what, v in (("tilt", tilt), ("swing", swing)):
+        if abs(v) >= math.radians(45.0):
+            raise LensrtError(f"lens {what} {math.degrees(v):g} deg is beyond 45 deg",
+                              hint="tilt-shift lenses tilt and swing by a few degrees (about 8 to 15 at most)")
+    if tilt == 0.0 and swing == 0.0 and sx == 0.0 and sy == 0.0:
         return lens
     if not lens.is_centred or lens.has_mirrors:
         raise LensrtError("only a centred refractive lens can be tilted or shifted as a whole", path=lens.path,
                           hint="this lens already has mirrors, tilts/decenters or surface apertures")
     z = lens.vertex_z_mm()
     pivot = float(z[lens.stop_index]) if pivot_z_mm is None else float(pivot_z_mm)
-    origin, rot = lens_frame(tilt, (sx, sy), pivot)
-    # T at the first surface: decenter first (in the camera frame), then the tilt: o' = d, A' = R
-    first = CoordinateTransform(*origin, tilt_x_rad=tilt, order=0)
+    origin, _ = lens_frame(tilt, (sx, sy), pivot, swing)
+    turn = _turn(tilt, swing)
+    # T at the first surface: decenter first (in the camera frame), then the turn: o' = d, A' = R
+    first = CoordinateTransform(*origin, tilt_x_rad=turn.tilt_x_rad, tilt_y_rad=turn.tilt_y_rad, order=0)
     moved = lens.replace_surface(0, transform_before=first)
     o_img, _ = surface_frames(moved)[-1]
-    # back to the camera frame: tilts undone first (A'' = A R^T = I), then the decenter in that frame
-    back = CoordinateTransform(*(np.array([0.0, 0.0, float(z[-1])]) - o_img), tilt_x_rad=-tilt, order=1)
-    return moved.replace(image_transform=back, name=f"{lens.name} (tilt {math.degrees(tilt):g} deg, "
-                                                    f"shift {sx:g}, {sy:g} mm)")
+    # back to the camera frame: the turn undone first (order 1, values negated: A'' = A R^T = I), then the
+    # decenter in that frame
+    back = CoordinateTransform(*(np.array([0.0, 0.0, float(z[-1])]) - o_img), tilt_x_rad=-turn.tilt_x_rad,
+                               tilt_y_rad=-turn.tilt_y_rad, order=1)
+    what = f"tilt {math.degrees(tilt):g} deg" + (f", swing {math.degrees(swing):g} deg" if swing else "")
+    return moved.replace(image_transform=back, name=f"{lens.name} ({what}, shift {sx:g}, {sy:g} mm)")

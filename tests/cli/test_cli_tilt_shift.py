@@ -46,7 +46,8 @@ def test_tilted_lens_blurs_one_side_of_the_frame(capsys: pytest.CaptureFixture) 
 
 @pytest.mark.parametrize("argv,needle", [(["--lens-tilt-deg", "60"], "45 deg"),
                                          (["--lens-shift-mm", "a,b"], "--lens-shift-mm"),
-                                         (["--lens-tilt-deg", "nan"], "finite")])
+                                         (["--lens-tilt-deg", "nan"], "finite"),
+                                         (["--lens-swing-deg", "-50"], "swing -50 deg")])
 def test_bad_tilt_shift_gets_one_clear_error(argv, needle, capsys: pytest.CaptureFixture) -> None:
     rc, out, err = _run(["bokeh", "dgauss_50mm_f2", "--rays", "64", "--batches", "2", "--no-files"] + argv, capsys)
     assert rc == 2

@@ -31,22 +31,23 @@ def _sensor_z(lens, object_mm: float) -> float:
     return float(fo.rear_focal_z_mm - fo.efl_mm ** 2 / x)
 
 
-def scheimpflug_slope(lens, tilt_rad: float, shift_mm, sensor_z_mm: float) -> tuple[float, float]:
-    """(z of the axial object in focus, dz/dy of the plane in focus), both in the lens frame (first order)."""
+def scheimpflug_slopes(lens, tilt_rad: float, shift_mm, sensor_z_mm: float, swing_rad: float = 0.0
+                       ) -> tuple[float, np.ndarray]:
+    """(z of the axial object in focus, (dz/dx, dz/dy) of the plane in focus), lens frame, first order."""
     fo = first_order(lens)
-    origin, rot = lens_frame(tilt_rad, shift_mm, float(lens.vertex_z_mm()[lens.stop_index]))
+    origin, rot = lens_frame(tilt_rad, shift_mm, float(lens.vertex_z_mm()[lens.stop_index]), swing_rad)
     q = rot.T @ (np.array([0.0, 0.0, sensor_z_mm]) - origin)   # a sensor point, lens frame
     n = rot.T @ np.array([0.0, 0.0, 1.0])                       # the sensor's normal, lens frame
     z_axis = q[2] + (n[0] * q[0] + n[1] * q[1]) / n[2]          # where the lens axis meets the sensor
     x_img = z_axis - fo.rear_focal_z_mm
     m = -x_img / fo.efl_mm                                       # Newton: m = -x'/f'
-    return fo.front_focal_z_mm - fo.efl_mm ** 2 / x_img, (-n[1] / n[2]) / m
+    return fo.front_focal_z_mm - fo.efl_mm ** 2 / x_img, np.array([-n[0] / n[2], -n[1] / n[2]]) / m
 
 
-def _spot_rms(tilted, origin, rot, y_mm: float, z_mm: float, sensor_z_mm: float, pupil, z_ep: float) -> float:
-    """RMS radius on the sensor of rays from the lens-frame point (0, y, z) through pupil points."""
+def _spot_rms(tilted, origin, rot, point_mm, sensor_z_mm: float, pupil, z_ep: float) -> float:
+    """RMS radius on the sensor of rays from the lens-frame point ``point_mm`` through pupil points."""
     px, py = pupil
-    p = origin + rot @ np.array([0.0, y_mm, z_mm])
+    p = origin + rot @ np.asarray(point_mm, dtype=np.float64)
     aim = (origin[:, None] + rot @ np.stack([px, py, np.full_like(px, z_ep)])).T
     d = aim - p
     d /= np.linalg.norm(d, axis=1)[:, None]
@@ -57,15 +58,18 @@ def _spot_rms(tilted, origin, rot, y_mm: float, z_mm: float, sensor_z_mm: float,
     return float(np.sqrt(((xy - xy.mean(axis=0)) ** 2).sum(axis=1).mean()))
 
 
-@pytest.mark.parametrize("tilt_deg,shift_mm,object_mm", [(5.0, (0.0, 0.0), 1000.0), (-8.0, (0.0, 4.0), 600.0),
-                                                         (3.0, (2.0, 0.0), 3000.0)])
-def test_sharpest_plane_obeys_scheimpflug(tilt_deg: float, shift_mm, object_mm: float) -> None:
+@pytest.mark.parametrize("tilt_deg,swing_deg,shift_mm,object_mm", [(5.0, 0.0, (0.0, 0.0), 1000.0),
+                                                                   (-8.0, 0.0, (0.0, 4.0), 600.0),
+                                                                   (3.0, 0.0, (2.0, 0.0), 3000.0),
+                                                                   (0.0, 6.0, (0.0, 0.0), 800.0),
+                                                                   (4.0, -5.0, (1.0, 1.0), 1500.0)])
+def test_sharpest_plane_obeys_scheimpflug(tilt_deg: float, swing_deg: float, shift_mm, object_mm: float) -> None:
     lens = load_lens(DG)
-    tilt = math.radians(tilt_deg)
+    tilt, swing = math.radians(tilt_deg), math.radians(swing_deg)
     sensor_z = _sensor_z(lens, object_mm)
-    tilted = tilt_shift_lens(lens, tilt, shift_mm)
-    origin, rot = lens_frame(tilt, shift_mm, float(lens.vertex_z_mm()[lens.stop_index]))
-    z0, slope = scheimpflug_slope(lens, tilt, shift_mm, sensor_z)
+    tilted = tilt_shift_lens(lens, tilt, shift_mm, swing_rad=swing)
+    origin, rot = lens_frame(tilt, shift_mm, float(lens.vertex_z_mm()[lens.stop_index]), swing)
+    z0, slopes = scheimpflug_slopes(lens, tilt, shift_mm, sensor_z, swing)
     fo = first_order(lens)
     # a pupil grid stopped down to a fifth of the entrance pupil (f/10): first-order optics holds
     g = np.linspace(-1.0, 1.0, 9)
@@ -74,17 +78,23 @@ def test_sharpest_plane_obeys_scheimpflug(tilt_deg: float, shift_mm, object_mm: 
     r_ep = 0.1 * fo.entrance_pupil_diameter_mm
     pupil = (px[inside] * r_ep, py[inside] * r_ep)
     heights = np.linspace(-1.0, 1.0, 7) * 0.045 * abs(z0)
-    best = []
-    for y in heights:
-        zg = z0 + slope * y
-        found = minimize_scalar(lambda z: _spot_rms(tilted, origin, rot, y, z, sensor_z, pupil,
-                                                    fo.entrance_pupil_z_mm), bracket=(zg * 0.97, zg * 1.03), tol=1e-10)
-        best.append(found.x)
-    fitted = np.polyfit(heights, best, 2)[1]  # the quadratic term takes the field curvature
-    got_deg, want_deg = math.degrees(math.atan(fitted)), math.degrees(math.atan(slope))
-    assert abs(got_deg - want_deg) < 0.2, (got_deg, want_deg)
-    # the plane is really tilted: far from the untilted lens's plane (dz/dy = 0)
-    assert abs(want_deg) > 30.0
+    for axis in (0, 1):  # along x (swing), along y (tilt)
+        if abs(slopes[axis]) < 0.1:
+            continue
+        best = []
+        for h in heights:
+            zg = z0 + slopes[axis] * h
+
+            def rms(z: float, h: float = h) -> float:
+                point = [0.0, 0.0, z]
+                point[axis] = h
+                return _spot_rms(tilted, origin, rot, point, sensor_z, pupil, fo.entrance_pupil_z_mm)
+            best.append(minimize_scalar(rms, bracket=(zg * 0.97, zg * 1.03), tol=1e-10).x)
+        fitted = np.polyfit(heights, best, 2)[1]  # the quadratic term takes the field curvature
+        got_deg, want_deg = math.degrees(math.atan(fitted)), math.degrees(math.atan(slopes[axis]))
+        assert abs(got_deg - want_deg) < 0.2, (axis, got_deg, want_deg)
+        # the plane is really tilted: far from the untilted lens's plane (dz/dy = 0)
+        assert abs(want_deg) > 30.0
 
 
 def test_tilt_shift_frames_and_identity() -> None:
@@ -115,5 +125,7 @@ def test_tilt_shift_refuses_what_it_cannot_do() -> None:
         tilt_shift_lens(lens, math.radians(60.0))
     with pytest.raises(LensrtError, match="finite"):
         tilt_shift_lens(lens, math.nan)
+    with pytest.raises(LensrtError, match="swing 50 deg"):
+        tilt_shift_lens(lens, 0.0, swing_rad=math.radians(50.0))
     with pytest.raises(LensrtError, match="centred refractive"):
         tilt_shift_lens(load_lens("reflex_nikkor_500mm_f8"), math.radians(2.0))
