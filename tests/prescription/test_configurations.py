@@ -59,6 +59,27 @@ def test_codev_zoom_positions_and_current_position() -> None:
     assert fam.configuration(2).aperture.value == 45.0
 
 
+
+def test_codev_zoom_as_codev_saves_it() -> None:
+    """The rows CODE V writes around zoom data when it saves a lens: ``ZOO n`` (the position count),
+    ``ZOO TIT`` with ``TIT Zk`` titles (CODE V doubles the quotes), per-position solve/variable codes
+    (``ZOO THC S5 100 100 100``, skipped: no optics). Same positions as the plain fixture, named."""
+    text = SEQ.read_text().replace(
+        "ZOO THI S5", "ZOO 3\nZOO TIT\nTIT Z1 \"\"wide\"\"\nTIT Z2 'mid'\nTIT Z3 \"\"tele\"\"\n"
+        "ZOO THC S5 100 100 100\nZOO THI S5", 1).replace("POS 2", "ZOO CCY S6 100 0 100\nPOS 2")
+    fam = loads_seq(text, "saved.seq")
+    plain = read_configurations(SEQ)
+    assert fam.names == ("wide", "mid", "tele") and fam.current == 1
+    for a, b in zip(fam.configurations(), plain.configurations()):
+        assert a.surfaces == b.surfaces and a.fields == b.fields and a.aperture == b.aperture
+    assert fam.configuration("tele").surfaces[4].thickness_mm == 18.0
+    with pytest.raises(PrescriptionError, match="ZOO 4: an earlier ZOO command gives 3"):
+        loads_seq(text.replace("ZOO TIT", "ZOO TIT\nZOO 4", 1), "bad.seq")
+    with pytest.raises(PrescriptionError, match="gives 3 positions, the first ZOO command 2"):
+        loads_seq(text.replace("ZOO 3", "ZOO 2").replace('TIT Z3 ""tele""\n', ""), "bad.seq")
+    with pytest.raises(PrescriptionError, match="TIT Z5: position 5 is not one of the 3"):
+        loads_seq(text.replace("TIT Z3", "TIT Z5"), "bad.seq")
+
 def _position_seq(text: str, values: dict[str, str]) -> str:
     """The zoom sequence as a plain sequence of one position (ZOO/POS lines dropped)."""
     out = [ln for ln in text.splitlines() if not ln.strip().startswith(("ZOO", "POS", "!"))]

@@ -225,6 +225,8 @@ class _Seq:
             self.radius_mode = not (args and args[0].upper().startswith("N"))
             self.rdm_given = True
             return True
+        if name == "TIT" and self.zoom.title(args, line):
+            return True
         if name in ("TIT", "TITLE"):
             self.title = " ".join(a.strip("'\"") for a in args)
             return True
