@@ -31,6 +31,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--distances-m", metavar="LIST", default="inf,10,5,3,2,1.5,1,0.7,0.5",
                    help="focus distances in m from the first vertex (default inf,10,5,3,2,1.5,1,0.7,0.5)")
     b.add_argument("--out", metavar="DIR", help="write breathing.json and breathing.png (and zoom.png) here")
+    z = p.add_argument_group("configurations (--config all)")
+    z.add_argument("--mtf", action="store_true",
+                   help="also the geometric S/T MTF per configuration at Hy 0, 0.7, 1 and the reference frequencies "
+                        "(10/20/40 lp/mm on full frame scaled to --sensor, p. 114), real best focus")
+    z.add_argument("--mtf-rays", type=int, default=20_000, metavar="N",
+                   help="Monte Carlo rays per field point of --mtf (default 20000)")
     p.set_defaults(func=cmd_info)
 
 
@@ -105,10 +111,11 @@ def _info_all(args: argparse.Namespace) -> int:
         from ..views.plots.zoom import plot_zoom_curve
         plot_zoom_curve(Path(args.out) / "zoom.png", family.names, [r["efl_mm"] for r in rows],
                         [r["f_number"] for r in rows], family.name)
+    mtf = _configuration_mtf(args, family) if args.mtf else None
     if args.json:
         print_json({"lens": family.name, "path": family.path, "configurations": rows,
                     "current": family.names[family.current],
-                    "varying": [op.label for op in family.varying()]})
+                    "varying": [op.label for op in family.varying()], **({"mtf": mtf} if mtf else {})})
         return 0
     emit(f"{family.name or family.path}: {family.count} configuration(s), EFL ratio {zoom_ratio(rows):.3f}; "
          f"varying: {', '.join(op.label for op in family.varying()) or 'nothing'}")
@@ -117,7 +124,27 @@ def _info_all(args: argparse.Namespace) -> int:
     emit(format_table(table, [h for _, h in CONFIG_COLUMNS], digits=4))
     emit("* the file's current configuration; z from the first vertex (mm); distortion: real chief ray at the "
          "largest field against the paraxial image height")
+    if mtf:
+        from ..analysis.configurations import mtf_table
+        mrows, heads = mtf_table(mtf)
+        emit("")
+        emit(format_table(mrows, heads, title=f"geometric MTF, sagittal / tangential, at cycles/mm "
+                                              f"({mtf[0]['rays']} rays per field point; focus: real best focus "
+                                              "of the axial point, or the image surface where that search fails)"))
     return 0
+
+
+def _configuration_mtf(args: argparse.Namespace, family) -> list[dict]:
+    """``info --config all --mtf``: :func:`lensrt.analysis.configurations.configuration_mtf` as JSON-ready dicts."""
+    from ..analysis.configurations import configuration_mtf
+    from ..analysis.psf.otf import reference_frequencies_cpmm
+    from ..errors import LensrtError
+    from ..paraxial.photographic import sensor_format
+    if args.mtf_rays < 100:
+        raise LensrtError(f"--mtf-rays {args.mtf_rays} is too few for an MTF", hint="use 1000 or more")
+    freqs = reference_frequencies_cpmm(sensor_format(args.sensor or "full-frame").diagonal_mm)
+    out = configuration_mtf(family, freqs, rays=args.mtf_rays)
+    return [{k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in m.items()} for m in out]
 
 
 def _info_breathing(args: argparse.Namespace, lens) -> int:

@@ -147,6 +147,56 @@ def test_report_config_all_tabulates_every_configuration(tmp_path: Path) -> None
     assert "zoom.png" in page and "breathing.png" in page
 
 
+
+def test_cli_report_config_all_writes_one_page_with_per_configuration_mtf(tmp_path: Path) -> None:
+    """``lensrt report ZOOM --config all`` (draft): exit 0, one page with the per-configuration tables (first order,
+    MTF) and plots (zoom curve, MTF per configuration, breathing). Oracles: on the axis of a rotationally symmetric
+    lens the sagittal and tangential MTF agree within their standard errors (z < 4.5), and each configuration's MTF
+    is the one ``configuration_mtf`` (behind ``info --config all --mtf``) gives for the same seed (bit for bit)."""
+    from lensrt.report import section_keys
+    out = tmp_path / "rep"
+    skip = [a for k in section_keys() if k not in ("lens", "zoom") for a in ("--skip", k)]
+    assert main(["report", str(SEQ), "--config", "all", "--out", str(out), "--quality", "draft", "--device", "cpu",
+                 "--precision", "float64", "--quiet"] + skip) == 0
+    data = json.loads((out / "report.json").read_text())
+    zoom = next(s for s in data["sections"] if s["key"] == "zoom")
+    mtf = zoom["data"]["mtf"]
+    assert [m["name"] for m in mtf] == ["Z1", "Z2", "Z3"] and mtf[1]["current"]
+    for m in mtf:
+        s, t = m["sagittal"][0], m["tangential"][0]  # Hy 0
+        for k in range(len(m["freqs_cpmm"])):
+            se = math.hypot(m["sagittal_stderr"][0][k], m["tangential_stderr"][0][k])
+            assert abs(s[k] - t[k]) <= 4.5 * se + 1e-12, (m["name"], k, s[k], t[k], se)
+        assert all(0.0 <= v <= 1.0 + 1e-9 for row in m["sagittal"] + m["tangential"] for v in row if v == v)
+    for png in ("zoom.png", "zoom_mtf.png", "breathing.png"):
+        assert (out / png).stat().st_size > 0
+    page = (out / "index.html").read_text()
+    assert page.count("<html") == 1 and "zoom_mtf.png" in page and "S/T" in page
+    from lensrt.analysis.configurations import configuration_mtf
+    from lensrt.loading import load_configurations
+    family = load_configurations(SEQ)
+    one = configuration_mtf(family, mtf[0]["freqs_cpmm"], rays=mtf[0]["rays"], device="cpu", seed=0)
+    for a, b in zip(one, mtf):
+        assert a["sagittal"].tolist() == b["sagittal"] and a["tangential"].tolist() == b["tangential"]
+
+
+def test_info_config_all_mtf(capsys) -> None:
+    """``info --config all --mtf --json``: a reference-frequency MTF block per configuration (frequencies
+    10/20/40 lp/mm scaled to the format, p. 114); too few rays is one clear error."""
+    assert main(["info", str(SEQ), "--config", "all", "--mtf", "--mtf-rays", "2000", "--sensor", "aps-c",
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    from lensrt.analysis.psf.otf import reference_frequencies_cpmm
+    from lensrt.paraxial.photographic import sensor_format
+    ref = reference_frequencies_cpmm(sensor_format("aps-c").diagonal_mm)
+    assert [m["name"] for m in doc["mtf"]] == ["Z1", "Z2", "Z3"]
+    for m in doc["mtf"]:
+        assert m["freqs_cpmm"] == pytest.approx(ref, rel=1e-15) and m["fields"] == [0.0, 0.7, 1.0]
+        assert len(m["sagittal"]) == 3 and len(m["sagittal"][0]) == 3
+    assert main(["info", str(SEQ), "--config", "all", "--mtf", "--mtf-rays", "10"]) == 2
+    err = capsys.readouterr().err
+    assert "--mtf-rays 10" in err and err.count("\n") == 1
+
 def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
     assert main(["sweep", str(SEQ), "--config", "all", "--focus-distance-mm", "inf", "--f-number", "2.8",
                  "--quantity", "efl_mm", "--format", "json"]) == 0

@@ -1,4 +1,5 @@
-"""Plots of zoom and focus: focus breathing (AFoV against focus distance) and the focal-length curve."""
+"""Plots of zoom and focus: focus breathing (AFoV against focus distance), the focal-length curve and the MTF
+per configuration."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,7 +9,7 @@ import numpy as np
 
 from .figure import new_figure, save_figure
 
-__all__ = ["plot_breathing", "plot_zoom_curve"]
+__all__ = ["plot_breathing", "plot_zoom_curve", "plot_zoom_mtf"]
 
 
 def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
@@ -47,4 +48,28 @@ def plot_zoom_curve(path: str | Path, names: Sequence[str], efl_mm: Sequence[flo
     ax2.set_ylabel("f-number", color="C1")
     ax.set_title(title or "focal length per configuration")
     ax.grid(alpha=0.3)
+    return save_figure(fig, path)
+
+
+def plot_zoom_mtf(path: str | Path, mtf: Sequence[dict], title: str = "") -> Path:
+    """Sagittal (solid) and tangential (dashed) MTF per configuration, one panel per reference frequency,
+    one colour per field point (``mtf``: :func:`lensrt.analysis.configurations.configuration_mtf`)."""
+    freqs, fields = mtf[0]["freqs_cpmm"], mtf[0]["fields"]
+    fig = new_figure(3.0 * len(freqs) + 0.5, 3.5)
+    k = np.arange(len(mtf))
+    for i, fr in enumerate(freqs):
+        ax = fig.add_subplot(1, len(freqs), i + 1)
+        for j, hy in enumerate(fields):
+            s = [float(np.asarray(m["sagittal"])[j, i]) for m in mtf]
+            t = [float(np.asarray(m["tangential"])[j, i]) for m in mtf]
+            ax.plot(k, s, "o-", color=f"C{j}", label=f"Hy {hy:g}")
+            ax.plot(k, t, "s--", color=f"C{j}")
+        ax.set_xticks(k, [m["name"] for m in mtf], fontsize=7, rotation=30)
+        ax.set_ylim(0.0, 1.0)
+        ax.set_title(f"{fr:.3g} cycles/mm", fontsize=9)
+        ax.grid(alpha=0.3)
+        if i == 0:
+            ax.set_ylabel("MTF (S solid, T dashed)")
+            ax.legend(fontsize=7)
+    fig.suptitle(title or "MTF per configuration", fontsize=9)
     return save_figure(fig, path)
