@@ -351,3 +351,42 @@ def test_library_wide_zoom_from_its_patent() -> None:
         sol = focus_at(lens, 1000.0)
         assert sol.travel > 0 and abs(_on_sensor(sol)) < 1e-9
 
+
+
+def _object_distance_in_focus(lens, lo_mm: float, hi_mm: float, tol_mm: float = 1e-10) -> float:
+    """The axial object distance (from the first vertex) whose real best focus lies on ``lens``'s image surface,
+    the lens as it is (secant on the distance; ``focus_residual_mm`` is the independent best-focus minimum)."""
+    from lensrt.analysis.focusing import focus_residual_mm
+    a, b = lo_mm, hi_mm
+    ra, rb = focus_residual_mm(lens, a), focus_residual_mm(lens, b)
+    for _ in range(40):
+        if abs(rb) < tol_mm or rb == ra:
+            break
+        a, ra, b = b, rb, b - rb * (b - a) / (rb - ra)
+        rb = focus_residual_mm(lens, b)
+    assert abs(rb) < 1e-8
+    return b
+
+
+def test_library_inner_focus_prime_from_its_patent() -> None:
+    """FUJINON XF 90 mm f/2 (US 2016/0274335 A1 Example 1): f = 87.495 mm at the patent's printed precision, the
+    patent's infinity and close-focus gaps as two configurations (D8 + D11 constant: G2 moves, nothing else), the
+    infinity gaps at the real best focus for infinity, and the declared focus group reaching the patent's close-focus
+    gaps: the object distance at which the close configuration is in focus (solved with real rays) focuses the
+    infinity configuration by exactly the patent's G2 travel 8.096 mm (1e-6 relative). That distance is 0.81 m from
+    the image plane (m = -0.136), not the 0.6 m the transcription quotes (docs/guide/zoom.md)."""
+    from lensrt.loading import load_configurations
+    family = load_configurations("fujinon_xf_90mm_f2_inner_focus")
+    inf, close = family.configuration("infinity"), family.configuration("close")
+    _check_stated_efl(inf, 87.495)
+    assert first_order(inf).f_number == pytest.approx(2.06, abs=5e-5)  # the fitted stop: F/2.06 at infinity
+    assert inf.focus.kind == "group" and [g + 1 for g in inf.focus.gaps] == [8, 11]
+    gaps = [(c.surfaces[7].thickness_mm, c.surfaces[10].thickness_mm) for c in (inf, close)]
+    assert sum(gaps[0]) == pytest.approx(sum(gaps[1]), abs=1e-12) and gaps[1][0] - gaps[0][0] == pytest.approx(8.096)
+    assert inf.image_z_mm == pytest.approx(close.image_z_mm, abs=1e-12)
+    assert abs(focus_at(inf, math.inf).travel) < 0.01  # the patent's infinity gaps: real best focus within 10 um
+    d_close = _object_distance_in_focus(close, 600.0, 800.0)
+    sol = focus_at(inf, d_close)
+    assert sol.travel == pytest.approx(8.096, rel=1e-6)
+    assert [sol.lens.surfaces[g].thickness_mm for g in (7, 10)] == pytest.approx(list(gaps[1]), rel=1e-6)
+    assert d_close + inf.image_z_mm == pytest.approx(813.6, abs=0.5)
