@@ -68,7 +68,12 @@ def configuration_mtf(family: MultiConfigLens, freqs_cpmm: Sequence[float], fiel
     point Hy in ``fields`` (:func:`lensrt.analysis.psf.psf_at`, the lens's spectrum),
     observed at the real best focus of the axial point
     (:func:`lensrt.analysis.psf.focus.focus_plane`), or on the file's image surface where
-    that search fails (``focus`` says which). One dict per configuration: ``name``,
+    that search fails (``focus`` says which). The PSF grid is chosen as in the report's
+    MTF section (pitch capped so that its Nyquist frequency passes the highest frequency,
+    the window sized to the traced light): where the traced light spreads too far for a
+    grid that fine (e.g. the RF 15-35's stray ring of axial rays through its aspheric
+    front, docs/guide/zoom.md), the frequencies it cannot resolve are NaN. One dict per
+    configuration: ``name``,
     ``focus``, ``fields`` (Hy), ``freqs_cpmm``, ``sagittal``/``tangential`` and their
     standard errors (arrays field x frequency; NaN where a field fails), ``rays``.
     """
