@@ -197,6 +197,23 @@ def test_info_config_all_mtf(capsys) -> None:
     err = capsys.readouterr().err
     assert "--mtf-rays 10" in err and err.count("\n") == 1
 
+
+def test_info_config_all_breathing_per_configuration(tmp_path: Path, capsys) -> None:
+    """``info --config all --breathing``: one breathing curve per zoom position (JSON and one plot), each the
+    position's own curve: its infinity AFoV is the position's real full diagonal angle, and it narrows toward 1 m."""
+    assert main(["info", str(SEQ), "--config", "all", "--breathing", "--distances-m", "inf,1", "--json",
+                 "--out", str(tmp_path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [c["name"] for c in doc["configurations"]] == ["Z1", "Z2", "Z3"]
+    from lensrt.loading import load_configurations
+    for c, lens in zip(doc["configurations"], load_configurations(SEQ).configurations()):
+        d = c["sensor_diagonal_mm"]
+        assert c["afov_unit_focus_formula_deg"][0] == pytest.approx(
+            2 * math.degrees(math.atan(d / (2 * first_order(lens).efl_mm))), rel=1e-9)
+        assert c["afov_real_deg"][1] < c["afov_real_deg"][0]
+    assert json.loads((tmp_path / "breathing.json").read_text())["configurations"] == doc["configurations"]
+    assert (tmp_path / "breathing.png").stat().st_size > 0
+
 def test_sweep_config_all_has_a_row_per_configuration(capsys) -> None:
     assert main(["sweep", str(SEQ), "--config", "all", "--focus-distance-mm", "inf", "--f-number", "2.8",
                  "--quantity", "efl_mm", "--format", "json"]) == 0

@@ -9,7 +9,7 @@ import numpy as np
 
 from .figure import new_figure, save_figure
 
-__all__ = ["plot_breathing", "plot_zoom_curve", "plot_zoom_mtf"]
+__all__ = ["plot_breathing", "plot_breathing_family", "plot_zoom_curve", "plot_zoom_mtf"]
 
 
 def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
@@ -31,6 +31,29 @@ def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
     ax.set_title(title or "focus breathing", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
+    return save_figure(fig, path)
+
+
+def plot_breathing_family(path: str | Path, curves: Sequence[dict], title: str = "") -> Path:
+    """AFoV (deg) against focus distance (m) of several configurations: real rays solid, the unit-focus formula
+    dashed, one colour per configuration (each curve a ``focus_breathing(...).to_dict()`` with a ``name``)."""
+    fig = new_figure(6.5, 4.2)
+    ax = fig.add_subplot(1, 1, 1)
+    for k, c in enumerate(curves):
+        d = np.asarray(c["distance_mm"], dtype=np.float64)
+        x = np.where(np.isinf(d), np.nan, d / 1000.0)
+        fin = np.isfinite(x)
+        ax.plot(x[fin], np.asarray(c["afov_real_deg"])[fin], "o-", color=f"C{k}", label=f"{c['name']}: real rays")
+        ax.plot(x[fin], np.asarray(c["afov_unit_focus_formula_deg"])[fin], "--", color=f"C{k}", lw=0.8)
+        if not fin.all():  # infinity: a short tick at the right edge
+            ax.axhline(float(np.asarray(c["afov_real_deg"])[~fin][0]), xmin=0.97, xmax=1.0, color=f"C{k}", lw=2)
+    ax.plot([], [], "k--", lw=0.8, label="unit-focus formula (p. 18)")
+    ax.set_xscale("log")
+    ax.set_xlabel("focus distance from the first vertex (m); right-edge ticks: infinity")
+    ax.set_ylabel("diagonal angle of view (deg)")
+    ax.set_title((title or "focus breathing per configuration").replace(": ", ":\n", 1), fontsize=8)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
     return save_figure(fig, path)
 
 
