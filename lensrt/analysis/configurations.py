@@ -75,7 +75,8 @@ def configuration_mtf(family: MultiConfigLens, freqs_cpmm: Sequence[float], fiel
     front, docs/guide/zoom.md), the frequencies it cannot resolve are NaN. One dict per
     configuration: ``name``,
     ``focus``, ``fields`` (Hy), ``freqs_cpmm``, ``sagittal``/``tangential`` and their
-    standard errors (arrays field x frequency; NaN where a field fails), ``rays``.
+    standard errors (arrays field x frequency; NaN where a field fails), ``rays`` (per
+    field point asked), ``samples`` and ``seconds`` (rays traced and time, all fields).
     """
     from .fields import normalised_fields
     from .psf.focus import focus_plane
@@ -91,18 +92,21 @@ def configuration_mtf(family: MultiConfigLens, freqs_cpmm: Sequence[float], fiel
         setup = make_setup(lens, None, foc, device, method="geometric", rays=rays, precision=precision,
                            mtf_freqs_cpmm=freqs, max_pitch_um=0.45e3 / max(freqs))
         vals = np.full((4, len(fields), len(freqs)), np.nan)
+        samples, seconds = 0, 0.0
         for j, f in enumerate(normalised_fields(fields)):
             try:
                 res = psf_at(setup, f, seed + j, device)
             except LensrtError:  # no light reaches the plane from this field: NaN, not a failure
                 continue
+            samples, seconds = samples + int(res.samples), seconds + float(res.seconds)
             for k, key in enumerate(("mtf_sagittal", "mtf_tangential")):
                 e = res.estimates.get(key)
                 if e is not None:
                     v, se = np.atleast_1d(e.value), np.atleast_1d(e.stderr)
                     vals[k, j, :v.size], vals[k + 2, j, :se.size] = v, se
         out.append({"name": family.names[i], "focus": where, "focus_z_mm": float(foc["z_mm"]),
-                    "fields": list(fields), "freqs_cpmm": list(freqs), "rays": rays,
+                    "fields": list(fields), "freqs_cpmm": list(freqs), "rays": rays, "samples": samples,
+                    "seconds": seconds,
                     "sagittal": vals[0], "tangential": vals[1], "sagittal_stderr": vals[2],
                     "tangential_stderr": vals[3], "current": i == family.current})
     return out

@@ -172,6 +172,8 @@ def test_cli_report_config_all_writes_one_page_with_per_configuration_mtf(tmp_pa
         assert (out / png).stat().st_size > 0
     page = (out / "index.html").read_text()
     assert page.count("<html") == 1 and "zoom_mtf.png" in page and "S/T" in page
+    rec = next(m for m in data["monte_carlo"] if m["figure"] == "zoom_mtf.png")
+    assert rec["samples"] == sum(m["samples"] for m in mtf) > 0 and rec["stderr_max"] > 0
     from lensrt.analysis.configurations import configuration_mtf
     from lensrt.loading import load_configurations
     family = load_configurations(SEQ)
