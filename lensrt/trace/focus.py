@@ -20,7 +20,7 @@ The real pupil is the beam through the stop's opening around the chief ray. Some
 disconnected ring of rays far outside it -- e.g. a wide-angle zoom whose large aspheric front elements (sized
 for the off-axis beams) bend axial rays at 20 mm height back through the stop when the patent's flare-cut
 stop is left out; those rays land millimetres off axis and would drag the "best focus" tens of mm away. So
-the grid's passing cells are split into 4-connected regions, only the region holding the chief ray's cell
+the grid's passing cells are split into 8-connected regions (a thin annulus stays one), only the region holding the chief ray's cell
 (the ray toward the paraxial entrance pupil's centre) is kept, and the grid is laid again over that region
 alone (:func:`main_pupil_box`).
 """
@@ -113,12 +113,12 @@ def _chief_cell_ab(lens: Lens, fp: FieldPoint, box: PupilBox) -> tuple[float, fl
 
 
 def main_pupil_box(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray) -> PupilBox | None:
-    """The box of the 4-connected region of passing cells ``ok`` (n x n over ``box``) that holds the chief
+    """The box of the 8-connected region of passing cells ``ok`` (n x n over ``box``) that holds the chief
     ray's cell (or the passing cell nearest it), one cell wider each side; None when that region is all
     there is (nothing to cut away)."""
     from dataclasses import replace
     from scipy import ndimage
-    labels, count = ndimage.label(ok)
+    labels, count = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
     if count <= 1:
         return None
     n0, n1 = ok.shape
@@ -153,7 +153,7 @@ def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = N
             break
         if attempt == 2:  # still disconnected pieces inside the refined box: keep the main region's cells only
             from scipy import ndimage
-            labels, _ = ndimage.label(ok)
+            labels, _ = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
             a, b = _chief_cell_ab(lens, fp, box)
             ca = int(np.clip((a - box.a0) / da, 0, n - 1))
             cb = int(np.clip((b - box.b0) / db, 0, n - 1))
