@@ -28,6 +28,8 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
            # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
            ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq",
+           # the reader gaps of issue 17: CUF, solves (CUY UMY, PIM), a long glass code; SCBD on the image
+           ROOT / "data" / "readers_keywords.seq", ROOT / "data" / "readers_keywords.zmx",
            # zoom and focus (issue 18): MNUM/THIC/APER/YFIE/WAVE/LTTL rows, ZOO/POS, [[configuration]] and [focus]
            ROOT / "data" / "cooke_triplet_mce.zmx", ROOT / "data" / "ag_dblgauss_zoom.seq",
            ROOT.parent / "lens_prescriptions" / "fujinon_xf_90mm_f2_inner_focus.toml"]
@@ -36,8 +38,9 @@ SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
           "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
-          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "MNUM", "THIC", "ZOO", "POS", "TIT",
-          "[[configuration]]", "thickness_mm", "floating"]
+          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "CUF", "PIM", "UMY", "HMY",
+          "UCY", "SCBD", "517000.520000", "MNUM", "THIC", "ZOO", "POS", "TIT", "[[configuration]]", "thickness_mm",
+          "floating"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:
