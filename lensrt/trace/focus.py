@@ -15,6 +15,14 @@ lenses at 32-48 rays a side). Here the pupil box gets an n x n grid (default 128
 pupil's boundary (a cell whose centre ray's fate differs from a neighbour's) is replaced by s x s sub-rays
 (default 8), so the edge is resolved as finely as an (n s) x (n s) grid at a fraction of the rays: on the
 two f/1.4 library lenses it agrees with a 2048 x 2048 grid to < 0.1 um (tests/trace/test_focus.py).
+
+The real pupil is the beam through the stop's opening around the chief ray. Some prescriptions also pass a
+disconnected ring of rays far outside it -- e.g. a wide-angle zoom whose large aspheric front elements (sized
+for the off-axis beams) bend axial rays at 20 mm height back through the stop when the patent's flare-cut
+stop is left out; those rays land millimetres off axis and would drag the "best focus" tens of mm away. So
+the grid's passing cells are split into 8-connected regions (a thin annulus stays one), only the region holding the chief ray's cell
+(the ray toward the paraxial entrance pupil's centre) is kept, and the grid is laid again over that region
+alone (:func:`main_pupil_box`).
 """
 from __future__ import annotations
 
@@ -88,6 +96,41 @@ def _boundary_cells(ok: np.ndarray) -> np.ndarray:
     return near
 
 
+def _chief_cell_ab(lens: Lens, fp: FieldPoint, box: PupilBox) -> tuple[float, float]:
+    """(a, b) in ``box`` of the ray from ``fp`` toward the paraxial entrance pupil's centre."""
+    from ..paraxial import first_order
+    centre, axis = np.asarray(box.centre, dtype=np.float64), np.asarray(box.axis, dtype=np.float64)
+    target = np.array([0.0, 0.0, first_order(lens).entrance_pupil_z_mm])
+    if fp.infinite:
+        d = np.asarray(fp.direction, dtype=np.float64)
+        o = target
+    else:
+        o = np.asarray(fp.point_mm, dtype=np.float64)
+        d = target - o
+    t = float(np.dot(centre - o, axis) / np.dot(d, axis))
+    q = o + t * d - centre
+    return float(np.dot(q, box.e1)), float(np.dot(q, box.e2))
+
+
+def main_pupil_box(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray) -> PupilBox | None:
+    """The box of the 8-connected region of passing cells ``ok`` (n x n over ``box``) that holds the chief
+    ray's cell (or the passing cell nearest it), one cell wider each side; None when that region is all
+    there is (nothing to cut away)."""
+    from dataclasses import replace
+    from scipy import ndimage
+    labels, count = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
+    if count <= 1:
+        return None
+    n0, n1 = ok.shape
+    da, db = (box.a1 - box.a0) / n0, (box.b1 - box.b0) / n1
+    a, b = _chief_cell_ab(lens, fp, box)
+    ia, ib = np.nonzero(ok)
+    k = int(np.argmin((box.a0 + (ia + 0.5) * da - a) ** 2 + (box.b0 + (ib + 0.5) * db - b) ** 2))
+    ra, rb = np.nonzero(labels == labels[ia[k], ib[k]])
+    return replace(box, a0=box.a0 + (ra.min() - 1) * da, a1=box.a0 + (ra.max() + 2) * da,
+                   b0=box.b0 + (rb.min() - 1) * db, b1=box.b0 + (rb.max() + 2) * db)
+
+
 def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = None, z0_mm: float | None = None,
                   n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
                   device: str | None = None) -> FocusMoments:
@@ -98,11 +141,25 @@ def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = N
     if not box.area_mm2 > 0:
         raise LensrtError("no ray of this field point passes the lens: no best focus",
                           hint="choose a field point inside the lens's coverage")
-    da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
-    ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    rays, w = _grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * da, box.b0 + (ib.ravel() + 0.5) * db, wavelength_nm)
-    res = trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
-    ok = (res.ok & (res.direction[:, 2] > 0)).reshape(n, n)
+    for attempt in range(3):  # the grid, then again over the main pupil alone (module docstring)
+        da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
+        ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        rays, w = _grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * da, box.b0 + (ib.ravel() + 0.5) * db,
+                             wavelength_nm)
+        res = trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
+        ok = (res.ok & (res.direction[:, 2] > 0)).reshape(n, n)
+        main = main_pupil_box(lens, fp, box, ok) if ok.any() else None
+        if main is None:
+            break
+        if attempt == 2:  # still disconnected pieces inside the refined box: keep the main region's cells only
+            from scipy import ndimage
+            labels, _ = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
+            a, b = _chief_cell_ab(lens, fp, box)
+            ca = int(np.clip((a - box.a0) / da, 0, n - 1))
+            cb = int(np.clip((b - box.b0) / db, 0, n - 1))
+            ok &= labels == labels[ca, cb] if labels[ca, cb] else ok
+            break
+        box = main
     edge = _boundary_cells(ok)
     keep = ok & ~edge
     pos = [res.position_mm.reshape(n, n, 3)[keep][:, :2]]

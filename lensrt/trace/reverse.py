@@ -33,9 +33,10 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
     rays or stream sources, not with its field specification.
     """
     if lens.has_mirrors or not lens.is_centred:
-        raise LensrtError("tracing from the image side (render, bokeh maps) does not support mirrors, tilts/decenters "
+        raise LensrtError("tracing from the image side (render) does not support mirrors, tilts/decenters "
                           "or surface apertures yet", path=lens.path,
-                          hint="trace such lenses forward (trace, psf, spot) or with the float64 reference tracer")
+                          hint="trace such lenses forward (trace, psf, bokeh spots and maps) or with the float64 "
+                               "reference tracer")
     n = lens.n_surfaces
     media = lens.media()
     old = lens.surfaces
@@ -45,6 +46,7 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
         gap = old[n - 2 - j].thickness_mm if j < n - 1 else float(scene_gap_mm)
         surfaces.append(replace(s, curvature_per_mm=-s.curvature_per_mm,
                                 asphere=tuple(-a for a in s.asphere), thickness_mm=gap,
+                                shape=None if s.shape is None else s.shape.mirrored_in_z(),
                                 material=media[n - 1 - j], line=None))
     obj = old[-1].thickness_mm
     return Lens(tuple(surfaces), aperture=Aperture("float_by_stop", 0.0),
