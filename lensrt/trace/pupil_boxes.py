@@ -8,8 +8,8 @@ aperture -- a coarse grid over a region that surely holds the pupil (everything
 that passes surface 1), then a finer grid over what passed -- so each box hugs
 the *real* pupil, cat's eyes included; vignetted rays are rejected in the kernel.
 
-All field points share each pass: one float64 store-kernel trace per wavelength
-and pass, whatever their number (a PSF map, a bokeh map, the lights of a scene).
+All field points and wavelengths share each pass: one float64 store-kernel trace
+per pass, whatever their number (a PSF map, a bokeh map, the lights of a scene).
 The passing rays traced to the plane also give each field point's *footprint*
 (the bounding box of its spot) for free. :func:`pupil_box` is the one-field
 case (used by :func:`lensrt.trace.stream.stream_source`).
@@ -27,6 +27,9 @@ from ..prescription.model import Iris, Lens
 from .aiming import FieldPoint, aim_frames, pupil_geometry, rays_through_points
 
 __all__ = ["PupilBox", "pupil_box", "pupil_boxes", "box_wavelengths"]
+
+#: most rays one grid pass traces at once (its wavelengths are split into traces of at most this many)
+_MAX_PASS_RAYS = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -103,7 +106,7 @@ def _surface1_boxes(lens: Lens, fps: list[FieldPoint], c: np.ndarray, w: np.ndar
 
 def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray, e2: np.ndarray, box: np.ndarray,
                n: int, wls: list[float], plane_z_mm: float | None, trace_kw: dict, device: str | None):
-    """Trace an n x n grid over each field point's box at every wavelength (one trace per wavelength).
+    """Trace an n x n grid over each field point's box at every wavelength (one trace for all).
 
     Returns (lo, hi, cell, footprint): per field point the min/max aim coordinates (a, b) of the
     passing grid points (inf/-inf when none passed), the cell size (a, b) and the footprint
@@ -121,18 +124,31 @@ def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray,
     o, d = rays_through_points(fps, pts, src)
     ok = np.zeros((S, n * n), dtype=bool)
     foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
-    for wl in wls:
-        res = trace(lens, RayBatch(o, d, np.full(len(o), wl)), "float64", device, plane_z_mm=plane_z_mm, **trace_kw)
-        got = res.ok.reshape(S, n * n)
-        ok |= got
-        for k in (0, 1):
-            v = res.position_mm[:, k].reshape(S, n * n)
-            foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
-            foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
+    # the grid's copies at several wavelengths in one trace (one launch per pass unless that is over
+    # _MAX_PASS_RAYS rays: a bokeh map of hundreds of sources)
+    m = len(o)
+    per = max(1, min(len(wls), _MAX_PASS_RAYS // max(m, 1)))
+    for g in range(0, len(wls), per):
+        part = wls[g:g + per]
+        res = trace(lens, RayBatch(np.tile(o, (len(part), 1)), np.tile(d, (len(part), 1)),
+                                   np.repeat(np.asarray(part, dtype=np.float64), m)),
+                    "float64", device, plane_z_mm=plane_z_mm, **trace_kw)
+        for j in range(len(part)):
+            _merge_pass(res, j * m, S, n, ok, foot)
     lo = np.stack([np.where(ok, A, np.inf).min(axis=1), np.where(ok, B, np.inf).min(axis=1)], axis=1)
     hi = np.stack([np.where(ok, A, -np.inf).max(axis=1), np.where(ok, B, -np.inf).max(axis=1)], axis=1)
     cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
     return lo, hi, cell, foot
+
+
+def _merge_pass(res, start: int, S: int, n: int, ok: np.ndarray, foot: np.ndarray) -> None:
+    """Fold the S * n * n rays of ``res`` from ``start`` on into ``ok`` (S, n*n) and the footprints ``foot`` (S, 4)."""
+    got = res.ok[start:start + S * n * n].reshape(S, n * n)
+    ok |= got
+    for k in (0, 1):
+        v = res.position_mm[start:start + S * n * n, k].reshape(S, n * n)
+        foot[:, 2 * k] = np.minimum(foot[:, 2 * k], np.where(got, v, np.inf).min(axis=1))
+        foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
 
 
 def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
