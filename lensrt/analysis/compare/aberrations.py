@@ -225,7 +225,7 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     whose every ray is vignetted has no spot diagram and is left out of the list.
     """
     from ...trace.sampling import spectrum_discrete
-    from ...trace.stream import Grid, stream, stream_source
+    from ...trace.stream import Grid, stream, stream_sources
     if reference not in ("chief", "centroid"):
         raise LensrtError(f"unknown spot reference {reference!r}", hint="use 'chief' or 'centroid'")
     wls = tuple(float(w) for w in (lens.wavelengths.nm if wavelengths_nm is None else wavelengths_nm))
@@ -234,9 +234,10 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     fps = [object_field_point(lens, s.object_value) for s in specs]
     primary = lens.wavelengths.primary_nm
     chief = trace64(lens, chief_batch(lens, fps, primary, device), device, plane_z_mm=z)
-    sources = [stream_source(lens, field=fp, plane_z_mm=z, centre_mm=(float(chief.position_mm[k, 0]),
-                                                                       float(chief.position_mm[k, 1])),
-                             wavelengths_nm=wls, device=device) for k, fp in enumerate(fps)]
+    # every field point's pupil box in one batched pass (the same sources as stream_source one by one)
+    sources = stream_sources(lens, fps, plane_z_mm=z, layers=[0] * len(fps), wavelengths_nm=wls, device=device,
+                             centres_mm=[(float(chief.position_mm[k, 0]), float(chief.position_mm[k, 1]))
+                                         for k in range(len(fps))])
     # fields whose every ray is vignetted have no spot: they are left out
     keep = [k for k, src in enumerate(sources) if src.box.area_mm2 > 0 and chief.ok[k]]
     if not keep:
