@@ -28,9 +28,9 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from .aiming import FieldPoint, field_point, ray_through_point
 from .api import RayBatch, trace
-from .pupil_boxes import PupilBox, pupil_box
+from .pupil_boxes import PupilBox, pupil_boxes
 
-__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "best_focus_plane", "BestFocusPlane"]
+__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_many", "best_focus_plane", "BestFocusPlane"]
 
 BEST_FOCUS_DEFINITION = ("minimum RMS spot radius about the centroid, rays filling the real pupil uniformly "
                          "(stream-kernel weights), wavelengths pooled by weight; pupil edge resolved by "
@@ -92,34 +92,64 @@ def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = N
                   n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
                   device: str | None = None) -> FocusMoments:
     """The focus moments of one wavelength (module docstring): an n x n grid, boundary cells sub x sub."""
+    return focus_moments_many(lens, [wavelength_nm], fp=fp, z0_mm=z0_mm, n=n, sub=sub, stop_radius_mm=stop_radius_mm,
+                              device=device)[0]
+
+
+def focus_moments_many(lens: Lens, wavelengths_nm: Sequence[float], *, fp: FieldPoint | None = None,
+                       z0_mm: float | None = None, n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
+                       device: str | None = None) -> list[FocusMoments]:
+    """:func:`focus_moments` of several wavelengths, the same moments bit for bit: each step (pupil boxes,
+    the grids, the boundary cells' sub-grids) traces the rays of every wavelength together."""
     fp = field_point(lens, 0.0, 0.0) if fp is None else fp
     z0 = lens.image_z_mm if z0_mm is None else float(z0_mm)
-    box = pupil_box(lens, fp, [wavelength_nm], stop_radius_mm=stop_radius_mm, device=device)
-    if not box.area_mm2 > 0:
+    wls = [float(w) for w in wavelengths_nm]
+    boxes = pupil_boxes(lens, [fp] * len(wls), stop_radius_mm=stop_radius_mm, device=device, field_wavelengths_nm=wls)
+    if not all(box.area_mm2 > 0 for box in boxes):
         raise LensrtError("no ray of this field point passes the lens: no best focus",
                           hint="choose a field point inside the lens's coverage")
-    da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
     ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    rays, w = _grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * da, box.b0 + (ib.ravel() + 0.5) * db, wavelength_nm)
-    res = trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
-    ok = (res.ok & (res.direction[:, 2] > 0)).reshape(n, n)
-    edge = _boundary_cells(ok)
-    keep = ok & ~edge
-    pos = [res.position_mm.reshape(n, n, 3)[keep][:, :2]]
-    dirs = [res.direction.reshape(n, n, 3)[keep]]
-    wts = [w.reshape(n, n)[keep]]
-    if edge.any():  # replace each boundary cell by sub x sub rays of 1/sub^2 of its weight
-        ea, eb = np.nonzero(edge)
-        off = (np.arange(sub) + 0.5) / sub
-        oa, ob = np.meshgrid(off, off, indexing="ij")
-        a = (box.a0 + (ea[:, None] + oa.ravel()[None, :]) * da).ravel()
-        b = (box.b0 + (eb[:, None] + ob.ravel()[None, :]) * db).ravel()
-        sub_rays, sw = _grid_rays(fp, box, a, b, wavelength_nm)
-        sr = trace(lens, sub_rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
-        sok = sr.ok & (sr.direction[:, 2] > 0)
-        pos.append(sr.position_mm[sok, :2])
-        dirs.append(sr.direction[sok])
-        wts.append(sw[sok] / sub ** 2)
+    grids = [_grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * (box.a1 - box.a0) / n,
+                        box.b0 + (ib.ravel() + 0.5) * (box.b1 - box.b0) / n, wl) for box, wl in zip(boxes, wls)]
+    res = _trace_all(lens, [g[0] for g in grids], stop_radius_mm, z0, device)
+    m = n * n
+    parts, subs = [], []
+    for j, (box, wl) in enumerate(zip(boxes, wls)):
+        ok = (res.ok[j * m:(j + 1) * m] & (res.direction[j * m:(j + 1) * m, 2] > 0)).reshape(n, n)
+        edge = _boundary_cells(ok)
+        keep = ok & ~edge
+        parts.append(([res.position_mm[j * m:(j + 1) * m].reshape(n, n, 3)[keep][:, :2]],
+                      [res.direction[j * m:(j + 1) * m].reshape(n, n, 3)[keep]], [grids[j][1].reshape(n, n)[keep]]))
+        if edge.any():  # replace each boundary cell by sub x sub rays of 1/sub^2 of its weight
+            da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
+            ea, eb = np.nonzero(edge)
+            off = (np.arange(sub) + 0.5) / sub
+            oa, ob = np.meshgrid(off, off, indexing="ij")
+            a = (box.a0 + (ea[:, None] + oa.ravel()[None, :]) * da).ravel()
+            b = (box.b0 + (eb[:, None] + ob.ravel()[None, :]) * db).ravel()
+            subs.append((j,) + _grid_rays(fp, box, a, b, wl))
+    if subs:
+        sr = _trace_all(lens, [s[1] for s in subs], stop_radius_mm, z0, device)
+        start = 0
+        for j, rays, sw in subs:
+            sl = slice(start, start + len(sw))
+            start += len(sw)
+            sok = sr.ok[sl] & (sr.direction[sl, 2] > 0)
+            parts[j][0].append(sr.position_mm[sl][sok, :2])
+            parts[j][1].append(sr.direction[sl][sok])
+            parts[j][2].append(sw[sok] / sub ** 2)
+    return [_moments_of(wl, z0, *part) for wl, part in zip(wls, parts)]
+
+
+def _trace_all(lens: Lens, batches: list[RayBatch], stop_radius_mm: float | None, z0: float, device: str | None):
+    """The rays of several batches (each of one wavelength) in one float64 trace to the plane z0."""
+    wl = np.concatenate([np.broadcast_to(np.asarray(r.wavelength_nm, dtype=np.float64), (len(r),)) for r in batches])
+    rays = RayBatch(np.concatenate([r.origin_mm for r in batches]), np.concatenate([r.direction for r in batches]), wl)
+    return trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
+
+
+def _moments_of(wavelength_nm: float, z0: float, pos: list, dirs: list, wts: list) -> FocusMoments:
+    """FocusMoments of the passing rays' positions, directions and weights (lists of pieces)."""
     p, d, wt = np.concatenate(pos), np.concatenate(dirs), np.concatenate(wts)
     if len(p) < 16:
         raise LensrtError("too few real rays reach the image to find the best focus")

@@ -105,8 +105,10 @@ def _surface1_boxes(lens: Lens, fps: list[FieldPoint], c: np.ndarray, w: np.ndar
 
 
 def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray, e2: np.ndarray, box: np.ndarray,
-               n: int, wls: list[float], plane_z_mm: float | None, trace_kw: dict, device: str | None):
-    """Trace an n x n grid over each field point's box at every wavelength (one trace for all).
+               n: int, wls: list[float], plane_z_mm: float | None, trace_kw: dict, device: str | None,
+               field_wl: np.ndarray | None = None):
+    """Trace an n x n grid over each field point's box at every wavelength (one trace for all), or
+    field point k at ``field_wl[k]`` alone.
 
     Returns (lo, hi, cell, footprint): per field point the min/max aim coordinates (a, b) of the
     passing grid points (inf/-inf when none passed), the cell size (a, b) and the footprint
@@ -124,9 +126,14 @@ def _grid_pass(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray,
     o, d = rays_through_points(fps, pts, src)
     ok = np.zeros((S, n * n), dtype=bool)
     foot = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
+    m = len(o)
+    if field_wl is not None:  # each field point at its own wavelength: one trace
+        res = trace(lens, RayBatch(o, d, np.repeat(np.asarray(field_wl, dtype=np.float64), n * n)), "float64",
+                    device, plane_z_mm=plane_z_mm, **trace_kw)
+        _merge_pass(res, 0, S, n, ok, foot)
+        wls = []
     # the grid's copies at several wavelengths in one trace (one launch per pass unless that is over
     # _MAX_PASS_RAYS rays: a bokeh map of hundreds of sources)
-    m = len(o)
     per = max(1, min(len(wls), _MAX_PASS_RAYS // max(m, 1)))
     for g in range(0, len(wls), per):
         part = wls[g:g + per]
@@ -165,7 +172,7 @@ def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -
 def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = None, *,
                 plane_z_mm: float | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
                 device: str | None = None, coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0,
-                footprint: bool = False):
+                footprint: bool = False, field_wavelengths_nm: Sequence[float] | None = None):
     """Real pupil boxes of many field points (module docstring).
 
     Parameters
@@ -185,6 +192,9 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
         entrance pupil's diameter (a front element much larger than the pupil: wide angles, fisheyes).
     footprint : bool
         Also return the (S, 4) footprints x_min, x_max, y_min, y_max (mm; NaN when nothing passes).
+    field_wavelengths_nm : sequence of float, optional
+        One wavelength (nm) per field point: field point k is traced at that wavelength alone, instead of
+        at ``wavelengths_nm`` (the boxes of one field point at several wavelengths, repeated in ``fields``).
 
     Returns
     -------
@@ -202,10 +212,14 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
         width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
         need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
         coarse = max(coarse, min(128, need))
-    lo, hi, cell, foot = _grid_pass(lens, fps, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
+    fw = None if field_wavelengths_nm is None else np.asarray(field_wavelengths_nm, dtype=np.float64)
+    if fw is not None and fw.shape != (len(fps),):
+        raise LensrtError(f"field_wavelengths_nm has {fw.size} values for {len(fps)} field points",
+                          hint="give one wavelength per field point")
+    lo, hi, cell, foot = _grid_pass(lens, fps, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device, fw)
     lit = np.isfinite(lo[:, 0])
     box2 = _shrink(box1, lo, hi, cell)
-    lo2, hi2, cell2, foot2 = _grid_pass(lens, fps, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device)
+    lo2, hi2, cell2, foot2 = _grid_pass(lens, fps, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device, fw)
     lit2 = np.isfinite(lo2[:, 0])
     final = _shrink(box2, lo2, hi2, cell2)  # a sliver the fine grid missed keeps the coarse box
     foot = np.where(lit2[:, None], foot2, foot)
