@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Lens
 
-__all__ = ["PupilRays", "pupil_grid_rays", "trace_pupil_rays", "chief_ray_at", "field_xy_of"]
+__all__ = ["PupilRays", "pupil_grid_rays", "trace_pupil_rays", "trace_pupil_rays_many", "chief_ray_at", "field_xy_of"]
 
 
 @dataclass
@@ -68,6 +68,18 @@ def trace_pupil_rays(lens: Lens, rays: PupilRays, wavelength_nm: float, plane_z_
     from ..trace import RayBatch, trace
     batch = RayBatch(rays.origin_mm, rays.direction, np.full(len(rays.weight), float(wavelength_nm)))
     return trace(lens, batch, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
+
+
+def trace_pupil_rays_many(lens: Lens, rays: PupilRays, wavelengths_nm: Sequence[float], plane_z_mm: float,
+                          device: str | None = None, clip: bool = True) -> list:
+    """:func:`trace_pupil_rays` at each of several wavelengths, the same results, in one trace (one launch)."""
+    from ..trace import RayBatch, trace
+    wls = [float(w) for w in wavelengths_nm]
+    m = len(rays.weight)
+    batch = RayBatch(np.tile(rays.origin_mm, (len(wls), 1)), np.tile(rays.direction, (len(wls), 1)),
+                     np.repeat(np.asarray(wls, dtype=np.float64), m))
+    res = trace(lens, batch, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
+    return [res.part(k * m, (k + 1) * m) for k in range(len(wls))]
 
 
 def chief_ray_at(lens: Lens, fp, wavelengths_nm: Sequence[float], plane_z_mm: float,
