@@ -129,18 +129,23 @@ def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float
     The object field is bracketed between the axis and the lens's largest field; each round traces
     the regula falsi estimate together with probes on either side of it (one aiming run and one
     trace for all of them) and keeps the tightest bracket, until a chief ray lands within ``tol_mm``
-    (``max_iter`` chief rays at most). A height beyond the largest field's is an error.
+    (``max_iter`` chief rays at most). The first round traces the bracket's end with probes around
+    the paraxial estimate. A height beyond the largest field's is an error.
     """
     trace = _chief_tracer(lens, wavelength_nm)
     h = abs(float(image_height_mm))
     lo, hi = 0.0, _field_guess(lens, 1.3 * h, wavelength_nm)
-    y_hi = float(trace(hi)[0][0])
+    v_par = _field_guess(lens, h, wavelength_nm)
+    fractions = np.asarray(_PROBE_FRACTIONS)
+    probes = v_par * np.concatenate([[1.0], 1.0 - fractions, 1.0 + fractions])
+    ys, angles = trace(np.concatenate([[hi], probes]))
+    y_hi = float(ys[0])
     if math.isnan(y_hi):  # shrink until the chief ray passes (the candidates of 40 shrink steps, traced together)
         shrink = hi * 0.8 ** np.arange(1, 41)
-        ys = trace(shrink)[0]
-        passing = np.nonzero(np.isfinite(ys))[0]
+        ys_s = trace(shrink)[0]
+        passing = np.nonzero(np.isfinite(ys_s))[0]
         k = int(passing[0]) if len(passing) else 39
-        hi, y_hi = float(shrink[k]), float(ys[k])
+        hi, y_hi = float(shrink[k]), float(ys_s[k])
     limit = math.radians(89.0) if math.isinf(lens.object_distance_mm) else 50.0 * hi
     while abs(y_hi) < h and hi < limit:  # beyond the lens's nominal field, while real chief rays still pass
         wider = min(1.2 * hi, limit)
@@ -151,16 +156,43 @@ def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float
     if not abs(y_hi) >= h:
         raise LensrtError(f"no real chief ray reaches {h:.4g} mm on the image surface: the widest that passes "
                           f"lands at {abs(y_hi):.4g} mm", hint="use a smaller sensor (the image circle is smaller)")
-    return _bracketed_root(trace, h, lo, -h, hi, abs(y_hi) - h, tol_mm, max_iter)
+    bracket = [lo, -h, hi, abs(y_hi) - h]
+    inside = (probes > lo) & (probes < hi)
+    a, done = _tighten(bracket, probes[inside], ys[1:][inside], angles[1:][inside], h, tol_mm)
+    return a if done else _bracketed_root(trace, h, bracket, tol_mm, max_iter)
 
 
-def _bracketed_root(trace, h: float, lo: float, f_lo: float, hi: float, f_hi: float, tol_mm: float,
-                    max_iter: int) -> float:
-    """|chief angle| at the field value in [lo, hi] where |y| - h changes sign (f_lo < 0 < f_hi), found by rounds of
-    regula falsi estimates and probes around them traced together (see :func:`real_half_field_rad`)."""
+def _tighten(bracket: list, vs: np.ndarray, ys: np.ndarray, angles: np.ndarray, h: float,
+             tol_mm: float) -> tuple[float, bool]:
+    """Fold traced probes (field values ``vs``, heights ``ys``, chief angles) into ``bracket`` =
+    [lo, f_lo, hi, f_hi] (in place): the last probe below the root and the first above it.
+    Returns (|angle| of the probe closest to the height, whether it lands within tol_mm)."""
+    fv = np.abs(ys) - h
+    fin = np.isfinite(fv)
+    if not fin.any():
+        return 0.0, False
+    best = int(np.nanargmin(np.where(fin, np.abs(fv), np.nan)))
+    if abs(fv[best]) < tol_mm:
+        return abs(float(angles[best])), True
+    below, above = fin & (fv < 0.0), fin & (fv > 0.0)
+    if above.any():
+        j = int(np.argmax(above))
+        bracket[2], bracket[3] = float(vs[j]), float(fv[j])
+        below &= vs < bracket[2]
+    if below.any():
+        j = int(np.nonzero(below)[0][-1])
+        bracket[0], bracket[1] = float(vs[j]), float(fv[j])
+    return abs(float(angles[best])), False
+
+
+def _bracketed_root(trace, h: float, bracket: list, tol_mm: float, max_iter: int) -> float:
+    """|chief angle| at the field value in [lo, hi] where |y| - h changes sign (bracket = [lo, f_lo, hi, f_hi],
+    f_lo < 0 < f_hi), found by rounds of regula falsi estimates and probes around them traced together
+    (see :func:`real_half_field_rad`)."""
     a, used, spread = 0.0, 0, False
     fractions = np.asarray(_PROBE_FRACTIONS)
-    while used < max_iter and hi > lo:
+    while used < max_iter and bracket[2] > bracket[0]:
+        lo, f_lo, hi, f_hi = bracket
         v = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         w = hi - lo
         vs = np.unique(np.clip(np.concatenate([[v], v - w * fractions, v + w * fractions]), lo, hi))
@@ -169,28 +201,16 @@ def _bracketed_root(trace, h: float, lo: float, f_lo: float, hi: float, f_hi: fl
             vs = np.linspace(lo, hi, 2 + 2 * len(fractions))[1:-1]
         ys, angles = trace(vs)
         used += len(vs)
-        fv = np.abs(ys) - h
-        fin = np.isfinite(fv)
-        if not fin.any():
+        if not np.isfinite(ys).any():
             if spread:
                 break
             spread = True
             continue
         spread = False
-        best = int(np.nanargmin(np.where(fin, np.abs(fv), np.nan)))
-        a = float(angles[best])
-        if abs(fv[best]) < tol_mm:
+        a, done = _tighten(bracket, vs, ys, angles, h, tol_mm)
+        if done:
             break
-        # the tightest bracket: the last probe below the root and the first above it
-        below, above = fin & (fv < 0.0), fin & (fv > 0.0)
-        if above.any():
-            j = int(np.argmax(above))
-            hi, f_hi = float(vs[j]), float(fv[j])
-            below &= vs < hi
-        if below.any():
-            j = int(np.nonzero(below)[0][-1])
-            lo, f_lo = float(vs[j]), float(fv[j])
-    return abs(a)
+    return a
 
 
 @dataclass
