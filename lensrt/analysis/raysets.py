@@ -28,7 +28,7 @@ from ..trace import RayBatch, RayResult, kernel_to_stop, trace
 from ..trace.aiming import FieldPoint, aim_many, aim_rays, beam_basis, field_point, pupil_geometry
 
 __all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "aim_batches", "chief_batch", "chief_batches",
-           "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
+           "trace64", "trace64_many", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
            "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
            "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
 
@@ -183,6 +183,20 @@ def trace64(lens: Lens, rays: RayBatch, device: str | None = None, *, clip: bool
             plane_z_mm: float | None = None) -> RayResult:
     """Store-kernel trace in float64 (the analyses' precision)."""
     return trace(lens, rays, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
+
+
+def trace64_many(lens: Lens, batches: Sequence[RayBatch], device: str | None = None, *, clip: bool = False,
+                 plane_z_mm: float | None = None) -> list[RayResult]:
+    """:func:`trace64` of several batches (any wavelengths) in one trace (one launch): one result per batch,
+    the same as tracing them one by one."""
+    batches = list(batches)
+    if not batches:
+        return []
+    joined = RayBatch(np.concatenate([b.origin_mm for b in batches]), np.concatenate([b.direction for b in batches]),
+                      np.concatenate([b.wavelength_nm for b in batches]), np.concatenate([b.aimed for b in batches]))
+    res = trace64(lens, joined, device, clip=clip, plane_z_mm=plane_z_mm)
+    ends = np.cumsum([0] + [len(b) for b in batches])
+    return [res.part(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:])]
 
 
 def close_ray_batch(lens: Lens, chief: RayBatch, fps: Sequence[FieldPoint],

@@ -38,7 +38,7 @@ from ...prescription.model import Lens
 from ...stats import Estimate, jackknife
 from ...units import NM_PER_MM
 from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
-                   trace64)
+                   trace64, trace64_many)
 
 __all__ = ["RayFan", "ray_fan", "fan_jobs", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
@@ -134,7 +134,10 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     # every ray of the fan aimed at once: the reference chief ray, then per wavelength the fan and its chief ray
     if aimed is None:
         aimed = aim_batches(lens, fan_jobs(lens, hy, fan, wavelengths_nm, pupil, object_value), aim, device)
-    ref = trace64(lens, aimed[0], device, plane_z_mm=z)
+    # the fans of every wavelength in one trace; the reference chief ray and each wavelength's chief ray
+    # (traced without apertures: the reference even when vignetted) in another
+    fans = trace64_many(lens, aimed[1::2][:len(wls)], device, clip=clip, plane_z_mm=z)
+    ref, *chiefs = trace64_many(lens, [aimed[0]] + aimed[2::2][:len(wls)], device, plane_z_mm=z)
     if not ref.ok[0]:
         raise LensrtError(f"the chief ray of field {label} does not reach the image")
     ref_xy = (float(ref.position_mm[0, 0]), float(ref.position_mm[0, 1]))
@@ -143,10 +146,7 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     passed = np.zeros((k, m), dtype=bool)
     xps = np.full(k, np.nan)
     for i, w in enumerate(wls):
-        rays = aimed[1 + 2 * i]
-        r = trace64(lens, rays, device, clip=clip, plane_z_mm=z)
-        # the chief ray itself is traced without apertures: it is the reference even when vignetted
-        c = trace64(lens, aimed[2 + 2 * i], device, plane_z_mm=z)
+        rays, r, c = aimed[1 + 2 * i], fans[i], chiefs[i]
         p, v, opl = r.position_mm.copy(), r.direction.copy(), r.opl_mm.copy()
         p[0], v[0], opl[0] = c.position_mm[0], c.direction[0], c.opl_mm[0]
         ok = r.ok & rays.aimed
