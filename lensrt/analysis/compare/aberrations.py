@@ -37,8 +37,8 @@ from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...stats import Estimate, jackknife
 from ...units import NM_PER_MM
-from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
-                   trace64, trace64_many)
+from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point,
+                       pupil_grid_rays_many, trace64, trace64_many)
 
 __all__ = ["RayFan", "ray_fan", "fan_jobs", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
@@ -256,17 +256,17 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
 
     per_wl = {w: run(spectrum_discrete([w], [1.0]), i) for i, w in enumerate(wls)}
     poly = run(spectrum_discrete(list(wls), [table.get(w, 1.0) for w in wls]), len(wls))
+    # the spot grids of every field point and wavelength: one pupil-box search, one trace
+    grid_rays = pupil_grid_rays_many(lens, [(fp, w) for fp in fps for w in wls], n_grid, device)
+    traced = iter(trace64_many(lens, [g for g in grid_rays if g is not None], device, clip=True, plane_z_mm=z))
+    grids = [None if g is None else next(traced) for g in grid_rays]
     out = []
     for k, (spec, fp) in enumerate(zip(specs, fps)):
         xs, ys = [], []
-        for w in wls:
-            try:
-                r = trace64(lens, pupil_grid_rays(lens, fp, w, n_grid, device), device, clip=True, plane_z_mm=z)
-                xs.append(r.position_mm[r.ok, 0] - chief_pos[k, 0])
-                ys.append(r.position_mm[r.ok, 1] - chief_pos[k, 1])
-            except LensrtError:
-                xs.append(np.zeros(0))
-                ys.append(np.zeros(0))
+        for i in range(len(wls)):
+            r = grids[k * len(wls) + i]
+            xs.append(np.zeros(0) if r is None else r.position_mm[r.ok, 0] - chief_pos[k, 0])
+            ys.append(np.zeros(0) if r is None else r.position_mm[r.ok, 1] - chief_pos[k, 1])
         allx, ally = np.concatenate(xs), np.concatenate(ys)
         if not len(allx):
             continue
