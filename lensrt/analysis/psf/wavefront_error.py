@@ -10,18 +10,19 @@ from ...errors import LensrtError
 from ..fields import FieldSpec
 from ..wave.metrics import WavefrontMetrics, wavefront_metrics
 from .diffraction import WavefrontSet
-from .geometric import prepare_field
+from .geometric import FieldGeometry, prepare_field, prepare_fields
 from .setup import PsfSetup
 
 __all__ = ["wavefront_error", "wavefront_error_table"]
 
 
 def wavefront_error(setup: PsfSetup, f: FieldSpec, *, reference: str = "chief", n_terms: int = 37,
-                    device: str | None = None) -> list[WavefrontMetrics]:
+                    device: str | None = None, geom: FieldGeometry | None = None) -> list[WavefrontMetrics]:
     """The wavefront metrics of field ``f`` at each wavelength of the set-up's spectrum (its lines), at the
-    set-up's focus plane; the ray grid adapted to the interpolation goal as for diffraction PSFs."""
+    set-up's focus plane; the ray grid adapted to the interpolation goal as for diffraction PSFs.
+    ``geom``: the field's :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometry when already found."""
     t0 = time.perf_counter()
-    geom = prepare_field(setup, f, device)
+    geom = prepare_field(setup, f, device) if geom is None else geom
     wset = WavefrontSet(setup, geom, device)
     out = []
     for wf in wset.wavefronts:
@@ -40,9 +41,14 @@ def wavefront_error_table(setup: PsfSetup, fields: Sequence[FieldSpec], *, refer
     """RMS WFE (no tilt) and Strehl against field at the primary wavelength: one dict per field that could be
     traced (a field that cannot is listed with its reason)."""
     rows = []
-    for f in fields:
+    fields = list(fields)
+    try:  # the pupil boxes and chief rays of every field in one batched search
+        geoms = prepare_fields(setup, fields, device)
+    except LensrtError:  # some field cannot be traced: each field on its own, to say which
+        geoms = [None] * len(fields)
+    for f, geom in zip(fields, geoms):
         try:
-            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device)
+            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device, geom=geom)
         except LensrtError as err:
             rows.append({"field": f.label, "error": str(err)})
             continue
