@@ -50,7 +50,7 @@ from lensrt.loading import load_lens  # noqa: E402
 from lensrt.prescription.materials import AIR, ConstantIndex  # noqa: E402
 from lensrt.prescription.model import Aperture, Fields, Iris, Lens, Surface, Wavelengths  # noqa: E402
 from lensrt.trace import specialised  # noqa: E402
-from lensrt.trace.kernels import RAY_IN_COLS, get_kernels, module_name  # noqa: E402
+from lensrt.trace.kernels import RAY_IN_COLS, get_kernels, lens_variant, module_name  # noqa: E402
 from lensrt.trace.pack import pack_lens  # noqa: E402
 from lensrt.trace.sampling import SAMPLERS, spectrum_continuous  # noqa: E402
 from lensrt.trace.specialised import StreamOptions, store_kernel, stream_kernel  # noqa: E402
@@ -132,9 +132,9 @@ def time_store(lens: Lens, rays: int, precision: str, device: str, kernel: str =
                           else specialised.DEFAULT_TUNING)
         kern, args, tail = sk.kernel, [params(sk, consts, device), arr, k.real(0.0), tab], [out, st, sf]
     else:
-        kern = k.trace_store
+        kern, _, lens_arg = lens_variant(k, packed.general)
         args = [packed.surf, packed.media, packed.iris, lens.n_surfaces, arr, lens.n_surfaces, 1, k.real(0.0), 0, tab]
-        tail = [out, st, sf, rec]
+        tail = [out, st, sf, rec, lens_arg]
     wp.launch(kern, dim=min(rays, 1024), device=device, inputs=args + [0] + tail)
     wp.synchronize_device(device)
     # the CPU runs one slice per core, as lensrt.trace.trace does

@@ -11,7 +11,8 @@ totals. The corpus is the 41 lens files the ``rayoptics`` wheel ships under
 file's focal length is compared with rayoptics' ``efl`` (where rayoptics loads the
 file). rayoptics' efl is n'/Phi with the image-space index signed by the
 direction of travel, i.e. lensrt's ``rear_focal_length_mm`` (lensrt's
-``efl_mm`` is 1/Phi: they differ in sign after an odd number of mirrors).
+``efl_mm`` is 1/Phi: they differ in sign after an odd number of mirrors), converted
+from the file's lens units to mm (rayoptics reports lens units).
 """
 from __future__ import annotations
 
@@ -46,7 +47,9 @@ def _rayoptics_efl(path: Path) -> float | None:
             with contextlib.ExitStack() as stack:
                 stack.callback(os.chdir, here)
                 opm = open_model(str(path), info=False)
-        return float(opm["analysis_results"]["parax_data"].fod.efl)
+        # rayoptics reports lens units (questar35.seq: DIM I, 50.5 in = 1282.7 mm)
+        to_mm = {"mm": 1.0, "cm": 10.0, "meters": 1000.0, "inches": 25.4, "feet": 304.8}[opm["system_spec"].dimensions]
+        return float(opm["analysis_results"]["parax_data"].fod.efl) * to_mm
     except Exception:  # noqa: BLE001 -- the oracle's own failures are reported as "n/a"
         return None
 

@@ -9,13 +9,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .errors import located
+import numpy as np
+
+from .errors import PrescriptionError, located
 from .prescription.configurations import MultiConfigLens, single_configuration
 from .prescription.formats import read_any
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
 from .paraxial.aperture_check import check_aperture
-from .paraxial.crossing import check_axial_beam_crossing
+from .paraxial.crossing import axial_beam_heights, check_axial_beam_crossing
+from .prescription.formats import emit_load_warnings
 from .library import resolve_lens_path
 
 __all__ = ["load_lens", "complete_lens", "load_configurations"]
@@ -38,10 +41,25 @@ def complete_lens(lens: Lens) -> Lens:
         if any(s.semi_diameter_mm is None for s in lens.surfaces):
             from .trace.apertures import compute_clear_apertures
             lens = compute_clear_apertures(lens)
-        check_geometry(lens)
+        lens = _checked_geometry(lens)
         check_axial_beam_crossing(lens)
     lens.check_wavelengths(lens.wavelengths.nm)  # warns where a glass's formula is extrapolated
     return lens
+
+
+def _checked_geometry(lens: Lens) -> Lens:
+    """:func:`check_geometry` with the axial beam's heights; its edge warnings are emitted and kept."""
+    try:
+        heights = axial_beam_heights(lens)
+    except PrescriptionError:
+        heights = None  # no first-order data (afocal, ...): every crossing at the semi-diameters is an error
+    if heights is not None and not np.isfinite(heights).all():
+        heights = None
+    found = check_geometry(lens, beam_heights_mm=heights)
+    if not found:
+        return lens
+    emit_load_warnings(lens.path, found)
+    return lens.replace(warnings=tuple(lens.warnings) + tuple(found))
 
 
 def load_lens(source: str | Path | Lens | None = None, config: int | str | None = None, **options: Any) -> Lens:
@@ -89,5 +107,5 @@ def _complete_family(family: MultiConfigLens) -> MultiConfigLens:
     completed = family.with_base(base.replace(surfaces=tuple(surfaces), notes=notes))
     with located(base.path):
         for lens in completed.configurations():
-            check_geometry(lens)
+            _checked_geometry(lens)
     return completed

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import PrescriptionError
-from .model import Lens
+from .model import Lens, LoadWarning
 
 __all__ = ["check_geometry"]
 
@@ -16,19 +16,29 @@ __all__ = ["check_geometry"]
 CROSSING_TOL_MM = 1e-6
 
 
-def check_geometry(lens: Lens, samples: int = 65) -> None:
+def check_geometry(lens: Lens, samples: int = 65,
+                   beam_heights_mm: np.ndarray | None = None) -> list[LoadWarning]:
     """Raise :class:`PrescriptionError` if adjacent surfaces cross inside their clear apertures.
 
     For surfaces i and i+1 with semi-diameters given by the file, the later surface must
     never lie in front of the earlier one over the common aperture:
     ``z_i(r) <= t_i + z_{i+1}(r)`` for ``0 <= r <= min(sd_i, sd_{i+1})``. A
     negative thickness is thus allowed only where the sags make room for it.
+    With ``beam_heights_mm`` (the axial beam's height at each surface, mm: the
+    paraxial marginal ray, :func:`lensrt.paraxial.crossing.axial_beam_heights`)
+    a crossing that begins beyond the axial beam on both surfaces is not an
+    error but a returned ``edge_thickness`` :class:`LoadWarning`: the element's
+    edge is negative at the file's semi-diameters (OpticStudio's automatic
+    ones often reach there; CODE V, OpticStudio and rayoptics trace such files)
+    while the on-axis light passes where it is positive. A crossing inside
+    the axial beam stays an error.
     The image surface must lie behind the last vertex. After an odd number of
     mirrors light travels toward -z and "behind" means toward -z too; surfaces
     with a coordinate transform between them are not compared (their sags do
     not share an axis).
     """
     surfaces = lens.surfaces
+    found: list[LoadWarning] = []
     sign = 1.0
     for i in range(len(surfaces) - 1):
         a, b = surfaces[i], surfaces[i + 1]
@@ -46,6 +56,15 @@ def check_geometry(lens: Lens, samples: int = 65) -> None:
         gap = sign * (a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)))
         worst = int(np.argmin(gap))
         if gap[worst] < -CROSSING_TOL_MM:
+            begins = float(r[int(np.argmax(gap < -CROSSING_TOL_MM))])
+            if beam_heights_mm is not None and begins > max(beam_heights_mm[i], beam_heights_mm[i + 1]):
+                found.append(LoadWarning(
+                    "edge_thickness",
+                    f"surfaces {i + 1} and {i + 2} cross beyond the axial beam: from height {begins:.4g} mm (the "
+                    f"marginal ray reaches {max(beam_heights_mm[i], beam_heights_mm[i + 1]):.4g} mm) to the "
+                    f"semi-diameter {r[-1]:.4g} mm surface {i + 2} lies up to {-gap[worst]:.4g} mm in front of "
+                    f"surface {i + 1}; rays through that zone cross the gap backwards", i, a.line))
+                continue
             raise PrescriptionError(
                 f"surfaces {i + 1} and {i + 2} cross: at height {r[worst]:.4g} mm surface {i + 2} lies "
                 f"{-gap[worst]:.4g} mm in front of surface {i + 1} (thickness {a.thickness_mm:g} mm)",
@@ -57,3 +76,4 @@ def check_geometry(lens: Lens, samples: int = 65) -> None:
         raise PrescriptionError(f"the image surface lies {-last.thickness_mm:g} mm in front of the last surface",
                                 surface=len(surfaces) - 1, line=last.line,
                                 hint="the last thickness runs to the image and must not be negative")
+    return found

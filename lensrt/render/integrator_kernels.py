@@ -35,7 +35,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..trace.kernels.sampling import i32
-from ..trace.kernels.surfaces import medium_index, trace_ray
+from ..trace.kernels.surfaces import SymmetricLens, medium_index, trace_ray
 from ..trace.status import OK
 from .scene import kernels as sk
 
@@ -167,7 +167,7 @@ def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.f
         w2 = w_um * w_um
         status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
             surf, media, iris, n_surfaces, x, y, sensor_z, d[0], d[1], d[2], w2, table, -1,
-            n_surfaces, 1, 0.0, 0, rec, 0)
+            n_surfaces, 1, 0.0, 0, rec, 0, SymmetricLens())
         if status != OK:
             continue
         n_ok = n_ok + 1
@@ -212,7 +212,7 @@ def pupil_probe(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.f
     w_um = lams[k] * 1.0e-3
     status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
         surf, media, iris, n_surfaces, x, 0.0, sensor_z, dx * inv, dy * inv, rear_dist * inv, w_um * w_um,
-        table, -1, n_surfaces, 1, 0.0, 0, rec, 0)
+        table, -1, n_surfaces, 1, 0.0, 0, rec, 0, SymmetricLens())
     out[tid] = wp.int32(status)
 
 @wp.kernel

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
 from .aiming import AIM_MODES, aim_many, field_point, pupil_geometry
-from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels
+from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels, lens_variant
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
 from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
@@ -182,6 +182,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     table = wp.zeros((1, 1), dtype=real, device=dev)
     shape, consts = shape_and_constants(packed, clip)
     variant = choose_kernel(kernel, dev, shape, n, possible=end == n_surf and not record)
+    store, _, lens_arg = lens_variant(k, packed.general)
     if variant == "specialised":
         sk = store_kernel(precision, shape, GPU_TUNING[precision] if dev.startswith("cuda") else DEFAULT_TUNING)
         common = [params(sk, consts, dev), arr, real(plane_dz), table]
@@ -199,8 +200,8 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
             launch(sk.kernel, dim=bounds[w + 1] - bounds[w], device=dev,
                    inputs=common + [bounds[w], out, status, surface], slice_of=bounds[w])
         else:
-            launch(k.trace_store, dim=bounds[w + 1] - bounds[w], device=dev,
-                   inputs=common + [bounds[w], out, status, surface, rec], slice_of=bounds[w])
+            launch(store, dim=bounds[w + 1] - bounds[w], device=dev,
+                   inputs=common + [bounds[w], out, status, surface, rec, lens_arg], slice_of=bounds[w])
 
     if workers == 1:
         run(0)

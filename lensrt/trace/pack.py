@@ -179,6 +179,12 @@ class PackedLens:
         return self.lens.n_surfaces
 
     @property
+    def general(self) -> bool:
+        """Whether the kernels need the general variant (mirrors, frames or surface apertures:
+        ``S_GEOM`` set); a rotationally symmetric lens runs the symmetric one, which leaves that code out."""
+        return bool(self.host_surf[0, S_GEOM] != 0.0)
+
+    @property
     def vertex_z_mm(self) -> np.ndarray:
         return self.lens.vertex_z_mm()
 

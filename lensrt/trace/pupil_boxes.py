@@ -9,7 +9,10 @@ that passes surface 1), then a finer grid over what passed -- so each box hugs
 the *real* pupil, cat's eyes included; vignetted rays are rejected in the kernel.
 
 All field points and wavelengths share each pass: one float64 store-kernel trace
-per pass, whatever their number (a PSF map, a bokeh map, the lights of a scene).
+per pass, whatever their number (a PSF map, a bokeh map, the lights of a scene); for
+rotationally symmetric lenses one launch per pass (a slice per core on the CPU) that makes,
+traces and reduces the grid rays on the device (:mod:`lensrt.trace.kernels.boxes`; no ray
+arrays cross the bus; measured: 8.9 s -> 0.041 s for 450 sources on an H100).
 The passing rays traced to the plane also give each field point's *footprint*
 (the bounding box of its spot) for free. :func:`pupil_box` is the one-field
 case (used by :func:`lensrt.trace.stream.stream_source`).
@@ -17,7 +20,10 @@ case (used by :func:`lensrt.trace.stream.stream_source`).
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 from typing import Sequence
 
 import numpy as np
@@ -158,6 +164,64 @@ def _merge_pass(res, start: int, S: int, n: int, ok: np.ndarray, foot: np.ndarra
         foot[:, 2 * k + 1] = np.maximum(foot[:, 2 * k + 1], np.where(got, v, -np.inf).max(axis=1))
 
 
+def _grid_pass_device(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.ndarray, e2: np.ndarray,
+                      box: np.ndarray, n: int, wls: list[float], plane_z_mm: float | None, trace_kw: dict,
+                      device: str | None):
+    """:func:`_grid_pass` in one launch (:mod:`lensrt.trace.kernels.boxes`); same returns. The rays are
+    those of the host pass, made on the device; bounds agree with the host pass to rounding."""
+    from ..core.telemetry import download, launch, upload
+    from ..device import warp
+    from .kernels.boxes import BOX_FIELD_COLS, box_grid_pass_symmetric
+    from .kernels.surfaces import SymmetricLens
+    from .pack import pack_lens
+    wp = warp()
+    packed = pack_lens(lens, "float64", device, trace_kw.get("iris"), trace_kw.get("stop_radius_mm"))
+    dev, S = packed.device, len(fps)
+    rows = np.zeros((S, BOX_FIELD_COLS))
+    for k, fp in enumerate(fps):
+        rows[k, 0] = 1.0 if fp.infinite else 0.0
+        rows[k, 1:4] = fp.direction if fp.infinite else fp.point_mm
+    rows[:, 4:7], rows[:, 7:10], rows[:, 10:14] = e1, e2, box
+    w_um = np.asarray(wls, dtype=np.float64) * 1.0e-3
+    plane_dz = 0.0 if plane_z_mm is None else float(plane_z_mm) - lens.image_z_mm
+    init = np.tile(np.array([np.inf, -np.inf, np.inf, -np.inf]), (S, 1))
+    total = S * n * n * len(wls)
+    # CPU atomics are plain adds: one slice of the threads and its own bounds per core
+    workers = 1 if dev.startswith("cuda") else max(1, min(len(os.sched_getaffinity(0)), total // 4096))
+    cuts = [total * w // workers for w in range(workers + 1)]
+    args = [packed.surf, packed.media, packed.iris, lens.n_surfaces, plane_dz, upload(rows, wp.float64, dev),
+            float(c[0]), float(c[1]), float(c[2]), int(n), upload(w_um * w_um, wp.float64, dev),
+            wp.zeros((1, 1), dtype=wp.float64, device=dev), wp.zeros((1, 1, 1), dtype=wp.float64, device=dev),
+            SymmetricLens()]
+    outs = [(upload(init, wp.float64, dev), upload(init, wp.float64, dev)) for _ in range(workers)]
+
+    def run(w: int) -> None:
+        launch(box_grid_pass_symmetric, dim=cuts[w + 1] - cuts[w], device=dev, inputs=args + [cuts[w]] + list(outs[w]),
+               slice_of=cuts[w])
+
+    if workers == 1:
+        run(0)
+    else:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run, range(workers)))
+    got = [(download(bo), download(fo)) for bo, fo in outs]
+    b = np.stack([g[0] for g in got])
+    f = np.stack([g[1] for g in got])
+    b = np.stack([b[:, :, 0].min(0), b[:, :, 1].max(0), b[:, :, 2].min(0), b[:, :, 3].max(0)], axis=1)
+    f = np.stack([f[:, :, 0].min(0), f[:, :, 1].max(0), f[:, :, 2].min(0), f[:, :, 3].max(0)], axis=1)
+    cell = np.stack([(box[:, 1] - box[:, 0]) / n, (box[:, 3] - box[:, 2]) / n], axis=1)
+    return b[:, [0, 2]], b[:, [1, 3]], cell, f
+
+
+def _use_device_pass(lens: Lens, device: str | None, on_device: bool | None) -> bool:
+    """The device grid pass runs for rotationally symmetric lenses (``on_device=False`` asks for the
+    host pass; a general lens always takes it). On the CPU both give the same bits."""
+    from .pack import pack_lens
+    if on_device is False:
+        return False
+    return not pack_lens(lens, "float64", device).general
+
+
 def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -> np.ndarray:
     """The passing region's bounds padded by 1.5 cells, within ``box``; unchanged where nothing passed."""
     lit = np.isfinite(lo[:, 0])
@@ -172,7 +236,8 @@ def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -
 def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = None, *,
                 plane_z_mm: float | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
                 device: str | None = None, coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0,
-                footprint: bool = False, field_wavelengths_nm: Sequence[float] | None = None):
+                footprint: bool = False, on_device: bool | None = None,
+                field_wavelengths_nm: Sequence[float] | None = None):
     """Real pupil boxes of many field points (module docstring).
 
     Parameters
@@ -192,9 +257,14 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
         entrance pupil's diameter (a front element much larger than the pupil: wide angles, fisheyes).
     footprint : bool
         Also return the (S, 4) footprints x_min, x_max, y_min, y_max (mm; NaN when nothing passes).
+    on_device : bool, optional
+        Run each grid pass as one kernel launch that makes, traces and reduces the grid rays on the
+        device (:mod:`lensrt.trace.kernels.boxes`; default: for rotationally symmetric lenses)
+        instead of host arrays traced by the store kernel.
     field_wavelengths_nm : sequence of float, optional
         One wavelength (nm) per field point: field point k is traced at that wavelength alone, instead of
-        at ``wavelengths_nm`` (the boxes of one field point at several wavelengths, repeated in ``fields``).
+        at ``wavelengths_nm`` (the boxes of one field point at several wavelengths, repeated in ``fields``);
+        always the host pass.
 
     Returns
     -------
@@ -216,10 +286,14 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
     if fw is not None and fw.shape != (len(fps),):
         raise LensrtError(f"field_wavelengths_nm has {fw.size} values for {len(fps)} field points",
                           hint="give one wavelength per field point")
-    lo, hi, cell, foot = _grid_pass(lens, fps, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device, fw)
+    if fw is None and _use_device_pass(lens, device, on_device):
+        grid_pass = _grid_pass_device
+    else:  # the host pass (a wavelength per field point, or a general lens)
+        grid_pass = partial(_grid_pass, field_wl=fw)
+    lo, hi, cell, foot = grid_pass(lens, fps, c, e1, e2, box1, coarse, wls, plane_z_mm, kw, device)
     lit = np.isfinite(lo[:, 0])
     box2 = _shrink(box1, lo, hi, cell)
-    lo2, hi2, cell2, foot2 = _grid_pass(lens, fps, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device, fw)
+    lo2, hi2, cell2, foot2 = grid_pass(lens, fps, c, e1, e2, box2, fine, wls, plane_z_mm, kw, device)
     lit2 = np.isfinite(lo2[:, 0])
     final = _shrink(box2, lo2, hi2, cell2)  # a sliver the fine grid missed keeps the coarse box
     foot = np.where(lit2[:, None], foot2, foot)

@@ -46,7 +46,7 @@ from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
 from .aiming import FieldPoint, field_point
 from .kernels import (COUNT_NAMES, FIXED_POINT_BITS, N_COUNTS, N_STATS, SRC, SRC_COLS, SRC_INT, SRC_INT_COLS,
-                      STAT_NAMES, get_kernels)
+                      STAT_NAMES, get_kernels, lens_variant)
 from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
@@ -457,7 +457,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         kern, after = spec.kernel, []
         head = [params(spec, consts, dev), t.src, t.src_int, t.spec_nm, t.spec_cdf, t.table] + chan_args
     else:
-        kern, after = k.trace_stream, [t.rec]
+        _, kern, lens_arg = lens_variant(k, packed.general)
+        after = [t.rec, lens_arg]
         head = [packed.surf, packed.media, packed.iris, lens.n_surfaces, int(clip), t.src, t.src_int, t.spec_nm,
                 t.spec_cdf, use_table, t.table, chan_mode] + chan_args + [code]
     out, launches, kernel_seconds = launch_all(wp, dev, plan, t, grid.nx, grid.ny, strata(n_b, spectra), kern,

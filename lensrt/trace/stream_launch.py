@@ -83,6 +83,19 @@ class StreamPlan:
         return self.layers * self.hb * self.n_chan * self.plane
 
 
+def replica_budget_mb() -> int:
+    """GPU memory (MiB) the histogram replicas of one stream may take: ``LENSRT_REPLICA_MB``, else 256."""
+    raw = os.environ.get("LENSRT_REPLICA_MB", "256")
+    try:
+        mb = int(raw)
+    except ValueError:
+        raise LensrtError(f"LENSRT_REPLICA_MB={raw!r} is not a whole number of MiB",
+                          hint="set it to e.g. 256 or 2048, or unset it") from None
+    if mb < 1:
+        raise LensrtError(f"LENSRT_REPLICA_MB={mb} must be at least 1")
+    return mb
+
+
 def plan_slots(S: int, B: int, n_b: int, plane: int, layers: int, n_chan: int, is_gpu: bool, *,
                batch_histograms: bool, threads_per_batch: int | None, replicas: int | None,
                cpu_workers: int | None, rays_per_launch: int | None) -> StreamPlan:
@@ -91,7 +104,7 @@ def plan_slots(S: int, B: int, n_b: int, plane: int, layers: int, n_chan: int, i
     hb = B if batch_histograms else 1
     if is_gpu:
         if replicas is None:
-            replicas = max(1, min(16, (256 << 20) // max(8 * plane * layers * n_chan * hb, 1)))
+            replicas = max(1, min(16, (replica_budget_mb() << 20) // max(8 * plane * layers * n_chan * hb, 1)))
     else:  # Warp's CPU atomics are plain adds: one histogram replica per worker thread
         replicas = max(1, int(cpu_workers or cpu_count()))
     if rays_per_launch is None:

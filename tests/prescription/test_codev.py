@@ -11,6 +11,7 @@ from lensrt.errors import LensrtError, PrescriptionError
 from lensrt.prescription.formats import read_lens
 from lensrt.prescription.formats.codev import loads_seq, tokenize_seq
 from lensrt.prescription.materials import ModelGlass
+from lensrt.paraxial.first_order import first_order
 
 BASE = """RDM N
 TITLE 'test lens'
@@ -116,9 +117,15 @@ def test_fictitious_glass_and_image_defocus() -> None:
     assert lens.meta["image_defocus_mm"].startswith("-0.5")
 
 
-def test_solves_and_variable_codes_are_kept_values() -> None:
-    a = loads_seq(BASE.replace("S -0.02 45", "S -0.02 45\n  CCY 0; THC 0; GLC 100\n  PIM\nDER VAL I1 1e-5"))
-    assert a == loads_seq(BASE)
+def test_variable_codes_are_ignored_and_pim_is_solved() -> None:
+    """Variable codes change nothing; PIM (a paraxial image solve) now moves the written 45 mm to the paraxial
+    focus (lensrt.paraxial's BFL of the same lens: an independent ynu), with a ``solve`` warning."""
+    assert loads_seq(BASE.replace("S -0.02 45", "S -0.02 45\n  CCY 0; THC 0; GLC 100\nDER VAL I1 1e-5")) == \
+        loads_seq(BASE)
+    with pytest.warns(UserWarning, match="the solve gives thickness"):
+        a = loads_seq(BASE.replace("S -0.02 45", "S -0.02 45\n  PIM"))
+    assert a.surfaces[-1].thickness_mm == pytest.approx(first_order(loads_seq(BASE)).bfl_mm, rel=1e-12)
+    assert [w.code for w in a.warnings] == ["solve"]
 
 
 @pytest.mark.parametrize("edit,needle", [
@@ -211,12 +218,12 @@ def test_private_catalog_fitted_to_its_indices() -> None:
 
 
 def test_rayoptics_private_catalog_file() -> None:
-    """CODV_65988_noDOE.seq: its PRV glass E48 and '&' lines read (the file then stops at CUF, a surface type)."""
+    """CODV_65988_noDOE.seq: its PRV glass E48, '&' lines and 'CUF 0.0' read; the lens's glass is the PRV one."""
     ro = pytest.importorskip("rayoptics")
     path = Path(ro.__file__).parent / "codev" / "tests" / "CODV_65988_noDOE.seq"
-    with pytest.raises(PrescriptionError) as err:
-        read_lens(path)
-    assert "CUF" in str(err.value)  # past PRV, PWL and the continued lines
+    with pytest.warns(UserWarning, match="private catalog"):
+        lens = read_lens(path)
+    assert lens.surfaces[0].material.catalog == "PRV" and lens.surfaces[0].asphere[1] == -0.1581980090969e-4
 
 
 def test_non_optical_and_unknown_commands() -> None:

@@ -35,10 +35,6 @@ REFUSAL_RULES: dict[str, str] = {
 
 #: files whose outcome is a known gap: file -> (kind, reason); xfail(strict=True) in the matching test
 KNOWN_GAPS: dict[str, tuple[str, str]] = {
-    "opticspy_singlet.seq": (
-        "refusal",
-        "CODE V curvature solve `CUY UMY -0.1` on the last surface: the reader stops with "
-        "\"CUY 'UMY' is not a number\", which names no rule (solves are not read; lensrt should say so)"),
     "petzval.12deg.50.0mm.dat": (
         "refusal",
         "ISET's variant of the pbrt lens table has a focal-length line before the rows; the reader stops with "
@@ -141,4 +137,4 @@ def test_refusal_rules_recognise_their_messages() -> None:
     }
     for rule, message in samples.items():
         assert refusal_rule(message) == rule
-    assert refusal_rule("CUY 'UMY' is not a number") is None
+    assert refusal_rule("CUY 'UMY' is not a number") is None  # (solves are read now: codev_solves)

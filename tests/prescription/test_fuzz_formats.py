@@ -27,13 +27,16 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            ROOT / "data" / "glass_syntax.seq", ROOT / "data" / "glass_syntax.zmx",
            # mirrors, tilts/decenters and apertures (issue 17): COORDBRK, MIRROR, OBSC, SQAP, ELAP, OBDC;
            # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
-           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq"]
+           ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq",
+           # the reader gaps of issue 17: CUF, solves (CUY UMY, PIM), a long glass code; SCBD on the image
+           ROOT / "data" / "readers_keywords.seq", ROOT / "data" / "readers_keywords.zmx"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
           "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
-          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45"]
+          "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "CUF", "PIM", "UMY", "HMY",
+          "UCY", "SCBD", "517000.520000"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:

@@ -246,7 +246,7 @@ def test_rayoptics_corpus_loads_without_tracebacks(capsys) -> None:
         assert mod.main([]) == 0
     out = capsys.readouterr().out
     loaded = int(out.rsplit("loaded ", 1)[1].split(",")[0])
-    assert loaded >= 27 and "tracebacks 0" in out
+    assert loaded >= 33 and "tracebacks 0" in out
 
 
 def _threemir() -> Lens:

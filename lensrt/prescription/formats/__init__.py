@@ -13,8 +13,10 @@ from typing import Any, Callable
 from ...errors import PrescriptionError, located
 from ..configurations import MultiConfigLens, single_configuration
 from ..model import Lens
+from ._common import LensFileWarning, emit_load_warnings
 
-__all__ = ["FORMATS", "read_lens", "read_text", "detect_format", "read_any", "read_configurations"]
+__all__ = ["FORMATS", "read_lens", "read_text", "detect_format", "read_any", "read_configurations",
+           "LensFileWarning", "emit_load_warnings"]
 
 #: format name -> (module, reader function, file extensions)
 FORMATS: dict[str, tuple[str, str, tuple[str, ...]]] = {

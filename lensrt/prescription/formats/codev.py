@@ -13,8 +13,11 @@ starts a comment, ``&`` continues a line):
   ``XRI``/``YRI``, ``WTF``, ``VUX``/``VLX``/``VUY``/``VLY`` (kept in
   ``lens.notes`` as ``vignetting_vuy`` ... for the tracer), ``TITLE``;
 * zoom data: ``ZOO``, ``POS`` (:mod:`lensrt.prescription.formats.codev_zoom`);
+* paraxial solves ``PIM``, ``CUY UMY|UCY``, ``THI HMY|HCY``: applied at load
+  time (:mod:`.codev_solves`); ``CUF 0`` (written in every ASP block) is read,
+  a non-zero ``CUF`` (a Fresnel surface) is an error;
 * ignored on purpose: ``LEN``, ``INI``, ``CCY``/``THC``/``GLC`` (variable
-  codes), ``PIM`` and other solves/pickups (the value on the S line is the
+  codes), other solves and pickups (the value on the S line is the
   solved one and is kept), ``DER``, ``VAL``, ``POL``, ``GO`` (end), and the
   non-optical commands of :data:`~lensrt.prescription.formats.keywords.CODEV_NON_OPTICAL`
   (``DOR``, ``UID``, ...).
@@ -52,6 +55,7 @@ from ..materials import AIR, Material
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
 from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 from .codev_glass import PrivateCatalog, fictitious_glass
+from .codev_solves import SOLVE_KINDS, apply_solves
 from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
 from .codev_geometry import GEOMETRY_COMMANDS, geometry_command, image_transform, new_row_geometry, row_geometry
@@ -63,7 +67,7 @@ INFINITE_THICKNESS = 1.0e10
 
 IGNORED = {
     "LEN": "lens start", "INI": "designer initials", "CCY": "variable code", "THC": "variable code",
-    "GLC": "variable code", "PIM": "paraxial image solve (solved thickness kept)", "DER": "derivative increments",
+    "GLC": "variable code", "DER": "derivative increments",
     "VAL": "constraint value", "POL": "polarisation switch", "PIK": "pickup (picked value kept)",
     "PUX": "solve (solved value kept)", "PUY": "solve (solved value kept)", "PUI": "solve (solved value kept)",
     "PUC": "solve (solved value kept)", "PCY": "solve (solved value kept)", "PCX": "solve (solved value kept)",
@@ -86,14 +90,14 @@ UNSUPPORTED = {
     "INS": "a surface insertion", "DEL": "a surface deletion", "NSS": "a non-sequential surface",
     "NSO": "a non-sequential object",
     "NA": "an image-space NA aperture", "NAI": "an image-space NA aperture", "IMD": "image distance control",
-    "KC": "a conic variable code", "CUF": "a Fresnel/base curvature",
+    "KC": "a conic variable code",
 }
 _ASPH_LETTERS = "ABCDEFGHJ"  # r^4 ... r^20 (CODE V skips I)
 _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
 _KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
     "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
-    "RDY", "CUY", "THI", "GLA", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
+    "RDY", "CUY", "THI", "GLA", "CUF", "PIM", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -260,6 +264,9 @@ class _Seq:
         if name in ("ASP", "CON"):
             self.cur(name, line)
             return True
+        if name == "CUF":
+            self.fresnel_curvature(args, line)
+            return True
         if name == "K":
             self.cur(name, line)["conic"] = self.num(args[0], "conic constant", line)
             return True
@@ -269,6 +276,9 @@ class _Seq:
             return True
         if name == "SLB":
             self.cur(name, line)["label"] = " ".join(a.strip("'\"") for a in args)
+            return True
+        if name == "PIM" or name in ("CUY", "THI") and args and args[0].upper() in SOLVE_KINDS:
+            self.solve(name, args, line)
             return True
         if name in ("RDY", "CUY", "THI", "GLA"):
             if args and re.match(r"^S(\d+|O|I)$", args[0], re.IGNORECASE):
@@ -296,6 +306,35 @@ class _Seq:
                            "a CODE V command starts with letters; a number belongs on the line before (& continues)")
         self.keywords.unread(toks[0], line)
         return True
+
+    def solve(self, name: str, args: list[str], line: int) -> None:
+        """Record ``PIM``, ``CUY UMY|UCY u`` or ``THI HMY|HCY h`` on the current surface (:mod:`.codev_solves`)."""
+        if name == "PIM" and len(self.rows) > 1 and self.rows[-1]["kind"] == "SI":
+            row = self.rows[-2]  # PIM after the lens data: the image solve on the last surface
+        else:
+            row = self.cur(name, line)
+        kind = "PIM" if name == "PIM" else args[0].upper()
+        if (name == "CUY") != (SOLVE_KINDS[kind][0] == "curvature"):
+            raise self.err(f"{name} {kind}: a {SOLVE_KINDS[kind][0]} solve given as a {name.lower()} command", line,
+                           "curvature solves are CUY UMY/UCY, thickness solves THI HMY/HCY or PIM")
+        if kind == "PIM":
+            value = 0.0
+        elif len(args) < 2:
+            raise self.err(f"{name} {kind} without a value", line, f"write e.g. '{name} {kind} 0'")
+        else:
+            value = self.num(args[1], f"{kind} solve value", line)
+        row.setdefault("solves", []).append((kind, value, line))
+
+    def fresnel_curvature(self, args: list[str], line: int) -> None:
+        """``CUF c``: CODE V writes ``CUF 0`` in every ASP block it saves; 0 (no Fresnel base curvature) is a
+        no-op, any other value is a Fresnel surface and an error."""
+        self.cur("CUF", line)
+        if not args:
+            raise self.err("CUF without a value", line, "write 'CUF 0' or leave the command out")
+        value = self.num(args[0], "CUF (Fresnel base curvature)", line)
+        if value != 0.0:
+            raise self.err(f"CUF {args[0]}: a Fresnel surface (a non-zero Fresnel base curvature) is not supported",
+                           line, "lensrt traces the ASP profile as a real surface; CUF 0 (the default) reads")
 
     # -- assembly -----------------------------------------------------------
     def material(self, glass: str | None, line: int, surface: int | None = None) -> Material:
@@ -394,6 +433,31 @@ class _Seq:
             if any(vals):
                 self.notes.append((f"vignetting_{key.lower()}", fmt_list(vals)))
 
+    def solved(self, surfaces: list[Surface], dist: float, obj_mat: Material, aperture: Aperture, fields: Fields,
+               wavelengths: Wavelengths, f: float) -> list[Surface]:
+        """The surfaces with the file's paraxial solves applied (:mod:`.codev_solves`); zoom files keep the
+        values CODE V wrote for each position."""
+        body = [r for r in self.rows[1:] if r["kind"] == "S"]
+        solves = {k: r["solves"] for k, r in enumerate(body) if r.get("solves")}
+        if not solves:
+            return surfaces
+        kept = "a zoom file" if self.zoom.count is not None else "a lens with decenters or tilts" if any(
+            s.transform_before is not None or s.transform_after is not None for s in surfaces) or \
+            self.image_transform is not None else None
+        if kept:
+            self.warnings.append(LoadWarning("keyword_ignored", f"paraxial solves in {kept}: the values the file "
+                                             "writes are used (not re-solved)", None, None))
+            return surfaces
+        ref = wavelengths.nm[wavelengths.primary]
+        stop = next(k for k, s in enumerate(surfaces) if s.is_stop)
+        img = self.rows[-1] if self.rows[-1]["kind"] == "SI" else None
+        out, found = apply_solves(
+            surfaces, solves, stop=stop, object_distance_mm=dist, object_index=float(obj_mat.index(ref)),
+            indices=[float(s.material.index(ref)) for s in surfaces], aperture=aperture, fields=fields,
+            unit_mm=f, defocus_mm=(img["thick"] * f if img is not None else 0.0), path=self.path)
+        self.warnings += found
+        return out
+
     def values(self, key: str, what: str) -> tuple[list[float], int] | None:
         if key not in self.spec:
             return None
@@ -468,6 +532,7 @@ class _Seq:
                            "SO's thickness is the distance from the object to surface 1")
         if self.prv is not None:
             raise self.err("PRV without END", None, "close the private catalog with END")
+        surfaces = self.solved(surfaces, dist, obj_mat, aperture, fields, wavelengths, f)
         found = tuple(self.warnings + self.keywords.warnings)
         emit_load_warnings(path, found)
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,

@@ -2,7 +2,9 @@
 
 Fictitious glasses name n_d and V_d directly: ``n:v`` (``1.55:55.8``), or the
 six-digit glass code ``nnnvvv`` (``517642`` is n_d = 1.517, V_d = 64.2) with or
-without its dot (``517.642``). They become n_d/V_d model glasses.
+without its dot (``517.642``), or the longer code CODE V writes for more
+precision (``517000.520000`` is n_d = 1.517000, V_d = 52.0000: the digits before
+the dot are n_d's decimals, those after it V_d / 100). They become n_d/V_d model glasses.
 
 A private catalog lists indices at wavelengths::
 
@@ -27,6 +29,7 @@ from ..materials import CatalogGlass, ModelGlass
 __all__ = ["fictitious_glass", "PrivateCatalog"]
 
 _CODE = re.compile(r"^(\d{3})\.?(\d{3})$")
+_LONG_CODE = re.compile(r"^(\d{3,})\.(\d{3,})$")  # 517000.520000: n_d - 1 and V_d / 100, more digits
 _COLON = re.compile(r"^(\d+(?:\.\d*)?):(\d+(?:\.\d*)?)$")
 
 
@@ -39,6 +42,9 @@ def fictitious_glass(text: str) -> ModelGlass | None:
     m = _CODE.match(tok)
     if m:
         return ModelGlass(1.0 + int(m.group(1)) / 1000.0, int(m.group(2)) / 10.0, name=tok)
+    m = _LONG_CODE.match(tok)
+    if m:  # the digits before the dot are the decimals of n_d, those after it V_d / 100
+        return ModelGlass(float("1." + m.group(1)), 100.0 * float("0." + m.group(2)), name=tok)
     return None
 
 

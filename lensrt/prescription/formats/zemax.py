@@ -47,7 +47,7 @@ from ..materials import AIR, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
 from .keywords import ZemaxKeywordPolicy
-from .zemax_geometry import aperture_entry, coordbrk_transform, surface_apertures
+from .zemax_geometry import aperture_entry, coordbrk_transform, scbd_transform, surface_apertures
 from .zemax_mce import MultiConfigReader
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
@@ -74,7 +74,7 @@ IGNORED: dict[str, str] = {
     "EFFL": "settings", "TCED": "settings", "CONF": "configuration settings",
     "DBDT": "settings", "PWFN": "settings", "OPDX": "merit operand", "ENVD": "checked: 20 C, 1 atm",
     "PUPD": "checked: uniform apodization", "OBDC": "checked: zero aperture decenter",
-    "XDAT": "checked: zero extra data", "SCBD": "checked: zero tilt/decenter",
+    "XDAT": "checked: zero extra data", "SCBD": "image surface tilt/decenter",
     "NOTE": "kept in lens.notes", "NAME": "lens name", "COMM": "surface label", "VANN": "checked: zero",
     "TRAC": "merit operand", "GLCB": "merit operand",
 }
@@ -120,6 +120,7 @@ class _Surf:
     diam_fixed: bool = False
     apertures: list[tuple[str, float, float, int]] = field(default_factory=list)
     obdc: tuple[float, float] = (0.0, 0.0)
+    scbd: tuple[list[float], int] | None = None
 
 
 def _rest(raw: str, keyword: str) -> str:
@@ -390,9 +391,9 @@ class _Reader:
         self.cur("OBDC", no).obdc = (vals[0], vals[1] if len(vals) > 1 else 0.0)
 
     def kw_SCBD(self, args, no, raw):
-        if any(v != 0.0 for v in self.nums(args[1:], "tilt/decenter value", no)):
-            raise self.err("SCBD: a surface tilt/decenter is not supported", no,
-                           "lensrt models rotationally symmetric, centred lenses only")
+        vals = self.nums(args, "tilt/decenter value", no)
+        if any(v != 0.0 for v in vals[1:]):
+            self.cur("SCBD", no).scbd = (vals, no)  # read at assembly (zemax_geometry.scbd_transform)
 
     def kw_XDAT(self, args, no, raw):
         if len(args) > 1 and self.num(args[1], "extra data value", no) != 0.0:
@@ -449,9 +450,13 @@ class _Reader:
             if s.stop:
                 raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
         surfaces: list[Surface] = []
+        self.image_transform = None if img.scbd is None else scbd_transform(*img.scbd, f, self.path)
         with located(self.path, obj.line):
             object_medium = self.material(obj)
         for k, s in enumerate(body):
+            if s.scbd is not None:
+                raise self.err("SCBD: a tilt/decenter on a lens surface is not supported (only on the image "
+                               "surface)", s.scbd[1], "write the frame change as COORDBRK surfaces around it")
             with located(self.path, s.line):
                 before = surfaces[-1].material if surfaces else object_medium
                 if s.type == "COORDBRK":
@@ -582,7 +587,7 @@ class _Reader:
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
                          source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes),
-                         warnings=found)
+                         warnings=found, image_transform=self.image_transform)
 
 
 def _norm_name(name: str) -> str:

@@ -15,6 +15,16 @@ that reader and this one do not collide.
   ``SQAP xhalf yhalf`` (rectangular), ``ELAP xhalf yhalf`` (elliptical),
   each moved by ``OBDC x y`` (the aperture decenter). A centred circular
   ``CLAP 0 r`` stays the surface's semi-diameter, as before.
+* ``SCBD f1 f2 f3 dx dy tx ty tz`` on the image surface: OpticStudio's surface
+  tilt/decenter ("before surface") of the image plane, read as three integer
+  flags then decenter x, y (lens units) and tilts about x, y, z (degrees),
+  becoming ``Lens.image_transform``. The .zmx layout is not published: it is
+  inferred from rayoptics' ``zmax_37992.zmx`` (a 90 deg off-axis parabola whose
+  image plane is tilted 90 deg about x, so that the chief ray meets it
+  normally). Only values whose meaning does not depend on the unknown flags
+  are read: all-zero flags 2 and 3, and either decenters alone or a single
+  tilt alone (then the order of decenter and tilts cannot matter); anything
+  else, and SCBD on a lens surface, is an error naming the construct.
 * ``DIAM v flag``: flag 1 is a user-defined semi-diameter (OpticStudio's
   floating aperture), the kind that vignettes under the ``opticstudio``
   aperture rule.
@@ -27,7 +37,7 @@ from ...errors import PrescriptionError
 from ...units import deg_to_rad
 from ..geometry import CoordinateTransform, SurfaceAperture
 
-__all__ = ["APERTURE_KEYWORDS", "coordbrk_transform", "surface_apertures", "aperture_entry"]
+__all__ = ["APERTURE_KEYWORDS", "coordbrk_transform", "surface_apertures", "aperture_entry", "scbd_transform"]
 
 #: the surface-aperture keywords read here, and the shape each gives
 APERTURE_KEYWORDS = {"CLAP": "circle", "OBSC": "circle", "SQAP": "rectangle", "ELAP": "ellipse"}
@@ -84,3 +94,16 @@ def surface_apertures(entries: list[tuple[str, float, float, int]], decenter: tu
         except PrescriptionError as e:
             raise PrescriptionError(f"{kw}: {e.message}", path=path, line=line, hint=e.hint) from None
     return tuple(out)
+
+
+def scbd_transform(values: list[float], line: int, unit_mm: float, path: str | None) -> CoordinateTransform:
+    """The image plane's tilt/decenter from an ``SCBD`` line (see the module docstring for what is read)."""
+    flags, v = values[:3], values[3:8] + [0.0] * (8 - len(values))
+    tilts = [t for t in v[2:5] if t != 0.0]
+    if len(values) < 4 or any(x != 0.0 for x in flags[1:]) or any(x != 0.0 for x in values[8:]) or \
+            len(tilts) > 1 or (tilts and (v[0] != 0.0 or v[1] != 0.0)):
+        raise PrescriptionError("SCBD: a surface tilt/decenter whose order or options lensrt cannot read "
+                                "(the .zmx layout is inferred: decenters alone or one tilt alone)", path=path,
+                                line=line, hint="write the frame change as a COORDBRK before the image surface")
+    return CoordinateTransform(decenter_x_mm=v[0] * unit_mm, decenter_y_mm=v[1] * unit_mm,
+                               tilt_x_rad=deg_to_rad(v[2]), tilt_y_rad=deg_to_rad(v[3]), tilt_z_rad=deg_to_rad(v[4]))

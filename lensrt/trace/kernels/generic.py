@@ -16,7 +16,7 @@ from . import N_COUNTS, N_STATS
 from .sampling import hash_u32, sobol_1d, unit_square
 from .stream_body import (SOURCE, Histogram, Slots, SlotSums, accumulate, batch_seeds, bin_ray, hist_base,
                           pick_wavelength, ray_from_source, slot_of, store_slot)
-from .surfaces import trace_ray, write_ray
+from .surfaces import GeneralLens, SymmetricLens, trace_ray, write_ray
 
 __all__ = ["trace_store", "trace_stream", "generic_samples", "fold_slots", "sum_replicas", "sample_square", "overloads",
            "sample_unit_square"]
@@ -29,12 +29,12 @@ def trace_store(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris:
                 n_surfaces: int, rays: wp.array2d(dtype=Any), end: int, clip: int, plane_dz: Any,
                 record: int, index_table: wp.array2d(dtype=Any), ray_base: int,
                 out: wp.array2d(dtype=Any), status: wp.array(dtype=wp.int32),
-                surface: wp.array(dtype=wp.int32), rec: wp.array3d(dtype=Any)):
+                surface: wp.array(dtype=wp.int32), rec: wp.array3d(dtype=Any), variant: Any):
     r = wp.tid() + ray_base
     w_um = rays[r, 6] * type(plane_dz)(1.0e-3)
     st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
         surf, media, iris, n_surfaces, rays[r, 0], rays[r, 1], rays[r, 2], rays[r, 3], rays[r, 4],
-        rays[r, 5], w_um * w_um, index_table, -1, end, clip, plane_dz, record, rec, r)
+        rays[r, 5], w_um * w_um, index_table, -1, end, clip, plane_dz, record, rec, r, variant)
     write_ray(out, status, surface, r, st, where, x, y, z, L, M, N, opl, min_cos)
 
 
@@ -63,7 +63,7 @@ def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris
                  spec_nm: wp.array(dtype=Any), spec_cdf: wp.array(dtype=Any), use_table: int,
                  index_table: wp.array2d(dtype=Any), chan_mode: int, chan: wp.array2d(dtype=Any), chan_nm0: Any,
                  chan_dnm: Any, sampler: int, h: Histogram, sl: Slots, stats: wp.array2d(dtype=wp.float64),
-                 counts: wp.array2d(dtype=wp.int64), rec: wp.array3d(dtype=Any)):
+                 counts: wp.array2d(dtype=wp.int64), rec: wp.array3d(dtype=Any), variant: Any):
     # one thread per slot: a contiguous run of slot_rays rays of one (source, batch); its sums
     # depend on those rays only, never on the launch split (package docstring)
     tid = wp.tid() + sl.tid_base
@@ -83,7 +83,7 @@ def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris
         w_um = wl * type(chan_nm0)(1.0e-3)
         st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
             surf, media, iris, n_surfaces, px, py, pz, dx, dy, dz, w_um * w_um, index_table, row,
-            n_surfaces, clip, plane_dz, 0, rec, 0)
+            n_surfaces, clip, plane_dz, 0, rec, 0, variant)
         sums, on_grid, fx, fy = accumulate(sums, st, min_cos, x, y, weight, s, h)
         if on_grid:
             bin_ray(h, base, fx, fy, weight, wl, chan_mode, chan, chan_nm0, chan_dnm)
@@ -136,18 +136,22 @@ _REAL = {"float64": wp.float64, "float32": wp.float32}
 
 
 def _register(precision: str) -> SimpleNamespace:
-    """The ``wp.overload`` s of the generic kernels for one precision."""
+    """The ``wp.overload`` s of the generic kernels for one precision: store and stream kernels per
+    lens variant (``*_general`` for :class:`~.surfaces.GeneralLens`; :func:`lens_variant` picks)."""
     real = _REAL[precision]
     a1, a2, a3 = wp.array(dtype=real), wp.array2d(dtype=real), wp.array3d(dtype=real)
-    store = wp.overload(trace_store, {"surf": a2, "media": a2, "iris": a1, "rays": a2, "plane_dz": real,
-                                      "index_table": a2, "out": a2, "rec": a3})
     sources = wp.array(dtype=SOURCE[precision])
-    stream = wp.overload(trace_stream, {"surf": a2, "media": a2, "iris": a1, "sources": sources, "spec_nm": a1,
-                                        "spec_cdf": a1, "index_table": a2, "chan": a2, "chan_nm0": real,
-                                        "chan_dnm": real, "rec": a3})
+    store_types = {"surf": a2, "media": a2, "iris": a1, "rays": a2, "plane_dz": real, "index_table": a2,
+                   "out": a2, "rec": a3}
+    stream_types = {"surf": a2, "media": a2, "iris": a1, "sources": sources, "spec_nm": a1, "spec_cdf": a1,
+                    "index_table": a2, "chan": a2, "chan_nm0": real, "chan_dnm": real, "rec": a3}
+    kern = {}
+    for suffix, variant in (("", SymmetricLens), ("_general", GeneralLens)):
+        kern["trace_store" + suffix] = wp.overload(trace_store, {**store_types, "variant": variant})
+        kern["trace_stream" + suffix] = wp.overload(trace_stream, {**stream_types, "variant": variant})
     square = wp.overload(sample_square, {"out": a2})
-    return SimpleNamespace(trace_store=store, trace_stream=stream, fold_slots=fold_slots, sum_replicas=sum_replicas,
-                           sample_square=square, real=real, module="lensrt.trace.kernels.generic")
+    return SimpleNamespace(**kern, fold_slots=fold_slots, sum_replicas=sum_replicas, sample_square=square,
+                           real=real, module="lensrt.trace.kernels.generic")
 
 
 _OVERLOADS = {precision: _register(precision) for precision in _REAL}

@@ -17,17 +17,41 @@ from typing import Any
 import warp as wp
 
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
-                    IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_GEOM, S_KIND, S_KP1,
+                    IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_KIND, S_KP1,
                     S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
                     APERTURE_COLS)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
-__all__ = ["newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
+__all__ = ["SymmetricLens", "GeneralLens", "is_general", "newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
            "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
+
+
+# The kernel variant, chosen by the type of one kernel argument (a Warp overload per type, so the
+# choice is made at compile time and the symmetric variant carries none of the general code):
+# SymmetricLens -- coaxial refracting surfaces in vertex frames (every lens without mirrors, frames
+# or surface apertures); GeneralLens -- mirrors, coordinate transforms, surface apertures.
+@wp.struct
+class SymmetricLens:
+    tag: int
+
+
+@wp.struct
+class GeneralLens:
+    tag: int
+
+
+@wp.func
+def is_general(variant: SymmetricLens) -> bool:
+    return False
+
+
+@wp.func
+def is_general(variant: GeneralLens) -> bool:  # noqa: F811 -- a Warp overload
+    return True
 
 
 # the Newton step that ends the iteration on an aspheric sag, per precision (overloads by type)
@@ -347,14 +371,16 @@ def inside_iris(iris: wp.array(dtype=Any), x: Any, y: Any) -> int:
 def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: wp.array(dtype=Any),
               n_surfaces: int, x0: Any, y0: Any, z0: Any, L0: Any, M0: Any, N0: Any, w2: Any,
               index_table: wp.array2d(dtype=Any), table_row: int, end: int, clip: int, plane_dz: Any,
-              record: int, rec: wp.array3d(dtype=Any), ray: int):
+              record: int, rec: wp.array3d(dtype=Any), ray: int, variant: Any):
     """Trace one ray; returns status, surface, x, y, z (frame of the last surface met), L, M, N, opl,
     and the smallest cos of the angles of incidence and refraction met (grazing rays are
     ill-conditioned).
 
     Refracts at surfaces 0 .. end-1 and stops on surface ``end`` (``end = n_surfaces``:
     the plane ``plane_dz`` behind the image surface). ``table_row >= 0`` takes indices
-    from ``index_table`` instead of the dispersion formula.
+    from ``index_table`` instead of the dispersion formula. ``variant`` (:class:`SymmetricLens`
+    or :class:`GeneralLens`) selects the code at compile time: a general lens only when the
+    packed lens needs it (``PackedLens.general``).
     """
     x = x0
     y = y0
@@ -384,11 +410,11 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
         where = int(0)
     # mirrors or coordinate transforms: the ray travels in global coordinates between surfaces and is
     # met in each surface's (z-mirrored after odd mirrors) local frame, as in reference_general
-    geom = int(surf[0, S_GEOM])
+    geom = is_general(variant)
     sgn = type(x0)(1.0)
     i = int(0)
     while status == int(OK) and i <= end:
-        if geom != 0:
+        if geom:
             sgn = surf[i, S_SIGN]
             x, y, z, L, M, N = to_local(surf, i, x, y, z, L, M, N)
         if i == n_surfaces:
@@ -409,7 +435,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             if i < end:
                 if clip != 0:
                     passed = int(1)
-                    if geom != 0:
+                    if geom:
                         passed = passes_apertures(surf, i, x, y)
                     if passed != 0:
                         if i == int(iris[IRIS_STOP]):
@@ -431,7 +457,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                     if not (n2 > type(x0)(0.0)):
                         status = int(INVALID)
                         where = i
-                    elif geom != 0 and surf[i, S_MIRROR] != type(x0)(0.0):
+                    elif geom and surf[i, S_MIRROR] != type(x0)(0.0):
                         st, L, M, N, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
                         min_cos = wp.min(min_cos, cos_ir)
                         n1 = n2
@@ -453,7 +479,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                 rec[ray, i, 7] = ang_r
                 rec[ray, i, 8] = t
             if status == int(OK) and i < end:
-                if geom != 0:
+                if geom:
                     x, y, z, L, M, N = to_global(surf, i, x, y, z, L, M, N)
                 else:
                     z = z - surf[i, S_THICK]  # into the next vertex frame
