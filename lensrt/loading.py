@@ -16,7 +16,7 @@ from .prescription.configurations import MultiConfigLens, single_configuration
 from .prescription.formats import read_any
 from .prescription.model import Lens
 from .prescription.validate import check_geometry
-from .paraxial.aperture_check import check_aperture
+from .paraxial.aperture_check import check_aperture, paraxial_image_distance_mm
 from .paraxial.crossing import axial_beam_heights, check_axial_beam_crossing
 from .prescription.formats import emit_load_warnings
 from .library import resolve_lens_path
@@ -48,14 +48,15 @@ def complete_lens(lens: Lens) -> Lens:
 
 
 def _checked_geometry(lens: Lens) -> Lens:
-    """:func:`check_geometry` with the axial beam's heights; its edge warnings are emitted and kept."""
+    """:func:`check_geometry` with the axial beam's heights and the paraxial image distance (a virtual image may
+    lie in front of the last surface); its edge warnings are emitted and kept."""
     try:
         heights = axial_beam_heights(lens)
     except PrescriptionError:
         heights = None  # no first-order data (afocal, ...): every crossing at the semi-diameters is an error
     if heights is not None and not np.isfinite(heights).all():
         heights = None
-    found = check_geometry(lens, beam_heights_mm=heights)
+    found = check_geometry(lens, beam_heights_mm=heights, image_distance_mm=paraxial_image_distance_mm(lens))
     if not found:
         return lens
     emit_load_warnings(lens.path, found)

@@ -59,7 +59,11 @@ def compare_report(lens, fields_in_lens_unit=(), wavelengths_nm=(), rays: int = 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from ..loading import load_lens
+    from ..paraxial import first_order
     lens = load_lens(args.file, config=lens_config(args))
+    fo = first_order(lens)
+    if fo.afocal:
+        return _compare_afocal(args, lens, fo)
     c = compare_report(lens, args.field, args.wavelength_nm, args.rays, args.spot_rays, args.seed, args.device)
     written = []
     if args.plot:
@@ -74,4 +78,29 @@ def cmd_compare(args: argparse.Namespace) -> int:
     emit(comparison_text(c))
     for p in written:
         emit(f"wrote {p}")
+    return 0
+
+
+def _compare_afocal(args: argparse.Namespace, lens, fo) -> int:
+    """An afocal lens: spots in angle space (:mod:`lensrt.analysis.compare.afocal`) instead of image-plane tables."""
+    from ..analysis.compare.afocal import angular_spots
+    from ..errors import LensrtError
+    from ..io.table import format_table
+    if args.field or args.wavelength_nm or args.plot:
+        raise LensrtError("--field, --wavelength-nm and --plot are not available for an afocal lens",
+                          hint="lensrt compare on an afocal lens prints its angular spots at the lens's own fields")
+    spots = angular_spots(lens, device=args.device)
+    if args.json:
+        print_json({"lens": lens.name, "afocal": True, "angular_magnification": fo.angular_magnification,
+                    "wavelength_nm": fo.wavelength_nm, "angular_spots": [s.to_dict() for s in spots]})
+        return 0
+    emit(f"{lens.name or lens.path}: afocal, angular magnification {fo.angular_magnification:.6g} (paraxial); "
+         f"image-plane tables do not apply: spots in angle space at {fo.wavelength_nm:g} nm (real-aimed pupil grid, "
+         "angles to the real chief ray)")
+    rows = [[s.field_deg if s.field_deg is not None else s.field_height_mm,
+             "-" if s.paraxial_exit_deg is None else f"{s.paraxial_exit_deg:.6f}", f"{s.chief_exit_deg:.6f}",
+             s.rms_mrad, s.max_mrad, s.rays] for s in spots]
+    unit = "deg" if lens.fields.kind == "angle" else "mm"
+    emit(format_table(rows, [f"field {unit}", "paraxial exit deg", "real chief exit deg", "RMS mrad", "max mrad",
+                             "rays"], digits=6))
     return 0

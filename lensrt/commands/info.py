@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..views.first_order import first_order_rows, format_value, info_data, seidel_rows
+from ..views.first_order import (afocal_line, first_order_rows, format_value, info_data, seidel_rows,
+                                 virtual_image_line)
 from ._common import add_lens_argument, add_reader_options, emit, lens_config, print_json, reader_options
 
 __all__ = ["register"]
@@ -51,9 +52,9 @@ def cmd_info(args: argparse.Namespace) -> int:
     emit(lens.name or str(lens.path))
     emit(f"first order at {d['wavelength_nm']:g} nm, object at {obj}; z from the first vertex, +z toward the image")
     if d["afocal"]:
-        emit(f"afocal (no power): angular magnification {d['angular_magnification']:.6g}; entrance pupil "
-             f"z = {d['entrance_pupil_z_mm']:.6g} mm, diameter {d['entrance_pupil_diameter_mm']:.6g} mm; exit pupil "
-             f"z = {d['exit_pupil_z_mm']:.6g} mm, diameter {d['exit_pupil_diameter_mm']:.6g} mm")
+        emit(afocal_line(d))
+        for w in d["warnings"]:
+            emit(f"warning [{w['code']}]: {w['text']}")
         return 0
     if d.get("unfolded_axis"):
         emit("the lens has tilts/decenters: these are the paraxial data of its unfolded axis (exact for tilted flat "
@@ -62,9 +63,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         emit("mirrors: z is along the unfolded axis; after an odd number of mirrors light travels toward -z "
              "(negative thicknesses, f' = n'/Phi with n' < 0)")
     if d["image_virtual"]:
-        emit(f"virtual image: the rays leave the lens diverging; their paraxial image lies "
-             f"{-d['image_distance_mm']:.4g} mm in front of the last vertex (the object is inside the front "
-             f"focal point, z = {d['front_focal_z_mm']:.4g} mm), upright (m = {d['magnification']:+.4g})")
+        emit(virtual_image_line(d))
     emit(format_table(first_order_rows(d), ["quantity", "value", "unit"]))
     for w in d["warnings"]:
         emit(f"warning [{w['code']}]: {w['text']}")

@@ -1,4 +1,5 @@
-"""An aperture the lens cannot pass (an image-space f-number below 0.5), or no first-order image at all.
+"""An aperture the lens cannot pass (an image-space f-number below 0.5), or no first-order image at all;
+the paraxial image distance the geometry check needs to accept a virtual image.
 
 In air the image-space numerical aperture is below 1, so the f-number N = 1/(2 NA') of an aplanatic
 lens is at least 0.5 (Field Guide p. 30). An entrance pupil given as a diameter (``epd = 1e9``) can
@@ -8,11 +9,13 @@ files in the rayoptics test set do that on purpose, the CIR clipping the beam.)
 """
 from __future__ import annotations
 
+import math
+
 from ..errors import LensrtError, PrescriptionError
 from ..prescription.model import Lens
 from .first_order import first_order
 
-__all__ = ["MIN_F_NUMBER", "check_aperture"]
+__all__ = ["MIN_F_NUMBER", "check_aperture", "paraxial_image_distance_mm"]
 
 #: the smallest image-space f-number in air (NA' < 1)
 MIN_F_NUMBER = 0.5
@@ -34,3 +37,13 @@ def check_aperture(lens: Lens) -> None:
             f"the aperture ({lens.aperture.kind} = {lens.aperture.value:g}) gives f/{abs(n):.3g}, below f/0.5, "
             f"the limit for a lens in air", line=line,
             hint=f"an entrance pupil of at most {abs(fo.efl_mm) / MIN_F_NUMBER:.4g} mm")
+
+
+def paraxial_image_distance_mm(lens: Lens) -> float | None:
+    """Last vertex to the paraxial image of the lens's object (mm, a z offset; < 0 in front of the last
+    vertex when light travels toward +z), or None when there is none (afocal, image at infinity)."""
+    try:
+        fo = first_order(lens)
+    except LensrtError:
+        return None
+    return float(fo.image_distance_mm) if math.isfinite(fo.image_distance_mm) else None

@@ -27,7 +27,7 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
 
-__all__ = ["FirstOrder", "first_order", "is_afocal", "pupils", "Pupils", "entrance_pupil_diameter_mm",
+__all__ = ["FirstOrder", "first_order", "is_afocal", "refuse_afocal", "pupils", "Pupils", "entrance_pupil_diameter_mm",
            "marginal_ray", "chief_ray", "field_slope_and_height", "paraxial_rays"]
 
 #: a matrix element below this (relative) counts as zero: a pupil or image at infinity
@@ -186,6 +186,29 @@ def _power(system: ParaxialSystem) -> float:
     return phi
 
 
+def _petzval_sum(lens: Lens, sysm: ParaxialSystem) -> float:
+    """sum Phi / (n n') over the surfaces; an ideal paraxial lens (flat-field, perfect) adds nothing."""
+    real = np.array([not s.is_ideal for s in lens.surfaces])
+    return float(np.sum((sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:]))[real]))
+
+
+def refuse_afocal(lens: Lens, what: str, wavelength_nm: float | None = None) -> None:
+    """Raise one clear :class:`LensrtError` when ``lens`` is afocal: ``what`` (an analysis) needs an image.
+
+    An afocal lens (a telescope, a beam expander) sends every object point at infinity to infinity: its
+    image lies in angle space, and analyses on an image plane (focus, distortion, spots, PSFs, bokeh) are
+    not defined there.
+    """
+    sysm = paraxial_system(lens, wavelength_nm)
+    if not is_afocal(sysm):
+        return
+    m = float(sysm.matrix(0, sysm.n_surfaces - 1)[1, 1]) * float(sysm.index[0] / sysm.index[-1])
+    raise LensrtError(f"{what} needs an image, but the lens is afocal (angular magnification {m:.6g}): its image "
+                      "lies at infinity, in angle space",
+                      hint="lensrt info gives its angular magnification and pupils; to image it, add an ideal lens "
+                           "behind it (ideal_focal_mm, or TYPE PARAXIAL in a Zemax file)")
+
+
 def is_afocal(system: ParaxialSystem) -> bool:
     """True when the system's power vanishes (a telescope, or a plate): no focal points."""
     return abs(float(system.matrix(0, system.n_surfaces - 1)[1, 0])) < 1e-15
@@ -327,7 +350,7 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
     h_img = c_ray.height_at(image_offset)
     lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
-    petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
+    petzval = _petzval_sum(lens, sysm)
     half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
     return FirstOrder(
         wavelength_nm=sysm.wavelength_nm,
@@ -355,7 +378,8 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
 
 
 def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> FirstOrder:
-    """First-order data of an afocal lens: pupils and angular magnification; focal quantities inf."""
+    """First-order data of an afocal lens: pupils and angular magnification; focal quantities inf; the image of
+    a finite object (finite: lateral magnification 1/M), inf for an object at infinity."""
     if lens.aperture.kind == "image_fno":
         raise LensrtError("the lens is afocal: an f-number aperture is undefined",
                           hint="give the entrance-pupil diameter (EPD / ENPD) instead")
@@ -373,8 +397,17 @@ def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> First
     fmax = lens.fields.max_radial
     c_ray = chief_ray(lens, sysm, fmax, d_obj, pup.entrance_z_mm, epd)
     lagrange = float(n0 * (c_ray.u[0] * m_ray.y[0] - m_ray.u[0] * c_ray.y[0]))
-    petzval = float(np.sum(sysm.power_per_mm / (sysm.index[:-1] * sysm.index[1:])))
+    petzval = _petzval_sum(lens, sysm)
     half_field = math.degrees(fmax) if lens.fields.kind == "angle" else math.degrees(math.atan(abs(c_ray.u[0])))
+    # a finite object has a finite image (lateral magnification n u / (n' u') = 1 / M for every object distance)
+    image_offset, mag, heights, virtual = inf, 0.0, tuple(inf for _ in lens.fields.y), False
+    if math.isfinite(d_obj):
+        image_offset = m_ray.axis_crossing_mm()
+        mag = float(m_ray.nu[0] / m_ray.nu[-1])
+        heights = tuple(float(chief_ray(lens, sysm, math.hypot(x, y), d_obj, pup.entrance_z_mm, epd)
+                              .height_at(image_offset)) for x, y in zip(lens.fields.x, lens.fields.y))
+        virtual = bool(image_offset * math.copysign(1.0, nk) < 0.0)
+    z_last = float(sysm.vertex_z_mm[N - 1])
     return FirstOrder(
         wavelength_nm=sysm.wavelength_nm, object_distance_mm=None if math.isinf(d_obj) else d_obj,
         object_z_mm=None if math.isinf(d_obj) else -d_obj, efl_mm=inf, front_focal_length_mm=inf,
@@ -383,9 +416,10 @@ def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> First
         entrance_pupil_z_mm=pup.entrance_z_mm, entrance_pupil_diameter_mm=epd, exit_pupil_z_mm=pup.exit_z_mm,
         exit_pupil_diameter_mm=xpd, stop_semi_diameter_mm=stop_sd, pupil_magnification=xpd / epd,
         entrance_pupil_distance_mm=inf, exit_pupil_distance_mm=inf, f_number=inf, bellows_factor=1.0,
-        working_f_number=inf, image_z_mm=inf, image_distance_mm=inf,
+        working_f_number=inf, image_z_mm=z_last + image_offset, image_distance_mm=image_offset,
         image_surface_distance_mm=float(lens.surfaces[-1].thickness_mm), unit_focus_extension_mm=0.0,
-        magnification=0.0, lagrange_invariant=lagrange, petzval_sum_per_mm=petzval,
+        magnification=mag, lagrange_invariant=lagrange, petzval_sum_per_mm=petzval,
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm, half_field_deg=half_field,
-        paraxial_image_height_mm=inf, field_image_heights_mm=tuple(inf for _ in lens.fields.y),
+        paraxial_image_height_mm=float(c_ray.height_at(image_offset)) if math.isfinite(image_offset) else inf,
+        field_image_heights_mm=heights, image_virtual=virtual,
         afocal=True, angular_magnification=D * n0 / nk, unfolded_axis=not lens.is_centred)

@@ -20,7 +20,8 @@ wavelengths, F and C lines for a one-wavelength lens). A conic or aspheric
 surface adds, with G the r^4 coefficient of its sag minus that of the sphere of
 its paraxial curvature, S_I* = 8 G (n' - n) y^4, S_II* = S_I* (y_bar/y),
 S_III* = S_I* (y_bar/y)^2, S_V* = S_I* (y_bar/y)^3 (S_IV and the colour sums
-are unchanged).
+are unchanged). An ideal paraxial lens (``TYPE PARAXIAL``) contributes nothing,
+PTZ included: it images every plane perfectly onto its conjugate plane.
 
 The wavefront coefficients (mm; divide by the wavelength for waves) are
 W040 = S_I/8, W131 = S_II/2, W222 = S_III/2, W220 = (S_III + S_IV)/4,
@@ -49,6 +50,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
+from ..prescription.shapes import profile_of, vertex_expansion
 from ..units import FRAUNHOFER_NM
 from .first_order import paraxial_rays
 from .ynu import ParaxialSystem
@@ -123,11 +125,13 @@ class SeidelSums:
 def _aspheric_g(lens: Lens, system: ParaxialSystem, i: int) -> float:
     """r^4 sag coefficient of surface i minus that of the sphere of its paraxial curvature."""
     s = lens.surfaces[i]
-    if s.conic == 0.0 and not s.asphere:
+    if s.conic == 0.0 and not s.asphere and s.shape is None:
         return 0.0
+    c_par = system.curvature_per_mm[i]
+    if s.shape is not None:  # odd / Q-type / y-section of biconic and toroidal: the vertex Taylor series
+        return vertex_expansion(profile_of(s))[1] - c_par ** 3 / 8.0
     c, k = s.curvature_per_mm, s.conic
     a4 = s.asphere[1] if len(s.asphere) > 1 else 0.0
-    c_par = system.curvature_per_mm[i]
     return (1.0 + k) * c ** 3 / 8.0 + a4 - c_par ** 3 / 8.0
 
 
@@ -191,6 +195,10 @@ def seidel_sums(lens: Lens, wavelength_nm: float | None = None, object_distance_
         s3[i] += k8 * y[i] ** 2 * yb[i] ** 2
         s5[i] += k8 * y[i] * yb[i] ** 3
     ptz = -n[-1] * sysm.power_per_mm / (n[:-1] * n[1:])
+    # an ideal paraxial lens images every plane onto its conjugate plane without aberration: no contribution
+    ideal = np.array([sf.is_ideal for sf in lens.surfaces])
+    for arr in (s1, s2, s3, s4, s5, c1, c2, ptz):
+        arr[ideal] = 0.0
     if not all(math.isfinite(float(v)) for v in (s1.sum(), s2.sum(), s3.sum(), s5.sum())):
         raise LensrtError("the Seidel sums are not finite for this lens (a paraxial ray is undefined)")
     return SeidelSums(sysm.wavelength_nm, float(short_nm), float(long_nm), H, float(n[-1]), float(m.u[-1]),

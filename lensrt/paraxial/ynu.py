@@ -13,6 +13,11 @@ indices. Tilts and decenters are ignored here: the paraxial data of a lens
 with coordinate transforms are those of its unfolded axis (exact for fold
 mirrors that are tilted flats).
 
+An ideal paraxial lens (``Surface.ideal_focal_mm``, OpticStudio's ``TYPE
+PARAXIAL``) is a plane of power Phi = 1 / f: ``n'u' = n u - y / f`` whatever
+the media (as OpticStudio and optiland define it), so its focal lengths are
+f_E = f, and n f, n' f in the media on either side.
+
 Everything here also works with 2x2 reduced matrices on (y, n u): refraction
 ``[[1, 0], [-Phi, 1]]`` and transfer ``[[1, t / n], [0, 1]]`` (det = 1).
 """
@@ -86,7 +91,7 @@ class ParaxialSystem:
 def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialSystem:
     """Reduce ``lens`` to paraxial data at ``wavelength_nm`` (default: the primary)."""
     w = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    c = np.array([s.curvature_per_mm + (2.0 * s.asphere[0] if s.asphere else 0.0) for s in lens.surfaces])
+    c = np.array([s.paraxial_curvature_per_mm for s in lens.surfaces])  # the vertex's osculating sphere
     t = np.array([s.thickness_mm for s in lens.surfaces], dtype=np.float64)
     n = np.asarray(lens.indices(w), dtype=np.float64)
     if lens.has_mirrors:
@@ -96,6 +101,9 @@ def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialS
             signs.append(sign)
         n = n * np.asarray(signs)
     phi = c * (n[1:] - n[:-1])
+    for i, sf in enumerate(lens.surfaces):
+        if sf.ideal_focal_mm is not None:
+            phi[i] = 1.0 / sf.ideal_focal_mm  # an ideal lens: power 1/f (a plane, c = 0)
     return ParaxialSystem(c, t, n, phi, lens.stop_index, w)
 
 

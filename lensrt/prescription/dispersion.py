@@ -73,19 +73,21 @@ class PackBuilder:
         return tuple(self.p)
 
 
-def fit_power_series(wavelength_nm: list[float], index: list[float]) -> tuple[tuple[float, ...], float]:
+def fit_power_series(wavelength_nm: list[float], index: list[float],
+                     max_terms: int = 6) -> tuple[tuple[float, ...], float]:
     """Least-squares fit of n^2 = a0 + a1 w^2 + a2 w^-2 + a3 w^-4 (+ a4 w^-6 + a5 w^-8) to tabulated indices.
 
     Used for CODE V private glasses (``PRV``), which give indices at listed
-    wavelengths only. The number of terms is at most the number of points (and
-    at most six, the Schott formula). Returns the packed row and the largest
-    residual in n over the given points.
+    wavelengths only, and for tabulated glasses. The number of terms is at most
+    the number of points and at most ``max_terms`` (six, the Schott formula, by
+    default; fewer keep a fit through a few rounded table values smooth).
+    Returns the packed row and the largest residual in n over the given points.
     """
     import numpy as np
 
     w = np.asarray(wavelength_nm, dtype=np.float64) / 1000.0
     n = np.asarray(index, dtype=np.float64)
-    exps = [0, 2, -2, -4, -6, -8][:max(1, min(6, len(w)))]
+    exps = [0, 2, -2, -4, -6, -8][:max(1, min(6, max_terms, len(w)))]
     a = np.column_stack([w ** e for e in exps])
     coef, *_ = np.linalg.lstsq(a, n * n, rcond=None)
     b = PackBuilder()

@@ -7,9 +7,13 @@ Order (:func:`resolve_glass`):
    pages of the refractiveindex.info database (obsolete and renamed glasses,
    e.g. Hikari ``SK16``), and user ``.agf`` catalogs of that name;
 2. every other catalog lensrt has: the six vendors, the database's vendor
-   shelves, user ``.agf`` catalogs, and the crystals/semiconductors/silica by
-   name or alias (``F_SILICA``, ``CAF2``, ``GERMANIUM`` ...) -- with a warning
-   naming the catalog used;
+   shelves, user ``.agf`` catalogs, the crystals/semiconductors/silica by
+   name or alias (``F_SILICA``, ``CAF2``, ``GERMANIUM`` ...) and the obsolete
+   glasses of the 1980 catalogs (:mod:`~lensrt.prescription.robb1983`: Schott
+   ``BK7``, ``SK19``, ``KZFSN5``) -- with a warning naming the catalog used;
+   then another grade of a vendor's glass for a name that no catalog lists
+   (Ohara ``S-LAL7Q`` -> ``S-LAL7``, Schott ``LF5HT`` -> ``LF5HTi``), only where
+   the line's n_d/V_d confirm it;
 3. only with ``substitute``: a successor or another vendor's equivalent
    (``SK16`` -> ``N-SK16``), with a warning naming both glasses and the index
    difference at the primary wavelength;
@@ -40,9 +44,11 @@ from .materials import (CATALOGS, CatalogGlass, Material, ModelGlass, find_exact
                         make_vendor_glass, vendor_nd_vd_table)
 from .model import LoadWarning
 from .rii import find_rii_glass, find_rii_material
+from .robb1983 import find_robb_glass
 
 __all__ = ["GlassPolicy", "glass_policy", "current_policy", "user_catalogs", "resolve_glass", "GlassRequest",
-           "LINE_TOLERANCE", "NEAREST_TOLERANCE", "split_catalog_suffix", "lookup_any", "vendor_of", "nearest_glass"]
+           "LINE_TOLERANCE", "NEAREST_TOLERANCE", "VARIANT_SUFFIXES", "VARIANT_TOLERANCE", "CATALOG_PREFIXES",
+           "split_catalog_suffix", "lookup_any", "vendor_of", "nearest_glass"]
 
 #: largest |n_d(line) - n_d(catalog)| taken without a word
 LINE_TOLERANCE = 1e-3
@@ -134,7 +140,16 @@ def _in_catalogs(name: str, cats: Sequence[str], agfs: Sequence[AgfCatalog]) -> 
         g = find_exact_vendor_glass(name, cat)
         if g is not None:
             return g
-    return find_rii_glass(name, tuple(cats)) if cats else None
+    if not cats:
+        return None
+    g = find_rii_glass(name, tuple(cats)) or find_robb_glass(name, tuple(cats))
+    for cat in cats if g is None else ():
+        prefix = CATALOG_PREFIXES.get(cat.upper())
+        if prefix and name.upper().startswith(prefix) and len(name) > len(prefix):
+            g = find_rii_glass(name[len(prefix):], (cat,))
+            if g is not None:
+                break
+    return g
 
 
 def vendor_of(catalog: str, agfs: Sequence[AgfCatalog] = ()) -> str | None:
@@ -167,7 +182,12 @@ def lookup_any(name: str, agfs: Sequence[AgfCatalog] = ()) -> CatalogGlass | Non
         g = find_exact_vendor_glass(name, cat)
         if g is not None:
             return g
-    return find_rii_glass(name)
+    for cat, prefix in CATALOG_PREFIXES.items():  # OpticStudio's LZ_K8 without its GCAT LZOS
+        if name.upper().startswith(prefix) and len(name) > len(prefix):
+            g = find_rii_glass(name[len(prefix):], (cat,))
+            if g is not None:
+                return g
+    return find_rii_glass(name) or find_robb_glass(name)
 
 
 def nearest_glass(nd: float, vd: float, prefer: Sequence[str] = ()) -> CatalogGlass | None:
@@ -193,6 +213,55 @@ def _line_check(glass: Material, req: GlassRequest, out: list[LoadWarning]) -> N
         out.append(LoadWarning("glass_line_disagrees",
                                f"glass {req.name}: the line's n_d = {req.nd:.6f} differs from {glass.describe()}'s "
                                f"{req.nd + dn:.6f} by {-dn:+.2e}; the catalog's data are used", req.surface, req.line))
+
+
+def _provenance(glass: Material, req: GlassRequest, out: list[LoadWarning]) -> None:
+    """Say so when the data are not a vendor's formula: an obsolete glass's 1980 model, a fitted table."""
+    source = getattr(glass, "source", "")
+    if source.startswith("Robb"):
+        nd = float(glass.index(FRAUNHOFER_NM["d"]))
+        diff = f"; the line's n_d = {req.nd:g} differs by {req.nd - nd:+.2e}" if req.nd is not None else ""
+        out.append(LoadWarning("glass_obsolete", f"glass {req.name}: obsolete glass {glass.describe()}, in no current "
+                               f"catalog; index from {source}: {getattr(glass, 'formula', '')}; n_d = {nd:.5f}"
+                               f"{diff}", req.surface, req.line))
+    elif "fitted to the page" in getattr(glass, "formula", ""):
+        out.append(LoadWarning("glass_fitted", f"glass {req.name}: {glass.describe()} from {source}, a table of n "
+                               f"only: {glass.formula}", req.surface, req.line))
+
+
+#: suffixes a vendor adds to a glass without changing its n_d/V_d: Ohara's ``Q`` (its catalog's S-LAL54Q, S-LAH52Q
+#: and S-LAH63Q list the same n_d and V_d as S-LAL54, S-LAH52 and S-LAH63) and Schott's transmission grades ``HT``,
+#: ``HTi``, ``HTultra`` (N-BK7 = N-BK7HT = N-BK7HTi: 1.5168/64.17); the first entry is the plain name
+VARIANT_SUFFIXES: dict[str, tuple[str, ...]] = {"Ohara": ("", "Q"), "Schott": ("", "HT", "HTi", "HTultra")}
+#: how close the line's (n_d, V_d) must be to the other grade's for a variant name to be read as that glass
+VARIANT_TOLERANCE = (1e-3, 0.5)
+#: the prefix OpticStudio's catalog of a vendor puts before that vendor's glass names (``LZ_K8`` in LZOS.AGF)
+CATALOG_PREFIXES: dict[str, str] = {"LZOS": "LZ_"}
+
+
+def _variant(base: str, req: GlassRequest) -> CatalogGlass | None:
+    """Another grade of a vendor's glass for a name that no catalog lists (``S-LAL7Q`` -> Ohara ``S-LAL7``,
+    ``LF5HT`` -> Schott ``LF5HTi``).
+
+    Taken only when the line's n_d and V_d confirm it within :data:`VARIANT_TOLERANCE` (the catalogs
+    cannot: they do not list the name).
+    """
+    if req.nd is None or req.vd is None:
+        return None
+    for vendor, suffixes in VARIANT_SUFFIXES.items():
+        own = max((s for s in suffixes if base.upper().endswith(s.upper())), key=len)
+        root = base[: len(base) - len(own)]
+        for other in suffixes:
+            if other == own or not root:
+                continue
+            g = find_exact_vendor_glass(root + other, vendor) or find_rii_glass(root + other, (vendor,))
+            if g is None:
+                continue
+            nd = float(g.index(FRAUNHOFER_NM["d"]))
+            vd = (nd - 1.0) / float(g.index(FRAUNHOFER_NM["F"]) - g.index(FRAUNHOFER_NM["C"]))
+            if abs(nd - req.nd) <= VARIANT_TOLERANCE[0] and abs(vd - req.vd) <= VARIANT_TOLERANCE[1]:
+                return g
+    return None
 
 
 def _searched(req: GlassRequest, agfs: Sequence[AgfCatalog]) -> str:
@@ -227,6 +296,7 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
                                    f"lensrt's {g.catalog} catalog ({g.describe()}, {g.source})", req.surface,
                                    req.line))
     if g is not None:
+        _provenance(g, req, out)
         _line_check(g, req, out)
         return g, out
     # 2. every catalog lensrt has
@@ -234,6 +304,7 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
     if g is not None:
         alias = g.catalog == "refractiveindex.info"
         from_db = g.source.startswith("refractiveindex.info")
+        _provenance(g, req, out)
         if own or alias or from_db:
             code = "glass_alias" if alias else "glass_other_catalog"
             dn = _dn(g, req)
@@ -243,6 +314,14 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
                                    req.surface, req.line))
         else:
             _line_check(g, req, out)
+        return g, out
+    g = _variant(base, req)
+    if g is not None:
+        out.append(LoadWarning("glass_variant", f"glass {name}: in no catalog lensrt has; read as {g.describe()} "
+                               f"from {g.source}, another grade of the same glass, as the line's n_d = "
+                               f"{req.nd:g}, V_d = {req.vd:g} confirm (n_d differs by "
+                               f"{float(g.index(FRAUNHOFER_NM['d'])) - req.nd:+.2e})",
+                               req.surface, req.line))
         return g, out
     # 3. a successor or another vendor's equivalent, on request
     how = "its successor or another vendor's equivalent"

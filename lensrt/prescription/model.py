@@ -1,4 +1,4 @@
-"""The lens model: immutable, rotationally symmetric, sequential, refractive.
+"""The lens model: immutable, sequential, refractive or reflective.
 
 Conventions (``CONVENTIONS.md``): lengths in mm, angles in radians, light
 travels toward +z, the first surface's vertex is at z = 0, radius R > 0 when the
@@ -12,7 +12,8 @@ Sag of a conic + even asphere (r in mm)::
     z(r) = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2)) + sum_i a_i r^(2i+2),   a = Surface.asphere
 
 so ``asphere[0]`` is the r^2 term (Zemax EVENASPH PARM 1), ``asphere[1]`` the
-r^4 term (Zemax PARM 2, CODE V ``A``), and so on.
+r^4 term (Zemax PARM 2, CODE V ``A``), and so on. Other surface kinds (odd and
+Q-type aspheres, biconic, toroidal) carry a :class:`~.shapes.SurfaceShape`.
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from ..errors import PrescriptionError
 from .focusing import UNIT_FOCUS, FocusMechanism
 from .geometry import CoordinateTransform, SurfaceAperture
 from .materials import AIR, Material
+from .shapes import SurfaceShape, profile_of, sag_grad, vertex_expansion
 
 __all__ = [
     "APERTURE_KINDS", "FIELD_KINDS", "APERTURE_RULES", "Aperture", "Iris", "Fields", "Wavelengths", "Surface", "Lens",
@@ -192,6 +194,13 @@ class Surface:
     obscurations that always clip; ``semi_diameter_fixed`` marks a
     user-defined semi-diameter (OpticStudio's ``DIAM v 1``), the one kind that
     vignettes under the ``opticstudio`` aperture rule.
+
+    ``ideal_focal_mm`` makes the surface an ideal paraxial lens (OpticStudio's
+    ``TYPE PARAXIAL``, PARM 1): a plane of power Phi = 1 / f, perfect at every
+    conjugate (:func:`lensrt.trace.ray_surface.ideal_lens`); ``ideal_opd_mode``
+    is OpticStudio's PARM 2, kept for the record (the trace uses only the
+    direction change; ``docs/guide/first-order.md`` says what the optical path
+    lengths through it mean).
     """
 
     curvature_per_mm: float = 0.0
@@ -209,6 +218,11 @@ class Surface:
     transform_after: CoordinateTransform | None = None
     apertures: tuple[SurfaceAperture, ...] = ()
     semi_diameter_fixed: bool = False
+    ideal_focal_mm: float | None = None
+    ideal_opd_mode: int = 0
+    #: a surface kind beyond the conic + even asphere (odd, Q-type, biconic, toroidal: :mod:`.shapes`); None:
+    #: the conic + even asphere of the module docstring
+    shape: SurfaceShape | None = None
     #: line of the source file this surface came from (not part of equality)
     line: int | None = field(default=None, compare=False)
 
@@ -221,6 +235,7 @@ class Surface:
         while asph and asph[-1] == 0.0:
             asph = asph[:-1]
         object.__setattr__(self, "asphere", asph)
+        self._check_shape()
         if not isinstance(self.material, Material):
             raise PrescriptionError(f"material {self.material!r} is not a Material")
         if self.semi_diameter_mm is not None:
@@ -235,7 +250,39 @@ class Surface:
                     hint="a semi-diameter must not exceed |R| (the surface would not exist there)")
             object.__setattr__(self, "semi_diameter_mm", sd)
 
+    def _check_ideal(self) -> None:
+        if self.ideal_focal_mm is None:
+            return
+        f = _finite(self.ideal_focal_mm, "ideal lens focal length")
+        if f == 0.0:
+            raise PrescriptionError("an ideal paraxial lens with focal length 0", line=self.line,
+                                    hint="give a non-zero focal length (PARM 1 of TYPE PARAXIAL)")
+        if self.curvature_per_mm != 0.0 or self.conic != 0.0 or any(a != 0.0 for a in self.asphere) \
+                or self.mirror or self.shape is not None:
+            raise PrescriptionError("an ideal paraxial lens is a plane: it has no curvature, conic, asphere or "
+                                    "mirror", line=self.line, hint="leave those out of a TYPE PARAXIAL surface")
+        if self.ideal_opd_mode not in (0, 1, 2, 3):
+            raise PrescriptionError(f"ideal lens OPD mode {self.ideal_opd_mode!r} is not 0, 1, 2 or 3", line=self.line)
+        object.__setattr__(self, "ideal_focal_mm", f)
+        object.__setattr__(self, "ideal_opd_mode", int(self.ideal_opd_mode))
+
+    @property
+    def is_ideal(self) -> bool:
+        """An ideal paraxial lens (``ideal_focal_mm`` set)."""
+        return self.ideal_focal_mm is not None
+
+    def _check_shape(self) -> None:
+        sh = self.shape
+        if sh is None:
+            return
+        if not isinstance(sh, SurfaceShape):
+            raise PrescriptionError(f"surface shape {sh!r} is not a SurfaceShape", line=self.line)
+        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike"):
+            raise PrescriptionError(f"even asphere terms on a {sh.kind} surface", line=self.line,
+                                    hint="give every polynomial term in the shape's coefficients")
+
     def _check_geometry(self) -> None:
+        self._check_ideal()
         object.__setattr__(self, "mirror", bool(self.mirror))
         object.__setattr__(self, "semi_diameter_fixed", bool(self.semi_diameter_fixed))
         for name in ("transform_before", "transform_after"):
@@ -255,22 +302,49 @@ class Surface:
         return self.transform_before is None and self.transform_after is None and not self.apertures
 
     @property
+    def is_rotational(self) -> bool:
+        """The sag depends on r only (False for biconic and toroidal surfaces)."""
+        return self.shape is None or self.shape.rotational
+
+    @property
+    def paraxial_curvature_per_mm(self) -> float:
+        """Curvature of the osculating sphere at the vertex (the y-section's for biconic and toroidal
+        surfaces): c plus twice the r^2 coefficient of every term (:func:`.shapes.vertex_expansion`)."""
+        if self.shape is None:
+            return self.curvature_per_mm + (2.0 * self.asphere[0] if self.asphere else 0.0)
+        return 2.0 * vertex_expansion(profile_of(self))[0]
+
+    @property
     def radius_mm(self) -> float:
         """Radius of curvature (``inf`` for a plane)."""
         return math.inf if self.curvature_per_mm == 0.0 else 1.0 / self.curvature_per_mm
 
     @property
     def is_plane(self) -> bool:
-        return self.curvature_per_mm == 0.0 and not self.asphere
+        return self.curvature_per_mm == 0.0 and not self.asphere and self.shape is None
 
     @property
     def max_semi_diameter_mm(self) -> float:
         """Largest r where the conic sag is defined: 1 / (|c| sqrt(1 + k)) when (1 + k) c^2 > 0."""
         q = (1.0 + self.conic) * self.curvature_per_mm ** 2
-        return math.inf if q <= 0.0 else 1.0 / math.sqrt(q)
+        limit = math.inf if q <= 0.0 else 1.0 / math.sqrt(q)
+        if self.shape is not None and self.shape.kind == "biconic":
+            qx = (1.0 + self.shape.conic_x) * self.shape.curvature_x_per_mm ** 2
+            limit = min(limit, math.inf if qx <= 0.0 else 1.0 / math.sqrt(qx))
+        return limit
 
     def sag(self, r_mm: float | np.ndarray) -> np.ndarray | float:
-        """Surface sag z(r) in mm (float64, vectorised), in the cancellation-free form."""
+        """Surface sag z(r) in mm (float64, vectorised), in the cancellation-free form.
+
+        A surface with a :attr:`shape` gives its sag along +y (x = 0): the y-section of biconic and
+        toroidal surfaces; NaN where the surface does not exist.
+        """
+        if self.shape is not None:
+            prof = profile_of(self)
+            r = np.asarray(r_mm, dtype=np.float64)
+            out = np.array([(lambda v: math.nan if v is None else v[0])(sag_grad(prof, 0.0, float(v)))
+                            for v in r.ravel()]).reshape(r.shape)
+            return float(out) if np.ndim(out) == 0 else out
         r2 = np.asarray(r_mm, dtype=np.float64) ** 2
         c, k = self.curvature_per_mm, self.conic
         z = c * r2 / (1.0 + np.sqrt(np.maximum(1.0 - (1.0 + k) * c * c * r2, 0.0)))
@@ -287,7 +361,8 @@ class LoadWarning:
 
     ``code`` is one of ``glass_other_catalog``, ``glass_alias``, ``glass_substituted``,
     ``glass_model``, ``glass_line_disagrees``, ``glass_private``, ``keyword_ignored``,
-    ``keyword_unknown``, ``assumed_default``, ...; ``surface`` the 0-based lens surface
+    ``keyword_unknown``, ``assumed_default``, ``first_order_y_section`` (a surface that is not rotationally
+    symmetric: paraxial data are its y-section's), ...; ``surface`` the 0-based lens surface
     (``None`` for system data); ``line`` the file line.
     """
 
@@ -364,7 +439,13 @@ class Lens:
 
     def _check_mirrors(self, surfaces: tuple[Surface, ...]) -> None:
         before = self.object_material
+        mirrors = 0
         for i, s in enumerate(surfaces):
+            if s.is_ideal and mirrors % 2:
+                raise PrescriptionError(f"surface {i + 1} is an ideal paraxial lens after an odd number of mirrors",
+                                        surface=i, line=s.line,
+                                        hint="lensrt models ideal lenses in light travelling toward +z only")
+            mirrors += bool(s.mirror)
             if s.mirror and s.material != before:
                 raise PrescriptionError(
                     f"mirror surface {i + 1} has material {s.material.describe()} but the light before it "
@@ -378,9 +459,24 @@ class Lens:
         return any(s.mirror for s in self.surfaces)
 
     @property
+    def has_ideal_lens(self) -> bool:
+        """At least one surface is an ideal paraxial lens (``Surface.ideal_focal_mm``)."""
+        return any(s.is_ideal for s in self.surfaces)
+
+    @property
     def is_centred(self) -> bool:
         """Rotationally symmetric about one axis: no transforms, only circular apertures (mirrors allowed)."""
         return self.image_transform is None and all(s.is_centred for s in self.surfaces)
+
+    @property
+    def is_rotational(self) -> bool:
+        """Centred and every surface's sag a function of r only (no biconic or toroidal surface)."""
+        return self.is_centred and all(s.is_rotational for s in self.surfaces)
+
+    @property
+    def has_shapes(self) -> bool:
+        """A surface kind beyond the conic + even asphere (only the generic trace kernel traces those)."""
+        return any(s.shape is not None for s in self.surfaces)
 
     @property
     def is_plain(self) -> bool:

@@ -16,8 +16,8 @@ __all__ = ["check_geometry"]
 CROSSING_TOL_MM = 1e-6
 
 
-def check_geometry(lens: Lens, samples: int = 65,
-                   beam_heights_mm: np.ndarray | None = None) -> list[LoadWarning]:
+def check_geometry(lens: Lens, samples: int = 65, beam_heights_mm: np.ndarray | None = None,
+                   image_distance_mm: float | None = None) -> list[LoadWarning]:
     """Raise :class:`PrescriptionError` if adjacent surfaces cross inside their clear apertures.
 
     For surfaces i and i+1 with semi-diameters given by the file, the later surface must
@@ -32,10 +32,28 @@ def check_geometry(lens: Lens, samples: int = 65,
     ones often reach there; CODE V, OpticStudio and rayoptics trace such files)
     while the on-axis light passes where it is positive. A crossing inside
     the axial beam stays an error.
-    The image surface must lie behind the last vertex. After an odd number of
+    The image surface must lie behind the last vertex, unless the paraxial
+    image is virtual: ``image_distance_mm`` (last vertex to the paraxial image;
+    the loader passes :attr:`lensrt.paraxial.first_order.FirstOrder.image_distance_mm`)
+    lies against the direction of travel. A
+    diverging lens's file may then put the image surface at the virtual focus,
+    where the rays leaving the lens meet when extended backwards (a negative
+    last transfer, as in OpticStudio and CODE V). After an odd number of
     mirrors light travels toward -z and "behind" means toward -z too; surfaces
     with a coordinate transform between them are not compared (their sags do
     not share an axis).
+
+    Parameters
+    ----------
+    lens : Lens
+    samples : int
+        Heights sampled per pair of surfaces.
+    beam_heights_mm : ndarray, optional
+        The axial beam's height at each surface (mm).
+    image_distance_mm : float, optional
+        Last vertex to the paraxial image (mm, a z offset like the last
+        thickness, so negative after an odd number of mirrors); None when unknown (a negative last
+        thickness is then refused).
     """
     surfaces = lens.surfaces
     found: list[LoadWarning] = []
@@ -73,7 +91,12 @@ def check_geometry(lens: Lens, samples: int = 65,
     last = surfaces[-1]
     sign = -sign if last.mirror else sign
     if sign * last.thickness_mm < 0.0 and last.transform_after is None and lens.is_centred:
-        raise PrescriptionError(f"the image surface lies {-last.thickness_mm:g} mm in front of the last surface",
-                                surface=len(surfaces) - 1, line=last.line,
-                                hint="the last thickness runs to the image and must not be negative")
+        if image_distance_mm is not None and sign * image_distance_mm < 0.0:
+            return found  # a virtual image: the image surface sits where the backward-extended rays meet
+        real = "" if image_distance_mm is None else \
+            f", but the paraxial image is real ({sign * image_distance_mm:.6g} mm behind the last vertex)"
+        raise PrescriptionError(f"the image surface lies {-sign * last.thickness_mm:g} mm in front of the last "
+                                f"surface{real}", surface=len(surfaces) - 1, line=last.line,
+                                hint="the last thickness runs to the image; it may be negative only for a "
+                                     "virtual image (a diverging beam leaving the lens)")
     return found

@@ -179,6 +179,16 @@ def _wavelength_cdf(scene, plan: Plan) -> np.ndarray:
     return np.asarray(sampler.cdf, dtype=np.float64)
 
 
+def _refuse_shapes(lens) -> None:
+    """The render integrator runs the symmetric kernel variant: conics and even aspheres only (one clear error)."""
+    shaped = [i for i, s in enumerate(lens.surfaces) if s.shape is not None]
+    if shaped:
+        i = shaped[0]
+        raise LensrtError(f"render traces conic and even-asphere surfaces only; surface {i + 1} is a "
+                          f"{lens.surfaces[i].shape.kind} surface", path=lens.path,
+                          hint="trace, psf, mtf, spot and bokeh handle it (docs/guide/surface-types.md)")
+
+
 def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), device: str | None = None
                    ) -> tuple[RenderSetup, dict]:
     """Plan, camera and exit-pupil table of a camera-path render: the :class:`RenderSetup` and set-up seconds."""
@@ -192,6 +202,7 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
     if options.width is not None:
         scene = scale_pixels(scene, options.width)
     lens = load_lens(scene.camera.lens_source) if lens is None else lens
+    _refuse_shapes(lens)
     plan = plan_render(scene, lens)
     # an ExtrapolationWarning where a glass's dispersion formula is extrapolated at the render's wavelengths
     lens.check_wavelengths([plan.grid.min_nm, plan.grid.max_nm] if plan.wavelength_nm is None else [plan.wavelength_nm])

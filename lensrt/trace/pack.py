@@ -3,10 +3,13 @@
 One row per surface plus one for the image surface (a plane)::
 
     surf[i] = [c, 1 + k, sd^2 (-1: no clip), thickness to the next vertex, kind (0 plane,
-               1 conic, 2 even asphere), number of asphere terms, a_0 .. a_9]
+               1 conic, 2 even asphere, 3.. a shape: SHAPE_KIND_CODES), number of asphere terms, a_0 .. a_9,
+               geometry and aperture columns, (only with shapes:) R_n, n_terms, cx, 1 + kx, terms]
 
 ``a_j`` multiplies r^(2j+2) (``asphere[0]`` is the r^2 term, as in the model).
-A lens with mirrors or coordinate transforms (``S_GEOM`` = 1 in every row) also
+An ideal paraxial lens stores its power 1/f in ``S_IDEAL`` (and makes the lens one for the
+general kernel variant, with its frames). A lens with mirrors, coordinate transforms, shaped surfaces or
+an ideal lens (``S_GEOM`` = 1 in every row) also
 carries, per surface and for the image, whether it reflects (``S_MIRROR``), the
 direction light travels along its local z as it arrives (``S_SIGN``, -1 after an
 odd number of mirrors) and its global frame (``S_ORIGIN``, ``S_AXES``); its
@@ -34,12 +37,14 @@ import numpy as np
 from ..core.telemetry import upload
 from ..errors import LensrtError
 from ..prescription.materials import DISPERSION_WIDTH
-from ..prescription.model import Iris, Lens
+from ..prescription.model import Iris, Lens, Surface
+from ..prescription.shapes import profile_of
 from .status import APERTURE_TOLERANCE
 
 __all__ = ["S_C", "S_KP1", "S_SD2", "S_THICK", "S_KIND", "S_NASPH", "S_ASPH", "MAX_ASPHERE", "SURF_COLS",
            "S_MIRROR", "S_SIGN", "S_GEOM", "S_ORIGIN", "S_AXES", "S_APER", "MAX_SURFACE_APERTURES", "APERTURE_COLS",
-           "APERTURE_SHAPE_CODES", "pack_geometry",
+           "APERTURE_SHAPE_CODES", "pack_geometry", "S_IDEAL", "SHAPE_KIND_CODES", "S_X", "X_RN", "X_NT", "X_CX",
+           "X_KXP1", "X_TERMS",
            "MEDIUM_CONSTANT", "MEDIUM_FORMULA", "MEDIA_COLS", "IRIS_STOP", "IRIS_RADIUS", "IRIS_BLADES",
            "IRIS_ROTATION", "IRIS_ROUNDNESS", "IRIS_OBSTRUCTION", "IRIS_COS_HALF", "IRIS_HALF", "IRIS_COLS",
            "pack_arrays", "index_table", "PackedLens", "pack_lens", "real_dtype"]
@@ -57,8 +62,18 @@ S_AXES = S_ORIGIN + 3
 S_APER = S_AXES + 9
 MAX_SURFACE_APERTURES = 2
 APERTURE_COLS = 8
-SURF_COLS = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+#: ideal paraxial lenses (Surface.ideal_focal_mm): the power 1/f at the surface (0: none); only the general
+#: kernel variant looks at it (a lens with one is packed as a general lens)
+S_IDEAL = S_APER + MAX_SURFACE_APERTURES * APERTURE_COLS
+SURF_COLS = S_IDEAL + 1
 APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
+#: surface kinds beyond the even asphere (S_KIND >= 3, :mod:`lensrt.prescription.shapes`): their terms sit in
+#: extra columns from S_X = SURF_COLS -- normalisation radius, number of terms, x curvature, 1 + x conic, the
+#: terms (Q^bfs in the P basis, xy and Zernike as monomials in (x, y) / R_n) -- present only when the lens has
+#: such a surface (the row is then wider)
+SHAPE_KIND_CODES = {"odd": 3, "qbfs": 4, "qcon": 5, "biconic": 6, "toroidal": 7, "xy": 8, "zernike": 8}
+S_X = SURF_COLS
+X_RN, X_NT, X_CX, X_KXP1, X_TERMS = range(5)
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
 MEDIA_COLS = 1 + DISPERSION_WIDTH
 (IRIS_STOP, IRIS_RADIUS, IRIS_BLADES, IRIS_ROTATION, IRIS_ROUNDNESS, IRIS_OBSTRUCTION, IRIS_COS_HALF,
@@ -77,7 +92,9 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
     columns (:func:`pack_geometry`).
     """
     n = lens.n_surfaces
-    surf = np.zeros((n + 1, SURF_COLS))
+    terms = [len(profile_of(s).terms) for s in lens.surfaces if s.shape is not None]
+    width = SURF_COLS if not terms else S_X + X_TERMS + max(terms)
+    surf = np.zeros((n + 1, width))
     for i, s in enumerate(lens.surfaces):
         if len(s.asphere) > MAX_ASPHERE:
             raise LensrtError(f"surface {i + 1} has {len(s.asphere)} aspheric terms; the tracer takes "
@@ -90,6 +107,10 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
         surf[i, S_KIND] = 2.0 if s.asphere else (1.0 if s.curvature_per_mm != 0.0 else 0.0)
         surf[i, S_NASPH] = len(s.asphere)
         surf[i, S_ASPH:S_ASPH + len(s.asphere)] = s.asphere
+        if s.ideal_focal_mm is not None:
+            surf[i, S_IDEAL] = 1.0 / s.ideal_focal_mm
+        if s.shape is not None:
+            _pack_shape(s, surf[i])
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
     pack_geometry(lens, surf)
@@ -116,12 +137,23 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
     return surf, media, iris_row
 
 
+def _pack_shape(s: Surface, row: np.ndarray) -> None:
+    """A surface kind of :mod:`lensrt.prescription.shapes` into the extra columns from ``S_X``."""
+    prof = profile_of(s)
+    row[S_KIND] = SHAPE_KIND_CODES[prof.kind]
+    row[S_X + X_RN] = prof.rn
+    row[S_X + X_NT] = len(prof.terms)
+    row[S_X + X_CX] = prof.cx
+    row[S_X + X_KXP1] = 1.0 + prof.kx
+    row[S_X + X_TERMS:S_X + X_TERMS + len(prof.terms)] = prof.terms
+
+
 def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
     surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
-    if lens.is_centred and not lens.has_mirrors:
-        return
+    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens and not lens.has_shapes:
+        return  # shaped surfaces and ideal lenses are traced by the general kernel variant only
     from ..prescription.frames import surface_frames, travel_signs
     signs = travel_signs(lens)
     for i, (origin, axes) in enumerate(surface_frames(lens)):
@@ -133,6 +165,9 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
             surf[i, S_MIRROR] = 1.0 if lens.surfaces[i].mirror else 0.0
             surf[i, S_C] *= signs[i]
             surf[i, S_ASPH:S_ASPH + MAX_ASPHERE] *= signs[i]
+            if surf.shape[1] > SURF_COLS:  # a shape's sag terms change sign with the frame (shapes.profile_of)
+                surf[i, S_X + X_CX] *= signs[i]
+                surf[i, S_X + X_TERMS:] *= signs[i]
             _pack_apertures(lens, i, surf)
 
 
@@ -180,8 +215,9 @@ class PackedLens:
 
     @property
     def general(self) -> bool:
-        """Whether the kernels need the general variant (mirrors, frames or surface apertures:
-        ``S_GEOM`` set); a rotationally symmetric lens runs the symmetric one, which leaves that code out."""
+        """Whether the kernels need the general variant (mirrors, frames, surface apertures or surface kinds of
+        :mod:`lensrt.prescription.shapes`: ``S_GEOM`` set); a rotationally symmetric lens of conics and even
+        aspheres runs the symmetric one, which leaves that code out."""
         return bool(self.host_surf[0, S_GEOM] != 0.0)
 
     @property

@@ -53,7 +53,7 @@ from ..prescription.model import Iris
 from .status import APERTURE_TOLERANCE, MISSED, NO_CONVERGE, OK, TIR
 
 __all__ = ["NEWTON_MAX_ITER", "NEWTON_TOL_MM", "SurfaceHit", "ReferenceRay", "intersect", "refract", "reflect",
-           "inside_iris", "sag_and_slope", "conic_t"]
+           "ideal_lens", "inside_iris", "sag_and_slope", "conic_t"]
 
 #: Newton iterations allowed on an aspheric sag, and the step (mm) that ends them
 NEWTON_MAX_ITER = 32
@@ -210,6 +210,39 @@ def refract(L: float, M: float, N: float, normal: tuple[float, float, float], n1
     L2, M2, N2 = mu * L + g * nx, mu * M + g * ny, mu * N + g * nz
     inv = 1.0 / math.sqrt(L2 * L2 + M2 * M2 + N2 * N2)
     return OK, L2 * inv, M2 * inv, N2 * inv, math.atan2(sin_i, cos_i), math.atan2(mu * sin_i, cos_r)
+
+
+def ideal_lens(L: float, M: float, N: float, x: float, y: float, power_per_mm: float, n1: float,
+               n2: float) -> tuple[int, float, float, float, float, float, float]:
+    """An ideal paraxial lens of power Phi at the plane z = 0 (OpticStudio's ``TYPE PARAXIAL``).
+
+    The ray's direction tangents (L/N, M/N) change as the paraxial ray's slope does,
+    exactly, at any height and angle::
+
+        n' (L'/N') = n (L/N) - x Phi,    n' (M'/N') = n (M/N) - y Phi
+
+    (the paraxial surface of OpticStudio and optiland's thin lens). Linear in the
+    tangents and in (x, y), this images every plane perfectly onto its Gaussian
+    conjugate plane (n'/s' + n/s = Phi): every ray from a point of the front focal
+    plane leaves parallel, every parallel bundle meets in one point of the back focal
+    plane, with no distortion. The optical path gains the phase of a perfect lens for
+    an axial object at infinity, -n' sign(f') h^2 / (|f'| + sqrt(h^2 + f'^2)) with
+    f' = n'/Phi and h^2 = x^2 + y^2 (so the axial wavefront at infinite conjugates is
+    exact; elsewhere it is an approximation, as OpticStudio's OPD modes are).
+
+    Returns ``(status, L', M', N', I, I', opl_added_mm)``; ``MISSED`` for a ray
+    parallel to the plane (N <= 0).
+    """
+    if not N > 0.0:
+        return MISSED, L, M, N, 0.5 * math.pi, 0.0, 0.0
+    tx = (n1 * L / N - x * power_per_mm) / n2
+    ty = (n1 * M / N - y * power_per_mm) / n2
+    t2 = tx * tx + ty * ty
+    N2 = 1.0 / math.sqrt(1.0 + t2)
+    fp = n2 / power_per_mm
+    h2 = x * x + y * y
+    added = -n2 * math.copysign(1.0, fp) * h2 / (abs(fp) + math.sqrt(h2 + fp * fp))
+    return OK, tx * N2, ty * N2, N2, math.atan2(math.hypot(L, M), N), math.atan(math.sqrt(t2)), added
 
 
 def reflect(L: float, M: float, N: float, normal: tuple[float, float, float]

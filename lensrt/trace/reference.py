@@ -12,8 +12,10 @@ from __future__ import annotations
 import math
 
 from ..prescription.model import Iris, Lens
-from .ray_surface import (NEWTON_MAX_ITER, NEWTON_TOL_MM, ReferenceRay, SurfaceHit, conic_t, inside_iris,
-                          intersect, reflect, refract, sag_and_slope)
+from ..prescription.shapes import profile_of
+from .ray_surface import (NEWTON_MAX_ITER, NEWTON_TOL_MM, ReferenceRay, SurfaceHit, conic_t, ideal_lens,
+                          inside_iris, intersect, reflect, refract, sag_and_slope)
+from .ray_shapes import intersect_profile
 from .reference_general import trace_general
 from .status import APERTURE_TOLERANCE, INVALID, MISSED, OK, VIGNETTED
 
@@ -77,7 +79,10 @@ def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction
             c, kp1, asph = s.curvature_per_mm, 1.0 + s.conic, s.asphere
         else:  # the image surface: a plane
             c, kp1, asph = 0.0, 1.0, ()
-        status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
+        if i < n_surf and s.shape is not None:  # odd, Q-type, biconic, toroidal (.ray_shapes)
+            status, t, normal = intersect_profile(profile_of(s), x, y, z, L, M, N)
+        else:
+            status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
         if status == OK and L * normal[0] + M * normal[1] + N * normal[2] < 0.0:
             status = MISSED  # met from behind, from the medium after the surface: no sequential path
         if status != OK:
@@ -99,7 +104,13 @@ def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction
                 ray.status, ray.surface = VIGNETTED, i
                 ray.hits.append(SurfaceHit(x, y, z, L, M, N, 0.0, 0.0, t))
                 break
-        status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
+        if s.ideal_focal_mm is not None:  # an ideal paraxial lens: the direction change of a perfect lens
+            status, L, M, N, ang_i, ang_r, added = ideal_lens(L, M, N, x, y, 1.0 / s.ideal_focal_mm, index[i],
+                                                              index[i + 1])
+            opl += added
+            ray.opl_mm = opl
+        else:
+            status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
         ray.hits.append(SurfaceHit(x, y, z, L, M, N, ang_i, ang_r, t))
         ray.L, ray.M, ray.N = L, M, N
         if status != OK:

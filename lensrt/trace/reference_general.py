@@ -32,7 +32,9 @@ from functools import lru_cache
 
 from ..prescription.frames import surface_frames, travel_signs
 from ..prescription.model import Iris, Lens
-from .ray_surface import ReferenceRay, SurfaceHit, inside_iris, intersect, reflect, refract
+from ..prescription.shapes import profile_of
+from .ray_shapes import intersect_profile
+from .ray_surface import ReferenceRay, SurfaceHit, ideal_lens, inside_iris, intersect, reflect, refract
 from .status import APERTURE_TOLERANCE, INVALID, MISSED, OK, VIGNETTED
 
 __all__ = ["trace_general", "local_frames"]
@@ -116,7 +118,10 @@ def trace_general(lens: Lens, origin_mm: tuple[float, float, float], direction: 
         kp1 = 1.0 if s is None else 1.0 + s.conic
         asph = () if s is None else tuple(sign * a for a in s.asphere)
         (x, y, z), (L, M, N) = _to_local(frames[i], p, d, sign)
-        status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
+        if s is not None and s.shape is not None:  # odd, Q-type, biconic, toroidal (.ray_shapes)
+            status, t, normal = intersect_profile(profile_of(s, sign), x, y, z, L, M, N)
+        else:
+            status, t, normal = intersect(c, kp1, asph, x, y, z, L, M, N)
         if status == OK and L * normal[0] + M * normal[1] + N * normal[2] < 0.0:
             status = MISSED  # met from behind, from the medium after the surface: no sequential path
         if status != OK:
@@ -135,6 +140,11 @@ def trace_general(lens: Lens, origin_mm: tuple[float, float, float], direction: 
             break
         if s.mirror:  # type: ignore[union-attr]
             status, L, M, N, ang_i, ang_r = reflect(L, M, N, normal)
+        elif s.ideal_focal_mm is not None:  # type: ignore[union-attr]  # an ideal paraxial lens (local frame)
+            status, L, M, N, ang_i, ang_r, added = ideal_lens(L, M, N, x, y, 1.0 / s.ideal_focal_mm, index[i],
+                                                              index[i + 1])
+            opl += added
+            ray.opl_mm = opl
         else:
             status, L, M, N, ang_i, ang_r = refract(L, M, N, normal, index[i], index[i + 1])
         ray.hits.append(SurfaceHit(x, y, sign * z, L, M, sign * N, ang_i, ang_r, t))

@@ -45,6 +45,7 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
         gap = old[n - 2 - j].thickness_mm if j < n - 1 else float(scene_gap_mm)
         surfaces.append(replace(s, curvature_per_mm=-s.curvature_per_mm,
                                 asphere=tuple(-a for a in s.asphere), thickness_mm=gap,
+                                shape=None if s.shape is None else s.shape.mirrored_in_z(),
                                 material=media[n - 1 - j], line=None))
     obj = old[-1].thickness_mm
     return Lens(tuple(surfaces), aperture=Aperture("float_by_stop", 0.0),

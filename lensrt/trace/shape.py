@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 
 from .pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
-                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_GEOM, S_KP1, S_NASPH, S_SD2,
-                   S_THICK)
+                   IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_C, S_GEOM, S_IDEAL, S_KIND, S_KP1, S_NASPH,
+                   S_SD2, S_THICK)
 
 __all__ = ["PLANE", "SPHERE", "CONIC", "ASPHERE", "IRIS_NONE", "IRIS_CIRCLE", "IRIS_POLYGON", "MediumShape",
            "LensShape", "Layout", "lens_shape", "constants", "specialisable", "describe", "MAX_CONSTANTS", "MAX_BLADES_UNROLLED"]
@@ -71,6 +71,10 @@ class LensShape:
     same_index: tuple[bool, ...]
     #: mirrors or coordinate transforms (pack.S_GEOM): only the generic kernel traces those
     geometry: bool = False
+    #: an ideal paraxial lens (pack.S_IDEAL): only the generic kernel traces it (general variant)
+    ideal: bool = False
+    #: a surface kind beyond the even asphere (pack.SHAPE_KIND_CODES): only the generic kernel traces those
+    shapes: bool = False
 
 
 class Layout:
@@ -176,7 +180,8 @@ def lens_shape(surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray, clip: 
         if mode == IRIS_CIRCLE:
             blades = 0
     return LensShape(n, tuple(kinds), tuple(n_asph), tuple(clips), stop, mode, blades, obstruction, rounded,
-                     mshapes, tuple(same), bool(surf[0, S_GEOM] != 0.0))
+                     mshapes, tuple(same), bool(surf[0, S_GEOM] != 0.0),
+                     bool((surf[:, S_IDEAL] != 0.0).any()), bool(np.any(surf[:, S_KIND] >= 3.0)))
 
 
 def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: np.ndarray) -> np.ndarray:
@@ -226,8 +231,9 @@ def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: n
 
 def specialisable(shape: LensShape) -> bool:
     """False for shapes the generator leaves to the generic kernel (too many constants or blades,
-    mirrors or coordinate transforms)."""
-    return not shape.geometry and shape.blades <= MAX_BLADES_UNROLLED and Layout(shape).size <= MAX_CONSTANTS
+    mirrors or coordinate transforms, ideal paraxial lenses, surface kinds beyond the even asphere)."""
+    return (not shape.geometry and not shape.ideal and not shape.shapes and shape.blades <= MAX_BLADES_UNROLLED
+            and Layout(shape).size <= MAX_CONSTANTS)
 
 
 def describe(shape: LensShape) -> dict[str, Any]:

@@ -67,7 +67,8 @@ def choose_kernel(kernel: str, device: str, shape: LensShape, rays: int, *, poss
     if kernel == "specialised":
         if not ok:
             why = "records and early ends need the generic kernel" if not possible else \
-                "the lens has mirrors, tilts/decenters, or too many constants or iris blades for the generator"
+                ("the lens has mirrors, tilts/decenters, an ideal paraxial lens, surface kinds beyond the even "
+                 "asphere, or too many constants or iris blades for the generator")
             raise LensrtError(f"no specialised kernel for this call: {why}", hint='use kernel="generic" or "auto"')
         return "specialised"
     if not ok:

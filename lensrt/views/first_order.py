@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["info_data", "first_order_rows", "format_value", "seidel_rows"]
+__all__ = ["info_data", "first_order_rows", "format_value", "seidel_rows", "virtual_image_line", "afocal_line"]
 
 
 def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: float | None = None,
@@ -28,7 +28,8 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
         if sensor is not None:
             raise LensrtError("the lens is afocal: it forms no image on a sensor", hint="leave out --sensor")
         return {"lens": lens.name, "path": lens.path, **fo.to_dict(),
-                "field_image_heights_mm": list(fo.field_image_heights_mm), "seidel": None}
+                "field_image_heights_mm": list(fo.field_image_heights_mm), "seidel": None,
+                "warnings": [w.to_dict() for w in lens.warnings]}
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
     data.update(fo.to_dict())
@@ -67,6 +68,36 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
         },
     }
     return data
+
+
+def virtual_image_line(d: dict[str, Any]) -> str:
+    """One sentence on a virtual image (``d`` from :func:`info_data` with ``image_virtual``): where it lies and why.
+
+    Three cases: a diverging lens (EFL < 0), an object inside the front focal point of a converging lens
+    (a magnifier), or a converging beam that crosses before the last surface (the image surface of such a
+    file sits where the diverging rays meet when extended backwards).
+    """
+    where = (f"virtual image: the rays leave the last surface diverging; extended backwards they meet "
+             f"{abs(d['image_distance_mm']):.4g} mm in front of the last vertex (z = {d['image_z_mm']:.4g} mm)")
+    if d["efl_mm"] < 0.0:
+        why = f"a diverging lens, EFL {d['efl_mm']:.4g} mm"
+    elif d["object_distance_mm"] is not None and d["magnification"] > 0.0:
+        why = f"the object is inside the front focal point, z = {d['front_focal_z_mm']:.4g} mm"
+    else:
+        why = "the beam comes to a focus before the last surface"
+    upright = "" if d["object_distance_mm"] is None else f", m = {d['magnification']:+.4g}"
+    return f"{where} ({why}{upright})"
+
+
+def afocal_line(d: dict[str, Any]) -> str:
+    """One sentence for an afocal lens (``d`` from :func:`info_data` with ``afocal``)."""
+    return (f"afocal: angular magnification {d['angular_magnification']:.6g}; entrance pupil z = "
+            f"{d['entrance_pupil_z_mm']:.6g} mm, diameter {d['entrance_pupil_diameter_mm']:.6g} mm; exit pupil "
+            f"z = {format_value(d['exit_pupil_z_mm'], '.6g')} mm, diameter {d['exit_pupil_diameter_mm']:.6g} mm "
+            f"(pupil magnification {d['pupil_magnification']:.6g}); no focal points or f-number"
+            + ("; an object at infinity has its image at infinity" if d["object_distance_mm"] is None else
+               f"; the object's image lies at z = {d['image_z_mm']:.6g} mm"
+               f"{' (virtual)' if d['image_virtual'] else ''}, magnification {d['magnification']:.6g}"))
 
 
 def format_value(v: Any, spec: str = ".4f") -> str:

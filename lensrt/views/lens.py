@@ -34,8 +34,13 @@ def clipping(lens, i: int) -> str:
 
 
 def surface_kind(s) -> str:
-    """plane/sphere/conic/asph, with "mirror" and "tilt/dec" where they apply."""
+    """plane/sphere/conic/asph or the shape's kind (odd, qbfs, ...; ``ideal f=50`` for an ideal paraxial lens),
+    with "mirror" and "tilt/dec" where they apply."""
     kind = "asph" if s.asphere else ("conic" if s.conic else ("plane" if s.curvature_per_mm == 0 else "sphere"))
+    if getattr(s, "shape", None) is not None:
+        kind = s.shape.kind
+    if getattr(s, "ideal_focal_mm", None) is not None:
+        kind = f"ideal f={s.ideal_focal_mm:g}"
     if s.mirror:
         kind += " mirror"
     if s.transform_before is not None or s.transform_after is not None:

@@ -163,7 +163,11 @@ def zemax_lenses(draw) -> str:
         for _ in range(draw(st.integers(1, 5))):
             kw = draw(st.sampled_from(["CURV", "DISZ", "GLAS", "DIAM", "PARM", "TYPE", "CONI"]))
             if kw == "GLAS":
-                lines.append("  GLAS " + draw(st.sampled_from(["N-BK7", "NOSUCH 0 0 1.5 60", "", "MIRROR"])))
+                lines.append("  GLAS " + draw(st.sampled_from(["N-BK7", "NOSUCH 0 0 1.5 60", "", "MIRROR",
+                                                               # issue 25: 1980 glasses, tables, grades, prefixes
+                                                               "BK7", "B270 0 0 1.5 40", "S-LAL7Q 0 0 1.6516 58.54",
+                                                               "S-LAL7Q 0 0 1.9 20", "LF5HT 0 0 1.58148 40.9",
+                                                               "LZ_K8", "NICF-A 0 0 1.43387 95.1"])))
             elif kw == "TYPE":
                 lines.append("  TYPE " + draw(st.sampled_from(["STANDARD", "EVENASPH", "TOROIDAL", ""])))
             elif kw == "PARM":
@@ -180,12 +184,24 @@ def zemax_lenses(draw) -> str:
 def codev_lenses(draw) -> str:
     lines = ["RDM Y", f"EPD {draw(POSITIVE)!r}", "WL 587.6", "YAN 0 " + repr(draw(st.sampled_from([10.0, 89.0]))),
              "SO 0 1e10"]
-    lines.append(f"S {draw(NUMBERS)!r} {draw(NUMBERS)!r} " + draw(st.sampled_from(["NBK7_SCHOTT", "NOSUCH", "", "1.5"])))
+    glass = draw(st.sampled_from(["NBK7_SCHOTT", "NOSUCH", "", "1.5", "SK19_Schott", "bk7", "FDS30_hoya"]))
+    lines.append(f"S {draw(NUMBERS)!r} {draw(NUMBERS)!r} " + glass)
     lines.append("  STO")
     if draw(st.booleans()):
         lines.append(f"  CIR {draw(NUMBERS)!r}")
     lines.append(f"S {draw(NUMBERS)!r} {draw(POSITIVE)!r}")
     lines += ["SI 0 0", "GO"]
+    return "\n".join(lines) + "\n"
+
+
+@st.composite
+def pbrt_tables(draw) -> str:
+    """pbrt lens tables, with or without ISET's '# Focal length' header line (issue 25)."""
+    lines = ["# radius axpos N aperture"]
+    if draw(st.booleans()):
+        lines[:0] = ["# Focal length", repr(draw(st.one_of(NUMBERS, st.sampled_from([50.0, 0.0, -1.0]))))]
+    for _ in range(draw(st.integers(0, 4))):
+        lines.append(" ".join(repr(draw(NUMBERS)) for _ in range(draw(st.sampled_from([4, 4, 4, 1, 3])))))
     return "\n".join(lines) + "\n"
 
 
@@ -234,6 +250,11 @@ def test_generated_zemax_lenses(text: str) -> None:
 @given(codev_lenses())
 def test_generated_codev_lenses(text: str) -> None:
     _check_lens_text(text, ".seq")
+
+
+@given(pbrt_tables())
+def test_generated_pbrt_tables(text: str) -> None:
+    _check_lens_text(text, ".dat")
 
 
 # --------------------------------------------------------------------------- scene files

@@ -106,6 +106,15 @@ CASES = {
     "fno_below_half_toml": ("fast.toml", NATIVE.replace('type = "epd"\nvalue = 10.0', 'type = "image_fno"\nvalue = 0.2'),
                             "below 0.5"),
     "unknown_glass": ("glass.seq", SEQ.replace("NBK7_SCHOTT", "NOSUCHGLASS"), "no catalog"),
+    # the ideal paraxial lens (TYPE PARAXIAL: PARM 1 focal length, PARM 2 OPD mode; issue 22)
+    "paraxial_focal_zero": ("p0.zmx", ZMX.replace("SURF 2\n  CURV -0.02", "SURF 2\n  TYPE PARAXIAL\n  PARM 1 0"),
+                            "focal length 0"),
+    "paraxial_parm3": ("p3.zmx", ZMX.replace("SURF 2\n  CURV -0.02",
+                                             "SURF 2\n  TYPE PARAXIAL\n  PARM 1 50\n  PARM 3 1"), "PARM 3"),
+    "paraxial_opd_mode": ("p2.zmx", ZMX.replace("SURF 2\n  CURV -0.02",
+                                                "SURF 2\n  TYPE PARAXIAL\n  PARM 1 50\n  PARM 2 7"), "OPD mode 7"),
+    "ideal_curved_toml": ("ideal.toml", NATIVE.replace("radius_mm = -50.0", "radius_mm = -50.0\nideal_focal_mm = 40.0"),
+                          "ideal paraxial lens is a plane"),
     "unknown_extension": ("lens.txt", ZMX, None),
 }
 

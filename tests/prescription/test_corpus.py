@@ -25,38 +25,22 @@ EXPECTED = tomllib.loads((CORPUS / "expected.toml").read_text())
 #: why lensrt refuses a file (a regular expression on the error's first line); documented in docs/guide/corpus.md
 REFUSAL_RULES: dict[str, str] = {
     "glass in no catalog lensrt reads": r"glass '[^']+' is in no catalog lensrt reads",
-    "virtual image (image surface in front of the last surface)":
-        r"the image surface lies \S+ mm in front of the last surface",
+    "image surface in front of the last surface, but the image is real":
+        r"the image surface lies \S+ mm in front of the last surface, but the paraxial image is real",
     "aperture or obscuration outside the model (SQAP/ELAP/OBSC/SPID/UDAP)":
         r"\b(SQAP|ELAP|OBSC|SPID|UDAP|RCAP): an? [a-z -]+ is not supported",
     "FLOA without a stop size or other aperture": r"FLOA: the aperture floats on the stop's semi-diameter",
     "several configurations (MNUM > 1: zooms)": r"MNUM \d+: multi-configuration files are not supported",
+    "non-sequential or mixed mode (MODE NSC)": r"MODE \w+: only sequential \(MODE SEQ\) files are supported",
+    "surfaces that cross inside their clear apertures (not a physical lens)": r"surfaces \d+ and \d+ cross",
 }
 
 #: files whose outcome is a known gap: file -> (kind, reason); xfail(strict=True) in the matching test
-KNOWN_GAPS: dict[str, tuple[str, str]] = {
-    "petzval.12deg.50.0mm.dat": (
-        "refusal",
-        "ISET's variant of the pbrt lens table has a focal-length line before the rows; the reader stops with "
-        "'1 columns where a pbrt lens row has 4' instead of reading or naming the variant"),
-    "AC080-010-A.zmx": (
-        "efl",
-        "Thorlabs' nominal f = 10 mm is rounded: the file's own prescription gives 10.105 mm (+1.05 %) in lensrt "
-        "and in optiland 0.6.3's paraxial trace of the same file (10.1051), so the 1 % rule against the NAME "
-        "line fails without a lensrt error"),
-    "Otus55.zmx": (
-        "efl",
-        "the NAME line's 55 mm is the marketed focal length of the lens this file models; the prescription's EFL is "
-        "53.912 mm in lensrt and 53.912 mm in an independent y-nu trace with the GLAS lines' n_d (-2.0 %)"),
-    "leica-noctilux-50mm-f1-01.zmx": (
-        "efl",
-        "the NAME line's 50 mm is the marketed focal length; the prescription's EFL is 51.461 mm in lensrt and "
-        "51.461 mm in an independent y-nu trace with the GLAS lines' n_d (+2.9 %)"),
-    "JP1993-034592_Example02.zmx": (
-        "efl",
-        "the NAME line's 14 mm is the marketed focal length (Canon EF 14 mm); the patent example's EFL is 14.2012 mm "
-        "in lensrt and 14.2013 mm in an independent y-nu trace with the GLAS lines' n_d (+1.4 %)"),
-}
+KNOWN_GAPS: dict[str, tuple[str, str]] = {}
+
+#: a stated focal length marked ``nominal = true`` in expected.toml (a rounded or marketed number, with the evidence
+#: that the design value differs) is held to this instead of 1 %: it still catches a wrong glass or geometry
+NOMINAL_TOLERANCE = 0.03
 
 
 def _outcome(name: str) -> dict:
@@ -98,6 +82,15 @@ def test_corpus_is_there() -> None:
     assert set(KNOWN_GAPS) <= set(FILES)
 
 
+def test_every_file_has_its_source() -> None:
+    """SOURCES.md names each file's repository, path, commit and licence; issue 25 asks for >= 15 repositories."""
+    rows = [line.split("|") for line in (CORPUS / "SOURCES.md").read_text().splitlines() if line.startswith("| `")]
+    listed = {r[1].strip().strip("`"): r[2].strip() for r in rows}
+    assert set(FILES) <= set(listed), f"not in SOURCES.md: {sorted(set(FILES) - set(listed))}"
+    assert len(set(listed.values())) >= 15
+    assert all(re.fullmatch(r"`[0-9a-f]{12}`", r[4].strip()) and r[5].strip() for r in rows)
+
+
 @pytest.mark.parametrize("name", [pytest.param(n, marks=_gap(n, "refusal")) for n in FILES])
 def test_loads_or_is_refused_by_a_named_rule(outcomes: dict, name: str) -> None:
     result = outcomes[name]
@@ -112,28 +105,42 @@ def test_stated_focal_length(outcomes: dict, name: str) -> None:
     if result["status"] != "ok":
         pytest.skip(f"not loaded ({result.get('message', '')[:80]}); the EFL is checked once it loads")
     stated = EXPECTED[name]["efl_mm"]
+    tol = NOMINAL_TOLERANCE if EXPECTED[name].get("nominal", False) else 0.01
     rel = (result["efl_mm"] - stated) / stated
-    assert abs(rel) <= 0.01, f"{name}: lensrt EFL {result['efl_mm']:.4f} mm vs stated {stated} mm ({rel:+.2%})"
+    assert abs(rel) <= tol, f"{name}: lensrt EFL {result['efl_mm']:.4f} mm vs stated {stated} mm ({rel:+.2%})"
 
 
-@pytest.mark.xfail(strict=True, reason="issue 25 asks for >= 85 % of the corpus to load; see docs/guide/corpus.md")
+def test_nominal_values_carry_their_evidence() -> None:
+    """A value exempt from the 1 % rule says why, with the design value that differs (never silently)."""
+    nominal = {n: e for n, e in EXPECTED.items() if e.get("nominal", False)}
+    assert nominal, "expected.toml documents the nominal rule; some entries use it"
+    for name, entry in nominal.items():
+        assert len(entry.get("evidence", "")) > 40, f"{name}: nominal = true without evidence"
+    assert all(set(e) <= {"efl_mm", "source", "nominal", "evidence"} for e in EXPECTED.values())
+
+
 def test_load_rate_reaches_85_percent(outcomes: dict) -> None:
     loaded = sum(r["status"] == "ok" for r in outcomes.values())
-    assert loaded / len(outcomes) >= 0.85, f"{loaded}/{len(outcomes)} load"
+    assert loaded / len(outcomes) >= 0.85, f"{loaded}/{len(outcomes)} load"  # issue 25; docs/guide/corpus.md
 
 
 def test_refusal_rules_recognise_their_messages() -> None:
     """The rule table itself: each pattern matches the message lensrt writes for it, and nothing else."""
     samples = {
         "glass in no catalog lensrt reads": "x.zmx:9: glass 'B270' is in no catalog lensrt reads (searched ...)",
-        "virtual image (image surface in front of the last surface)":
-            "x.zmx:91: the image surface lies 52.8845 mm in front of the last surface -- ...",
+        "image surface in front of the last surface, but the image is real":
+            "x.zmx:91: the image surface lies 52.8845 mm in front of the last surface, but the paraxial image is "
+            "real (48.2 mm behind the last vertex) -- ...",
         "aperture or obscuration outside the model (SQAP/ELAP/OBSC/SPID/UDAP)":
             "x.zmx:90: OBSC: a circular obscuration is not supported -- lensrt models ...",
         "FLOA without a stop size or other aperture":
             "x.zmx:7: FLOA: the aperture floats on the stop's semi-diameter, but ...",
         "several configurations (MNUM > 1: zooms)":
             "x.zmx:402: MNUM 2: multi-configuration files are not supported -- export ...",
+        "non-sequential or mixed mode (MODE NSC)":
+            "x.zmx:2: MODE NSC: only sequential (MODE SEQ) files are supported -- non-sequential ...",
+        "surfaces that cross inside their clear apertures (not a physical lens)":
+            "x.zmx:91: surfaces 2 and 3 cross: at height 4 mm surface 3 lies 0.1644 mm in front of surface 2 ...",
     }
     for rule, message in samples.items():
         assert refusal_rule(message) == rule

@@ -29,14 +29,21 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            # REFL, ADE/BDE/YDE, DAR, BEN, CIR OBS, REX/REY/ADY
            ROOT / "data" / "folded_obscured.zmx", ROOT / "data" / "folded_tilted.seq",
            # the reader gaps of issue 17: CUF, solves (CUY UMY, PIM), a long glass code; SCBD on the image
-           ROOT / "data" / "readers_keywords.seq", ROOT / "data" / "readers_keywords.zmx"]
+           ROOT / "data" / "readers_keywords.seq", ROOT / "data" / "readers_keywords.zmx",
+           # the ideal paraxial lens (issue 22): TYPE PARAXIAL with PARM 1 (focal length) and PARM 2 (OPD mode)
+           ROOT / "data" / "kepler_paraxial_eyepiece.zmx",
+           # surface types (issue 22): ODDASPHE, QED_TYPE (Qbfs, Qcon), XASPHERE, XOSPHERE, BICONICX, TOROIDAL,
+           # XPOLYNOM, SZERNSAG
+           ROOT / "data" / "shape_types.zmx"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
           '"', "=", "GLAS", "N-BK7", "1.2.3", "#", ";", "SURF", "&", "1e10", "PRV", "END", "PWL", "1.55:55.8",
           "517642", "0:0", "F_SILICA", "GERMANIUM", "IWDP", "FLOA", "___BLANK", "'MYBK7'", "SK1", "GCAT",
           "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "CUF", "PIM", "UMY", "HMY",
-          "UCY", "SCBD", "517000.520000"]
+          "UCY", "SCBD", "517000.520000", "PARAXIAL",
+          "ODDASPHE", "QED_TYPE", "XASPHERE", "XOSPHERE", "BICONICX", "TOROIDAL", "XPOLYNOM", "SZERNSAG", "XDAT",
+          "PARM", "67", "2"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:
@@ -80,6 +87,7 @@ def _floats(lens: Lens) -> list[float]:
     vals += list(lens.wavelengths.nm) + list(lens.wavelengths.weights)
     for s in lens.surfaces:
         vals += [s.curvature_per_mm, s.thickness_mm, s.conic, s.semi_diameter_mm, *s.asphere]
+        vals += [] if s.ideal_focal_mm is None else [s.ideal_focal_mm]
     vals += [float(v) for v in np.ravel(lens.indices(np.array(lens.wavelengths.nm)))]
     return vals
 

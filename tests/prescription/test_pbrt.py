@@ -126,3 +126,17 @@ def test_bad_tables(text: str, needle: str) -> None:
     with pytest.raises(PrescriptionError) as err:
         loads_pbrt(text, "bad.dat")
     assert needle in str(err.value) and str(err.value).startswith("bad.dat")
+
+
+def test_iset_focal_length_header() -> None:
+    """ISET isetlens' variant: '# Focal length' then one number before the rows; read, kept as a note, and the
+    lens equals the same table without the header. A lone number anywhere else is still an error."""
+    rows = "# radius axpos N aperture\n20 3 1.5 10\n0 2 0 8\n-20 0 1 10\n"
+    lens = loads_pbrt("# Name: x\n# Focal length\n20.000\n\n" + rows, "iset.dat")
+    plain = loads_pbrt(rows, "plain.dat")
+    assert [s.curvature_per_mm for s in lens.surfaces] == [s.curvature_per_mm for s in plain.surfaces]
+    assert [s.thickness_mm for s in lens.surfaces] == [s.thickness_mm for s in plain.surfaces]
+    assert dict(lens.notes)["stated_focal_length_mm"].startswith("20 (ISET")
+    for bad in ("20.000\n" + rows, "# Focal length\n20\n" + rows + "50\n"):
+        with pytest.raises(PrescriptionError, match="1 columns"):
+            loads_pbrt(bad, "bad.dat")

@@ -64,15 +64,16 @@ def test_cooke_triplet_reference(data_dir: Path) -> None:
     sk16 = lens.surfaces[0].material
     assert sk16.index(587.5618) == pytest.approx(1.6204068551301407, abs=5e-6)
     assert sk16.abbe_number() == pytest.approx(60.2565, abs=0.1)
-    # a file naming only SCHOTT: SK16 is found in another catalog, with a warning naming it and the n_d difference
+    # a file naming only SCHOTT: SK16 is Schott's obsolete 1980 glass (Robb & Mercado's table), with a warning
+    # naming that source and the n_d difference from the line
     text = (data_dir / "cooke_triplet.zmx").read_text(errors="replace").replace("GCAT HIKARI SCHOTT", "GCAT SCHOTT")
-    with pytest.warns(UserWarning, match="not in the file's catalogs"):
+    with pytest.warns(UserWarning, match="obsolete glass SK16"):
         lens = loads_zmx(text, "c.zmx")
-    assert lens.surfaces[0].material.describe() == "SK16 (Hikari)"
-    assert [(w.code, w.surface, w.line) for w in lens.warnings] == [("glass_other_catalog", 0, 35),
-                                                                    ("glass_other_catalog", 4, 66)]
-    dn = lens.surfaces[0].material.index(587.5618) - 1.6204068551301407
-    assert f"n_d differs from the line's by {dn:+.2e}" in lens.warnings[0].text
+    assert lens.surfaces[0].material.describe() == "SK16 (Schott 1980)"
+    assert [(w.code, w.surface, w.line) for w in lens.warnings] == [("glass_obsolete", 0, 35),
+                                                                    ("glass_obsolete", 4, 66)]
+    dn = 1.6204068551301407 - lens.surfaces[0].material.index(587.5618)
+    assert abs(dn) < 5e-5 and f"differs by {dn:+.2e}" in lens.warnings[0].text
 
 
 def test_cooke_first_order_against_opticstudio(data_dir: Path) -> None:
@@ -154,12 +155,17 @@ def test_blank_model_glass_and_old_schott_names() -> None:
         lens = loads_zmx(zmx().replace("GLAS N-BK7 0 0 1.5168 64.17", "GLAS ___BLANK 1 0 1.6 40"))
     assert lens.surfaces[0].material == ModelGlass(1.6, 40.0)
     assert lens.warnings[0].code == "glass_model"
-    # OpticStudio's old name BK7 is in no catalog lensrt has: its successor only on request, with a warning
-    with pytest.raises(PrescriptionError, match="--glass-substitute takes N-BK7"):
-        loads_zmx(zmx().replace("GLAS N-BK7", "GLAS BK7"))
-    with glass_policy(substitute=True), pytest.warns(UserWarning, match="BK7 substituted by N-BK7"):
+    # OpticStudio's old name BK7: Schott's 1980 BK7 (robb1983), said so, with the line's n_d difference
+    with pytest.warns(UserWarning, match="obsolete glass BK7"):
         lens = loads_zmx(zmx().replace("GLAS N-BK7", "GLAS BK7"))
-    assert lens.surfaces[0].material.name == "N-BK7"
+    assert lens.surfaces[0].material.describe() == "BK7 (Schott 1980)"
+    assert lens.warnings[0].code == "glass_obsolete" and "differs by" in lens.warnings[0].text
+    # an old name in no catalog lensrt has, not even the 1980 tables: its successor only on request
+    with pytest.raises(PrescriptionError, match="--glass-substitute takes N-LAK33B"):
+        loads_zmx(zmx().replace("GLAS N-BK7", "GLAS LAK33B"))
+    with glass_policy(substitute=True), pytest.warns(UserWarning, match="LAK33B substituted by N-LAK33B"):
+        lens = loads_zmx(zmx().replace("GLAS N-BK7", "GLAS LAK33B"))
+    assert lens.surfaces[0].material.name == "N-LAK33B"
     assert lens.warnings[0].code == "glass_substituted" and "difference" in lens.warnings[0].text
 
 
@@ -210,7 +216,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
 @pytest.mark.parametrize("edit,needle", [
     (("TYPE STANDARD", "TYPE COORDBRK"), "coordinate break with a curvature"),
     (("TYPE STANDARD", "TYPE DGRATING"), "grating"),
-    (("TYPE STANDARD", "TYPE TOROIDAL"), "toroidal"),
+    (("TYPE STANDARD", "TYPE GRID_SAG"), "grid sag"),
     (("TYPE STANDARD", "TYPE XYZZY"), "surface type XYZZY"),
     (("MODE SEQ", "MODE NSC"), "only sequential"),
     (("DISZ 5", "DISZ 5\n  DECX 1"), "decenter"),
@@ -245,10 +251,10 @@ def test_unsupported_constructs_name_file_line_construct(edit: tuple[str, str], 
 
 
 def test_error_line_numbers() -> None:
-    text = zmx().replace("TYPE STANDARD", "TYPE TOROIDAL")
+    text = zmx().replace("TYPE STANDARD", "TYPE GRID_SAG")
     with pytest.raises(PrescriptionError) as err:
         loads_zmx(text, "bad.zmx")
-    assert text.splitlines()[err.value.line - 1].strip() == "TYPE TOROIDAL"
+    assert text.splitlines()[err.value.line - 1].strip() == "TYPE GRID_SAG"
 
 
 def _rayoptics_files(sub: str, pattern: str) -> list[Path]:

@@ -62,6 +62,8 @@ def focus_lens(lens: Lens, distance_mm: float | None = None, *, extension_mm: fl
     if len(given) != 1:
         raise LensrtError("focus the lens by one of: a distance, an extension or a sensor position")
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    from ...paraxial.first_order import refuse_afocal
+    refuse_afocal(lens, "focusing (bokeh, renders)", wl)
     fo = first_order(lens, wl)
     z_inf = lens.image_z_mm - fo.unit_focus_extension_mm  # the sensor z of infinity focus
     ff = fo.front_focal_length_mm * fo.rear_focal_length_mm

@@ -8,6 +8,7 @@ Files:
 - ``pupils``      real entrance/exit pupils and the pupil outline seen from a field point
 - ``vignetting``  unvignetted fraction and relative illumination against cos^4
 - ``aberrations`` ray fans, spot diagrams, OPD to the reference sphere
+- ``afocal``      spots in angle space of an afocal lens (exit angles against the angular magnification)
 """
 from __future__ import annotations
 
@@ -26,4 +27,6 @@ __getattr__, __all__ = lazy_face(__name__, {
     "relative_illumination_at": "vignetting",
     "ray_fan": "aberrations",
     "spot_diagrams": "aberrations",
+    "AngularSpot": "afocal",
+    "angular_spots": "afocal",
 })

@@ -238,6 +238,8 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
         Monte Carlo rays per field and wavelength for the spot statistics.
     """
     from ...device import resolve_device
+    from ...paraxial.first_order import refuse_afocal
+    refuse_afocal(lens, "compare (focal lengths, focus, distortion, spots on the image plane)")
     t0 = time.perf_counter()
     dev = resolve_device(device)
     wls = list(lens.wavelengths.nm)

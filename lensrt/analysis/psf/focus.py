@@ -84,6 +84,22 @@ def best_focus_z_mm(lens: Lens, wavelength_nm: float | None = None, z0_mm: float
     return plane.z_mm, plane.rms_radius_mm
 
 
+def _refuse_virtual_image(lens: Lens, spec: FocusSpec, z_mm: float) -> None:
+    """One clear error when the observation plane lies in front of the last surface because the image is virtual."""
+    from ...paraxial import first_order
+    try:
+        fo = first_order(lens)
+    except LensrtError:
+        return
+    if fo.image_virtual:
+        raise LensrtError(
+            f"focus {spec}: the lens forms a virtual image (z = {fo.image_z_mm:.6g} mm, {abs(fo.image_distance_mm):.4g} "
+            f"mm in front of the last vertex): no light reaches a plane there, so PSFs, MTFs and wavefronts "
+            f"(observed on a plane behind the last surface) are not defined",
+            hint="lensrt compare gives spots on the virtual image plane (rays extended backwards); to image it, "
+                 "add a lens behind it (e.g. an ideal paraxial surface)")
+
+
 def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | None = None) -> dict:
     """The observation plane of a focus: ``{"z_mm", "base", "base_z_mm", "offset_mm", ...}``.
 
@@ -91,6 +107,8 @@ def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | N
     is from the lens file's image surface.
     """
     spec = parse_focus(spec) if not isinstance(spec, FocusSpec) else spec
+    from ...paraxial.first_order import refuse_afocal
+    refuse_afocal(lens, "a PSF, MTF or wavefront (observed on an image plane)")
     info: dict = {"focus": str(spec), "base": spec.base, "offset_mm": spec.offset_mm}
     if spec.base == "image":
         base = lens.image_z_mm
@@ -111,6 +129,7 @@ def focus_plane(lens: Lens, spec: FocusSpec | str | None = None, device: str | N
     last_z = float(lens.vertex_z_mm()[lens.n_surfaces - 1])
     travel = travel_signs(lens)[-1]  # -1 after an odd number of mirrors: the image lies toward -z
     if not (z - last_z) * travel > 0.0:  # rays would be extended backwards through the lens to a plane in front
+        _refuse_virtual_image(lens, spec, z)
         raise LensrtError(f"focus {spec}: the observation plane z = {z:.6g} mm is not behind the last surface "
                           f"(z = {last_z:.6g} mm)", hint="give a smaller shift")
     info["base_z_mm"] = float(base)

@@ -35,6 +35,8 @@ checked, so a typo is an error, never silently ignored. Example::
     semi_diameter_mm = 25.0           # optional: computed when absent
     conic = 0.0                       # optional
     asphere = { A4 = 1.2e-6 }         # optional even asphere, coefficient of r^4 (mm^-3) ...
+    shape = { kind = "odd", coefficients = [0.0, 0.0, 1e-4] }  # optional: odd, qbfs, qcon, biconic,
+                                      # toroidal (native_shapes; docs/guide/surface-types.md)
     stop = true                       # exactly one surface
 """
 from __future__ import annotations
@@ -56,6 +58,7 @@ from ..model import Aperture, Fields, Iris, Lens, Surface, Wavelengths
 from .native_config import dumps_configurations, dumps_focus, parse_configurations, parse_focus
 from .native_geometry import (SURFACE_KEYS, SYSTEM_KEYS, read_surface_geometry, read_system_geometry,
                               write_surface_geometry, write_system_geometry)
+from .native_shapes import read_shape, write_shape
 
 __all__ = ["read_native", "loads_native", "write_native", "dumps_native"]
 
@@ -69,7 +72,7 @@ _KEYS = {
     "fields": {"type", "y", "x", "weights"},
     "wavelengths": {"nm", "weights", "primary_nm"},
     "surface": {"radius_mm", "curvature_per_mm", "thickness_mm", "material", "semi_diameter_mm",
-                "conic", "asphere", "stop", "label"} | SURFACE_KEYS,
+                "conic", "asphere", "stop", "label", "shape"} | SURFACE_KEYS,
 }
 _ASPH_KEY = re.compile(r"^A(\d+)$")
 #: the native format's name and version, as written in every file
@@ -161,6 +164,7 @@ def _surface(row: dict, catalogs: list[str] | None, line: int | None) -> Surface
         semi_diameter_mm=None if sd is None else _number(sd, "semi_diameter_mm"),
         conic=_number(row.get("conic", 0.0), "conic"),
         asphere=asphere,
+        shape=read_shape(row.get("shape")),
         is_stop=stop,
         label=str(row.get("label", "")),
         line=line,
@@ -393,6 +397,7 @@ def dumps_native(lens: Lens | MultiConfigLens) -> str:
         if s.asphere:
             out.append("asphere = { " + ", ".join(f"A{2 * k + 2} = {_f(a)}" for k, a in enumerate(s.asphere)
                                                    if a != 0.0) + " }")
+        out += write_shape(s.shape, _f)
         if s.is_stop:
             out.append("stop = true")
         if s.label:

@@ -1,8 +1,10 @@
-"""The geometry keys of the native TOML format: mirrors, coordinate transforms, surface apertures.
+"""The geometry keys of the native TOML format: mirrors, coordinate transforms, surface apertures, ideal lenses.
 
 Per surface (all optional)::
 
     mirror = true
+    ideal_focal_mm = 50.0             # an ideal paraxial lens of this focal length (a plane: no radius)
+    ideal_opd_mode = 0                # OpticStudio's OPD mode of TYPE PARAXIAL (kept for the record)
     semi_diameter_fixed = true        # a user-defined semi-diameter (vignettes under the opticstudio rule)
     transform_before = { decenter_x_mm = 1.0, decenter_y_mm = 0.0, decenter_z_mm = 0.0,
                          tilt_x_deg = 3.0, tilt_y_deg = 0.0, tilt_z_deg = 0.0, order = 0 }
@@ -26,7 +28,8 @@ from ..model import Lens, Surface
 __all__ = ["SURFACE_KEYS", "SYSTEM_KEYS", "read_surface_geometry", "write_surface_geometry",
            "read_system_geometry", "write_system_geometry", "degree_text"]
 
-SURFACE_KEYS = {"mirror", "semi_diameter_fixed", "transform_before", "transform_after", "apertures"}
+SURFACE_KEYS = {"mirror", "semi_diameter_fixed", "transform_before", "transform_after", "apertures",
+                "ideal_focal_mm", "ideal_opd_mode"}
 SYSTEM_KEYS = {"aperture_rule", "image_transform"}
 _TRANSFORM_KEYS = {"decenter_x_mm", "decenter_y_mm", "decenter_z_mm", "tilt_x_deg", "tilt_y_deg", "tilt_z_deg",
                    "order"}
@@ -98,7 +101,16 @@ def read_surface_geometry(row: dict) -> dict[str, Any]:
     aps = row.get("apertures", [])
     if not isinstance(aps, list):
         raise PrescriptionError("apertures must be a list of tables")
-    return dict(mirror=_flag(row, "mirror"), semi_diameter_fixed=_flag(row, "semi_diameter_fixed"),
+    ideal: dict[str, Any] = {}
+    if "ideal_focal_mm" in row:
+        ideal["ideal_focal_mm"] = _number(row, "ideal_focal_mm", "surface")
+    mode = row.get("ideal_opd_mode", 0)
+    if isinstance(mode, bool) or not isinstance(mode, int) or not 0 <= mode <= 3:
+        raise PrescriptionError(f"ideal_opd_mode must be 0, 1, 2 or 3, not {mode!r}")
+    if mode and "ideal_focal_mm" not in row:
+        raise PrescriptionError("ideal_opd_mode without ideal_focal_mm", hint="an OPD mode belongs to an ideal lens")
+    return dict(**ideal, ideal_opd_mode=mode, mirror=_flag(row, "mirror"),
+                semi_diameter_fixed=_flag(row, "semi_diameter_fixed"),
                 transform_before=_transform(row["transform_before"], "transform_before")
                 if "transform_before" in row else None,
                 transform_after=_transform(row["transform_after"], "transform_after")
@@ -133,6 +145,10 @@ def write_surface_geometry(s: Surface) -> list[str]:
     out = []
     if s.mirror:
         out.append("mirror = true")
+    if s.ideal_focal_mm is not None:
+        out.append(f"ideal_focal_mm = {_f(s.ideal_focal_mm)}")
+        if s.ideal_opd_mode:
+            out.append(f"ideal_opd_mode = {s.ideal_opd_mode}")
     if s.semi_diameter_fixed:
         out.append("semi_diameter_fixed = true")
     if s.transform_before is not None:

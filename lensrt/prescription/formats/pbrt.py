@@ -6,6 +6,10 @@ centre toward the image), thickness (mm), refractive index of the medium
 after the surface (0 on the stop row means air), and the clear aperture
 DIAMETER (mm). ``#`` starts a comment.
 
+ISET's ``isetlens`` writes the same table with a header: a comment ``# Focal length``
+followed by a line with that one number (mm) before the rows. The reader accepts
+it there (only there), and keeps it as the note ``stated_focal_length_mm``.
+
 Column 2 comes in two conventions:
 
 * ``"next"``: the distance from this surface to the next one (pbrt's scaled
@@ -77,12 +81,16 @@ def loads_pbrt(text: str, path: str | Path | None = None, thickness: str = "auto
                                 hint="use next, previous or auto")
     reject_other_format(text, "pbrt", spath)
     comments, rows = [], []
+    stated: tuple[int, float] | None = None
     for no, raw in enumerate(text.splitlines(), start=1):
         body, _, comment = raw.partition("#")
         if comment.strip() and not body.strip():
             comments.append(comment.strip().strip('"'))
         toks = body.split()
         if not toks:
+            continue
+        if len(toks) == 1 and not rows and stated is None and comments and "focal length" in comments[-1].lower():
+            stated = (no, parse_number(toks[0], "focal length", path=spath, line=no))  # ISET's header line
             continue
         if len(toks) != 4:
             raise PrescriptionError(f"{len(toks)} columns where a pbrt lens row has 4 "
@@ -167,6 +175,9 @@ def loads_pbrt(text: str, path: str | Path | None = None, thickness: str = "auto
         f"(primary 587.6); fields 0, 0.7, 1 x {field_deg_used:g} deg ({how}); image surface at the paraxial "
         "focus unless the table gives the last distance")))
     notes.insert(1, ("pbrt_thickness", f"{convention} ({'detected' if thickness == 'auto' else 'option'})"))
+    if stated is not None:
+        notes.append(("stated_focal_length_mm", f"{stated[1]:g} (ISET isetlens header, line {stated[0]}; not used "
+                                                "in the model)"))
     name = comments[0] if comments else (Path(spath).stem if spath else "pbrt lens")
     source = "pbrt lens table" + (f" {Path(spath).name}" if spath else "") + \
         (": " + "; ".join(comments) if comments else "")

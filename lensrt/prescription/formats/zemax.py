@@ -45,10 +45,12 @@ from ..glass_lookup import GlassRequest, resolve_glass
 from ..limits import MAX_ZEMAX_PARM
 from ..materials import AIR, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
+from ..shapes import MAX_SHAPE_TERMS
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
 from .keywords import ZemaxKeywordPolicy
 from .zemax_geometry import aperture_entry, coordbrk_transform, scbd_transform, surface_apertures
 from .zemax_mce import MultiConfigReader
+from .zemax_shapes import SHAPE_TYPES, zemax_shape
 
 __all__ = ["read_zmx", "loads_zmx", "GlassFallbackWarning", "IGNORED", "UNSUPPORTED"]
 
@@ -86,7 +88,7 @@ UNSUPPORTED: dict[str, str] = {
     "TILT": "a surface tilt", "NSOB": "a non-sequential object", "GRAT": "a grating",
 }
 
-_SUPPORTED_TYPES = ("STANDARD", "EVENASPH", "COORDBRK")
+_SUPPORTED_TYPES = ("STANDARD", "EVENASPH", "COORDBRK", "PARAXIAL") + SHAPE_TYPES
 _TYPE_NAMES = {
     "DGRATING": "a diffraction grating",
     "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
@@ -112,6 +114,7 @@ class _Surf:
     glass_line: int | None = None
     conic: float = 0.0
     parm: dict[int, tuple[float, int]] = field(default_factory=dict)
+    xdat: dict[int, tuple[float, int]] = field(default_factory=dict)
     diam: float | None = None
     clap: float | None = None
     stop: bool = False
@@ -318,7 +321,7 @@ class _Reader:
         if t not in _SUPPORTED_TYPES:
             what = _TYPE_NAMES.get(t, f"surface type {t or '(none)'}")
             raise self.err(f"TYPE {t}: {what} is not supported", no,
-                           "lensrt reads STANDARD and EVENASPH surfaces only")
+                           f"lensrt reads the surface types {', '.join(_SUPPORTED_TYPES)}")
         s.type, s.type_line = t, no
 
     def kw_CURV(self, args, no, raw):
@@ -346,7 +349,7 @@ class _Reader:
         s = self.cur("PARM", no)
         i = int(self.num(args[0], "parameter number", no))
         v = self.num(args[1], f"PARM {i}", no) if len(args) > 1 else 0.0
-        if i < 1:
+        if i < 1 and not (i == 0 and s.type == "TOROIDAL"):
             raise self.err(f"PARM {i}: parameter numbers start at 1", no)
         if i > MAX_ZEMAX_PARM:
             raise self.err(f"PARM {i}: parameter numbers of an even asphere stop at {MAX_ZEMAX_PARM}", no,
@@ -396,8 +399,15 @@ class _Reader:
             self.cur("SCBD", no).scbd = (vals, no)  # read at assembly (zemax_geometry.scbd_transform)
 
     def kw_XDAT(self, args, no, raw):
-        if len(args) > 1 and self.num(args[1], "extra data value", no) != 0.0:
-            raise self.err("XDAT: extra surface data is not supported for STANDARD/EVENASPH surfaces", no)
+        s = self.cur("XDAT", no)
+        v = self.num(args[1], "extra data value", no) if len(args) > 1 else 0.0
+        if s.type in SHAPE_TYPES:
+            i = int(self.num(args[0], "extra data number", no))
+            if not 1 <= i <= MAX_SHAPE_TERMS + 3:
+                raise self.err(f"XDAT {i}: extra data numbers of a {s.type} surface run 1..{MAX_SHAPE_TERMS + 3}", no)
+            s.xdat[i] = (v, no)
+        elif v != 0.0:
+            raise self.err(f"XDAT: extra surface data is not supported for {s.type} surfaces", no)
 
     # -- glass -----------------------------------------------------------------
     def primary_nm(self) -> float:
@@ -462,8 +472,16 @@ class _Reader:
                 if s.type == "COORDBRK":
                     surfaces.append(self._coordbrk(s, before, f))
                     continue
+                if s.type == "PARAXIAL":
+                    surfaces.append(self._paraxial(s, k, f))
+                    continue
                 asph: tuple[float, ...] = ()
-                if s.type == "EVENASPH":
+                shape = None
+                if s.type in SHAPE_TYPES:
+                    shape, asph = zemax_shape(s.type, s.parm, s.xdat, f, self.path, s.type_line or s.line)
+                    if not shape.rotational:
+                        self._first_order_note(len(surfaces), s)
+                elif s.type == "EVENASPH":
                     n = max(s.parm) if s.parm else 0
                     asph = tuple(s.parm.get(i, (0.0, 0))[0] * f ** (1 - 2 * i) for i in range(1, n + 1))
                 elif any(v != 0.0 for v, _ in s.parm.values()):
@@ -478,9 +496,15 @@ class _Reader:
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
                     material=before if s.mirror else self.material(s, k),
                     semi_diameter_mm=None if sd is None else sd * f,
-                    conic=s.conic, asphere=asph, is_stop=s.stop, label=s.label, line=s.line, mirror=s.mirror,
+                    conic=s.conic, asphere=asph, shape=shape, is_stop=s.stop, label=s.label, line=s.line,
+                    mirror=s.mirror,
                     apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed))
         return self._system(surfaces, obj, f)
+
+    def _first_order_note(self, index: int, s: _Surf) -> None:
+        self.warnings.append(LoadWarning(
+            "first_order_y_section", f"surface {index + 1} ({s.type}) is not rotationally symmetric: paraxial "
+            "(first-order) data use its y-section; real rays trace the full surface", index, s.type_line or s.line))
 
     def _coordbrk(self, s: _Surf, before: Material, f: float) -> Surface:
         """A COORDBRK: a plane dummy surface carrying the frame change (:mod:`.zemax_geometry`)."""
@@ -490,6 +514,32 @@ class _Reader:
         label = s.label or "coordinate break"
         return Surface(thickness_mm=(s.disz or 0.0) * f, material=before, is_stop=s.stop, label=label, line=s.line,
                        transform_before=coordbrk_transform(s.parm, f, self.path, s.type_line or s.line))
+
+    def _paraxial(self, s: _Surf, k: int, f: float) -> Surface:
+        """A TYPE PARAXIAL surface: an ideal lens of focal length PARM 1 (lens units), OPD mode PARM 2."""
+        line = s.type_line or s.line
+        bad = [i for i, (v, _) in s.parm.items() if i > 2 and v != 0.0]
+        if bad or s.mirror or s.apertures:
+            raise self.err(f"TYPE PARAXIAL with {'PARM ' + str(bad[0]) if bad else 'a mirror or surface aperture'}",
+                           line, "an ideal paraxial lens has a focal length (PARM 1) and an OPD mode (PARM 2) only")
+        focal, mode = s.parm.get(1, (0.0, line))[0], s.parm.get(2, (0.0, line))[0]
+        if focal == 0.0:
+            raise self.err("TYPE PARAXIAL with focal length 0 (PARM 1)", s.parm.get(1, (0.0, line))[1],
+                           "give the ideal lens's focal length in lens units")
+        if mode not in (0.0, 1.0, 2.0, 3.0):
+            raise self.err(f"TYPE PARAXIAL OPD mode {mode:g} (PARM 2) is not 0, 1, 2 or 3", s.parm[2][1])
+        if s.curv != 0.0 or s.conic != 0.0:
+            self.warnings.append(LoadWarning("keyword_ignored", "CURV/CONI of a TYPE PARAXIAL surface: an ideal "
+                                             "lens is a plane (OpticStudio ignores them too)", k, s.line))
+        self.warnings.append(LoadWarning(
+            "ideal_lens_opd", f"TYPE PARAXIAL (f = {focal:g}, OPD mode {int(mode)}): rays leave it as from a perfect "
+            "lens; optical path lengths carry the lens's phase for an axial object at infinity, so wavefronts, PSFs "
+            "and MTFs through it are exact only for a collimated axial beam entering it", k, line))
+        sd = s.diam if s.diam is not None and s.diam > 0.0 else None
+        return Surface(thickness_mm=(s.disz or 0.0) * f, material=self.material(s, k),
+                       semi_diameter_mm=None if sd is None else sd * f, is_stop=s.stop,
+                       label=s.label or "ideal paraxial lens", line=s.line, semi_diameter_fixed=s.diam_fixed,
+                       ideal_focal_mm=focal * f, ideal_opd_mode=int(mode))
 
     def _aperture(self, surfaces: list[Surface], f: float) -> Aperture:
         """The system aperture; FLOA floats on the stop's semi-diameter, or, where the stop has none, on the

@@ -19,13 +19,15 @@ import warp as wp
 from ..pack import (IRIS_BLADES, IRIS_COS_HALF, IRIS_HALF, IRIS_OBSTRUCTION, IRIS_RADIUS, IRIS_ROTATION,
                     IRIS_ROUNDNESS, IRIS_STOP, MEDIUM_CONSTANT, S_ASPH, S_AXES, S_C, S_KIND, S_KP1,
                     S_MIRROR, S_NASPH, S_ORIGIN, S_SD2, S_SIGN, S_THICK, S_APER, MAX_SURFACE_APERTURES,
-                    APERTURE_COLS)
+                    APERTURE_COLS, S_IDEAL, S_X, X_CX, X_KXP1, X_NT, X_RN, X_TERMS)
 from ..reference import NEWTON_MAX_ITER
 from ..status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from . import NEWTON_TOL_F32_MM, NEWTON_TOL_F64_MM
 
-__all__ = ["SymmetricLens", "GeneralLens", "is_general", "newton_tol_mm", "medium_index", "conic_t", "sag_slope", "intersect", "refract", "reflect",
-           "to_local", "to_global", "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
+__all__ = ["SymmetricLens", "GeneralLens", "is_general", "newton_tol_mm", "newton_rel_tol", "medium_index", "conic_t",
+           "sag_slope", "even_terms", "radial_terms", "poly_xy", "shape_sag_grad", "intersect_shape", "intersect",
+           "intersect_variant", "refract", "reflect", "ideal_lens", "bend_general", "to_local", "to_global",
+           "passes_apertures", "inside_iris", "trace_ray", "write_ray"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -33,7 +35,7 @@ wp.set_module_options({"enable_backward": False})
 # The kernel variant, chosen by the type of one kernel argument (a Warp overload per type, so the
 # choice is made at compile time and the symmetric variant carries none of the general code):
 # SymmetricLens -- coaxial refracting surfaces in vertex frames (every lens without mirrors, frames
-# or surface apertures); GeneralLens -- mirrors, coordinate transforms, surface apertures.
+# or surface apertures); GeneralLens -- mirrors, coordinate transforms, surface apertures, ideal paraxial lenses.
 @wp.struct
 class SymmetricLens:
     tag: int
@@ -63,6 +65,19 @@ def newton_tol_mm(x: wp.float64) -> wp.float64:
 @wp.func
 def newton_tol_mm(x: wp.float32) -> wp.float32:  # noqa: F811 -- a Warp overload
     return wp.float32(NEWTON_TOL_F32_MM)
+
+
+# the part of the Newton stop that grows with |sag| on a shaped surface (intersect_shape): 0 in float64 (the
+# reference's absolute 1e-12 mm), 4 ulp of the sag in float32, where a deep sag's rounding keeps the step
+# above NEWTON_TOL_F32_MM (e.g. the ASL5040-UV Q-type asphere, sag ~ 15 mm at its rim)
+@wp.func
+def newton_rel_tol(x: wp.float64) -> wp.float64:
+    return wp.float64(0.0)
+
+
+@wp.func
+def newton_rel_tol(x: wp.float32) -> wp.float32:  # noqa: F811 -- a Warp overload
+    return wp.float32(4.8e-7)
 
 
 @wp.func
@@ -148,6 +163,227 @@ def sag_slope(surf: wp.array2d(dtype=Any), i: int, c: Any, kp1: Any, r2: Any):
 
 
 @wp.func
+def even_terms(surf: wp.array2d(dtype=Any), i: int, r2: Any):
+    # sum a_j r^(2j+2) and its derivative d/d(r^2) (the even asphere block), Horner
+    nasph = int(surf[i, S_NASPH])
+    poly = type(r2)(0.0)
+    dpoly = type(r2)(0.0)
+    for jj in range(nasph):
+        j = nasph - 1 - jj
+        a = surf[i, S_ASPH + j]
+        poly = poly * r2 + a
+        dpoly = dpoly * r2 + type(r2)(j + 1) * a
+    return poly * r2, dpoly
+
+
+@wp.func
+def radial_terms(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: Any, r2: Any):
+    # a rotational shape's departure from the conic and (d/dr) / r of it (lensrt.prescription.shapes._radial)
+    rn = surf[i, S_X + X_RN]
+    nt = int(surf[i, S_X + X_NT])
+    x = r2 / (rn * rn)
+    z = type(r2)(0.0)
+    g = type(r2)(0.0)
+    if kind == 3:  # odd: sum a_{i-1} u^i
+        r = wp.sqrt(r2)
+        u = r / rn
+        poly = type(r2)(0.0)
+        dpoly = type(r2)(0.0)
+        for jj in range(nt):
+            j = nt - jj
+            a = surf[i, S_X + X_TERMS + j - 1]
+            poly = poly * u + a
+            dpoly = dpoly * u + type(r2)(j) * a
+        z = poly * u
+        if r > type(r2)(0.0):
+            g = dpoly / (rn * r)
+    elif kind == 4:  # Q^bfs: Clenshaw on P_m (terms already in the P basis)
+        p = type(r2)(2.0) - type(r2)(4.0) * x
+        a1 = type(r2)(0.0)
+        a2 = type(r2)(0.0)
+        d1 = type(r2)(0.0)
+        d2 = type(r2)(0.0)
+        for jj in range(nt):
+            b = surf[i, S_X + X_TERMS + nt - 1 - jj]
+            a0 = b + p * a1 - a2
+            d0 = p * d1 - type(r2)(4.0) * a1 - d2
+            a2 = a1
+            a1 = a0
+            d2 = d1
+            d1 = d0
+        sq = type(r2)(2.0) * a1
+        dsq = type(r2)(2.0) * d1
+        if nt > 1:
+            sq = sq + type(r2)(2.0) * a2
+            dsq = dsq + type(r2)(2.0) * d2
+        c2 = c * c
+        num = type(r2)(1.0) - (kp1 - type(r2)(1.0)) * c2 * r2
+        den = type(r2)(1.0) - kp1 * c2 * r2
+        phi = wp.sqrt(num / den)
+        dphi = c2 / (wp.sqrt(num) * den * wp.sqrt(den))
+        d = x * (type(r2)(1.0) - x) * sq
+        dd = (type(r2)(1.0) - type(r2)(2.0) * x) * sq + x * (type(r2)(1.0) - x) * dsq
+        z = phi * d
+        g = dphi * d + phi * dd * type(r2)(2.0) / (rn * rn)
+    else:  # Q^con: Clenshaw on the Jacobi P^(0,4) recurrence in t = 2x - 1 (shapes.jacobi04_abc)
+        t = type(r2)(2.0) * x - type(r2)(1.0)
+        b1 = type(r2)(0.0)
+        b2 = type(r2)(0.0)
+        d1 = type(r2)(0.0)
+        d2 = type(r2)(0.0)
+        for jj in range(nt):
+            n = nt - 1 - jj
+            fn = type(r2)(n)
+            A = (type(r2)(2.0) * fn + type(r2)(5.0)) * (type(r2)(2.0) * fn + type(r2)(6.0)) / (
+                type(r2)(2.0) * (fn + type(r2)(1.0)) * (fn + type(r2)(5.0)))
+            B = type(r2)(-8.0) * (type(r2)(2.0) * fn + type(r2)(5.0)) / (
+                (fn + type(r2)(1.0)) * (fn + type(r2)(5.0)) * (type(r2)(2.0) * fn + type(r2)(4.0)))
+            f1 = fn + type(r2)(1.0)
+            C = f1 * (f1 + type(r2)(4.0)) * (type(r2)(2.0) * f1 + type(r2)(6.0)) / (
+                (f1 + type(r2)(1.0)) * (f1 + type(r2)(5.0)) * (type(r2)(2.0) * f1 + type(r2)(4.0)))
+            a = surf[i, S_X + X_TERMS + n]
+            b0 = a + (A * t + B) * b1 - C * b2
+            d0 = A * b1 + (A * t + B) * d1 - C * d2
+            b2 = b1
+            b1 = b0
+            d2 = d1
+            d1 = d0
+        z = x * x * b1
+        g = (type(r2)(2.0) * x * b1 + x * x * type(r2)(2.0) * d1) * type(r2)(2.0) / (rn * rn)
+    return z, g
+
+
+@wp.func
+def poly_xy(surf: wp.array2d(dtype=Any), i: int, u: Any, v: Any):
+    # sum t_(d,k) u^(d-k) v^k and its partial derivatives (shapes._poly_xy: Horner in u within Horner in v)
+    nt = int(surf[i, S_X + X_NT])
+    deg = int(0)
+    while (deg + 1) * (deg + 2) // 2 < nt:
+        deg = deg + 1
+    p = type(u)(0.0)
+    pu = type(u)(0.0)
+    pv = type(u)(0.0)
+    for kk in range(deg + 1):
+        k = deg - kk
+        q = type(u)(0.0)
+        dq = type(u)(0.0)
+        for dd in range(deg - k + 1):
+            d = deg - dd
+            dq = dq * u + q
+            q = q * u + surf[i, S_X + X_TERMS + d * (d + 1) // 2 + k]
+        pv = pv * v + p
+        p = p * v + q
+        pu = pu * v + dq
+    return p, pu, pv
+
+
+@wp.func
+def shape_sag_grad(surf: wp.array2d(dtype=Any), i: int, kind: int, c: Any, kp1: Any, x: Any, y: Any):
+    # sag z(x, y) and gradient of a surface kind >= 3 (lensrt.prescription.shapes.sag_grad); ok = 0 where
+    # the surface does not exist
+    ok = int(0)
+    z = type(x)(0.0)
+    zx = type(x)(0.0)
+    zy = type(x)(0.0)
+    one = type(x)(1.0)
+    if kind == 6:  # biconic
+        cx = surf[i, S_X + X_CX]
+        qx = surf[i, S_X + X_KXP1] * cx * cx * x * x
+        qy = kp1 * c * c * y * y
+        s2 = one - qx - qy
+        if s2 > type(x)(0.0):
+            s = wp.sqrt(s2)
+            num = cx * x * x + c * y * y
+            z = num / (one + s)
+            common = num / (s * (one + s) * (one + s))
+            zx = type(x)(2.0) * cx * x / (one + s) + common * surf[i, S_X + X_KXP1] * cx * cx * x
+            zy = type(x)(2.0) * c * y / (one + s) + common * kp1 * c * c * y
+            ok = int(1)
+    elif kind == 7:  # toroidal: the y-profile swept about the axis at z = 1 / cx
+        y2 = y * y
+        q = one - kp1 * c * c * y2
+        if q > type(x)(0.0):
+            root = wp.sqrt(q)
+            ez, edz = even_terms(surf, i, y2)
+            gy = c * y2 / (one + root) + ez
+            dg = type(x)(2.0) * y * (c / (type(x)(2.0) * root) + edz)
+            cx = surf[i, S_X + X_CX]
+            w = one - cx * gy
+            s2 = w * w - cx * cx * x * x
+            if s2 > type(x)(0.0) and w > type(x)(0.0):
+                s = wp.sqrt(s2)
+                z = gy + cx * x * x / (w + s)
+                zx = cx * x / s
+                zy = w * dg / s
+                ok = int(1)
+    else:  # odd, Q^bfs, Q^con, xy, Zernike over the conic + even asphere
+        r2 = x * x + y * y
+        q = one - kp1 * c * c * r2
+        if q > type(x)(0.0):
+            root = wp.sqrt(q)
+            ez, edz = even_terms(surf, i, r2)
+            dz = type(x)(0.0)
+            g = type(x)(0.0)
+            if kind < 8:
+                dz, g = radial_terms(surf, i, kind, c, kp1, r2)
+            g = g + type(x)(2.0) * (c / (type(x)(2.0) * root) + edz)
+            z = c * r2 / (one + root) + ez + dz
+            zx = g * x
+            zy = g * y
+            if kind == 8:  # xy polynomial / Zernike (as monomials) in (x, y) / R_n
+                rn = surf[i, S_X + X_RN]
+                pz, pu, pv = poly_xy(surf, i, x / rn, y / rn)
+                z = z + pz
+                zx = zx + pu / rn
+                zy = zy + pv / rn
+            ok = int(1)
+    return ok, z, zx, zy
+
+
+@wp.func
+def intersect_shape(surf: wp.array2d(dtype=Any), i: int, kind: int, x: Any, y: Any, z: Any, L: Any, M: Any,
+                    N: Any):
+    # Newton in 3-D from the base conic's root (lensrt.trace.ray_shapes); status, t, normal (nx, ny, 1)
+    c = surf[i, S_C]
+    kp1 = surf[i, S_KP1]
+    status = int(OK)
+    ok, t = conic_t(c, kp1, x, y, z, L, M, N)
+    if ok == 0:
+        if N == type(x)(0.0):
+            status = int(MISSED)
+        else:
+            t = -z / N
+    converged = int(0)
+    it = int(0)
+    while status == int(OK) and converged == 0 and it < NEWTON_MAX_ITER:
+        oks, sag, zx, zy = shape_sag_grad(surf, i, kind, c, kp1, x + t * L, y + t * M)
+        if oks == 0:
+            status = int(MISSED)
+        else:
+            df = N - (zx * L + zy * M)
+            if df == type(x)(0.0):
+                status = int(NO_CONVERGE)
+            else:
+                dt = (z + t * N - sag) / df
+                t = t - dt
+                if wp.abs(dt) <= newton_tol_mm(x) + newton_rel_tol(x) * wp.abs(sag):
+                    converged = int(1)
+        it = it + 1
+    nx = type(x)(0.0)
+    ny = type(x)(0.0)
+    if status == int(OK):
+        if converged == 0:
+            status = int(NO_CONVERGE)
+        else:
+            oks, sag, zx, zy = shape_sag_grad(surf, i, kind, c, kp1, x + t * L, y + t * M)
+            if oks == 0:
+                status = int(MISSED)
+            nx = -zx
+            ny = -zy
+    return status, t, nx, ny  # the normal (nx, ny, 1), not normalised
+
+
+@wp.func
 def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any):
     # returns status, t, unit normal (nx, ny, nz) toward +z
     c = surf[i, S_C]
@@ -212,6 +448,31 @@ def intersect(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: An
 
 
 @wp.func
+def intersect_variant(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, z: Any, L: Any, M: Any, N: Any,
+                      variant: Any):
+    # intersect(), or intersect_shape() for a surface kind of prescription.shapes -- general lenses only
+    # (pack.pack_geometry), so the symmetric variant leaves the shape code out at compile time
+    shaped = False
+    if is_general(variant):
+        if surf[i, S_KIND] >= type(x)(3.0):
+            shaped = True
+    st = int(OK)
+    t = type(x)(0.0)
+    nx = type(x)(0.0)
+    ny = type(x)(0.0)
+    nz = type(x)(1.0)
+    if shaped:
+        st, t, nx, ny = intersect_shape(surf, i, int(surf[i, S_KIND]), x, y, z, L, M, N)
+        inv = type(x)(1.0) / wp.sqrt(nx * nx + ny * ny + type(x)(1.0))
+        nx = nx * inv
+        ny = ny * inv
+        nz = inv
+    else:
+        st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+    return st, t, nx, ny, nz
+
+
+@wp.func
 def refract(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, n1: Any, n2: Any, angles: int):
     # vector Snell's law (Field Guide p. 1); returns status, L', M', N', I, I' (angles only when
     # asked), min(cos I, cos I') (near 90 deg either way the ray is ill-conditioned)
@@ -273,6 +534,54 @@ def reflect(L: Any, M: Any, N: Any, nx: Any, ny: Any, nz: Any, angles: int):
         cz = L * ny - M * nx
         ang = wp.atan2(wp.sqrt(cx * cx + cy * cy + cz * cz), wp.abs(cos_i))
     return int(OK), L2 * inv, M2 * inv, N2 * inv, ang, ang, wp.abs(cos_i)
+
+
+@wp.func
+def ideal_lens(L: Any, M: Any, N: Any, x: Any, y: Any, power: Any, n1: Any, n2: Any):
+    # an ideal paraxial lens (ray_surface.ideal_lens): n' t' = n t - (x, y) Phi on the direction tangents;
+    # returns status, L', M', N', I, I', min(cos I, cos I'), the optical path the perfect lens adds
+    # (N > 0 always here: a ray that meets the plane from behind or along it is MISSED before)
+    status = int(MISSED)
+    L2 = L
+    M2 = M
+    N2 = N
+    ang_i = type(L)(0.0)
+    ang_r = type(L)(0.0)
+    added = type(L)(0.0)
+    if N > type(L)(0.0):
+        tx = (n1 * L / N - x * power) / n2
+        ty = (n1 * M / N - y * power) / n2
+        t2 = tx * tx + ty * ty
+        N2 = type(L)(1.0) / wp.sqrt(type(L)(1.0) + t2)
+        L2 = tx * N2
+        M2 = ty * N2
+        fp = n2 / power
+        h2 = x * x + y * y
+        added = -n2 * wp.sign(fp) * h2 / (wp.abs(fp) + wp.sqrt(h2 + fp * fp))
+        ang_i = wp.atan2(wp.sqrt(L * L + M * M), N)
+        ang_r = wp.atan(wp.sqrt(t2))
+        status = int(OK)
+    return status, L2, M2, N2, ang_i, ang_r, wp.min(N, N2), added
+
+
+@wp.func
+def bend_general(surf: wp.array2d(dtype=Any), i: int, x: Any, y: Any, L: Any, M: Any, N: Any, nx: Any, ny: Any,
+                 nz: Any, n1: Any, n2: Any, record: int):
+    # the general variant's surfaces that do not refract: a mirror reflects, an ideal paraxial lens bends as a
+    # perfect lens; returns status, L', M', N', I, I', min(cos I, cos I'), the optical path added (ideal lens)
+    st = int(OK)
+    L2 = L
+    M2 = M
+    N2 = N
+    ang_i = type(L)(0.0)
+    ang_r = type(L)(0.0)
+    cos_ir = type(L)(1.0)
+    added = type(L)(0.0)
+    if surf[i, S_MIRROR] != type(L)(0.0):
+        st, L2, M2, N2, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
+    else:
+        st, L2, M2, N2, ang_i, ang_r, cos_ir, added = ideal_lens(L, M, N, x, y, surf[i, S_IDEAL], n1, n2)
+    return st, L2, M2, N2, ang_i, ang_r, cos_ir, added
 
 
 @wp.func
@@ -419,7 +728,7 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
             x, y, z, L, M, N = to_local(surf, i, x, y, z, L, M, N)
         if i == n_surfaces:
             z = z - sgn * plane_dz  # the plane may stand apart from the image surface
-        st, t, nx, ny, nz = intersect(surf, i, x, y, z, L, M, N)
+        st, t, nx, ny, nz = intersect_variant(surf, i, x, y, z, L, M, N, variant)
         if st == int(OK) and L * nx + M * ny + N * nz < type(x0)(0.0):
             st = int(MISSED)  # met from behind (from the medium after it): no sequential path
         if st != int(OK):
@@ -457,9 +766,11 @@ def trace_ray(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: w
                     if not (n2 > type(x0)(0.0)):
                         status = int(INVALID)
                         where = i
-                    elif geom and surf[i, S_MIRROR] != type(x0)(0.0):
-                        st, L, M, N, ang_i, ang_r, cos_ir = reflect(L, M, N, nx, ny, nz, record)
+                    elif geom and (surf[i, S_MIRROR] != type(x0)(0.0) or surf[i, S_IDEAL] != type(x0)(0.0)):
+                        st, L, M, N, ang_i, ang_r, cos_ir, added = bend_general(surf, i, x, y, L, M, N, nx, ny, nz,
+                                                                                n1, n2, record)
                         min_cos = wp.min(min_cos, cos_ir)
+                        opl = opl + added
                         n1 = n2
                     else:
                         st, L, M, N, ang_i, ang_r, cos_ir = refract(L, M, N, nx, ny, nz, n1, n2, record)
