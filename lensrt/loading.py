@@ -82,7 +82,12 @@ def load_configurations(source: str | Path | Lens | MultiConfigLens | None = Non
 
     Clear semi-diameters the file does not give are computed in every
     configuration and the largest is kept for all of them (a zoom's elements
-    have one size); the geometry of every configuration is then checked.
+    have one size), except the aperture stop's: it is an iris, which opens to
+    the radius each configuration's aperture (f-number, EPD, NA) implies, so it
+    becomes a per-configuration semi-diameter (otherwise a constant-f-number
+    zoom would pass a wider beam than its f-number wherever its stop beam is
+    smaller than the largest one). The geometry of every configuration is then
+    checked.
     """
     if isinstance(source, MultiConfigLens):
         found: Lens | MultiConfigLens = source
@@ -93,6 +98,23 @@ def load_configurations(source: str | Path | Lens | MultiConfigLens | None = Non
     if isinstance(found, Lens):
         return single_configuration(complete_lens(found))
     return _complete_family(found)
+
+
+def _stop_follows_aperture(family: MultiConfigLens, done: list[Lens]) -> MultiConfigLens:
+    """The stop's computed semi-diameter per configuration (an operand), where the file gives none for it
+    and every configuration has the same stop surface (see :func:`load_configurations`)."""
+    from dataclasses import replace
+    from .prescription.configurations import ConfigOperand
+    k = done[0].stop_index
+    given = family.base.surfaces[k].semi_diameter_mm is not None and not family.base.surfaces[k].semi_diameter_auto
+    if given or any(c.stop_index != k for c in done) or \
+            any(op.kind == "semi_diameter" and op.index == k for op in family.operands):
+        return family
+    radii = tuple(float(c.surfaces[k].semi_diameter_mm) for c in done)
+    if len(set(radii)) == 1:
+        return family
+    op = ConfigOperand("semi_diameter", k, radii, source=f"stop S{k + 1} (the aperture's radius)")
+    return replace(family, operands=family.operands + (op,))
 
 
 def _complete_family(family: MultiConfigLens) -> MultiConfigLens:
@@ -106,6 +128,7 @@ def _complete_family(family: MultiConfigLens) -> MultiConfigLens:
             surfaces[i] = replace(s, semi_diameter_mm=sd, semi_diameter_auto=True)
     notes = tuple((k, v) for k, v in done[family.current].notes if k != "configuration")
     completed = family.with_base(base.replace(surfaces=tuple(surfaces), notes=notes))
+    completed = _stop_follows_aperture(completed, done)
     with located(base.path):
         for lens in completed.configurations():
             _checked_geometry(lens)

@@ -61,6 +61,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="iris rotation: a vertex at this angle from +x (deg)")
     a.add_argument("--blade-roundness", type=float, metavar="R",
                    help="blade curvature: 0 straight blades .. 1 a circle")
+    t = p.add_argument_group("tilt-shift (the whole lens moved in front of the fixed sensor; docs/guide/reflex.md)")
+    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
+                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
+                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
+    t.add_argument("--lens-swing-deg", type=float, metavar="S",
+                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
+    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
     m.add_argument("--sampler", choices=("sobol", "random", "stratified", "r2"), default="sobol",
@@ -190,6 +197,33 @@ def _iris(args: argparse.Namespace, lens: Any):
         raise LensrtError(f"iris: {err.message}", hint="--blades 0 or 3..64, --blade-roundness 0..1") from None
 
 
+def _obscured(lens: Any) -> bool:
+    """True when some surface carries a central circular obscuration (a reflex lens's secondary)."""
+    return any(a.obscuration and a.shape == "circle" and not (a.decenter_x_mm or a.decenter_y_mm)
+               for s in lens.surfaces for a in s.apertures)
+
+
+def _annulus(img: Any) -> dict:
+    """The ring of an obscured lens's axial spot: radii and their ratio with standard errors."""
+    from ..analysis.bokeh.measure import annulus_radii
+    (inner, outer, ratio), (se_in, se_out, se_ratio) = annulus_radii(img)
+    return {"inner_radius_mm": float(inner), "inner_radius_stderr_mm": float(se_in),
+            "outer_radius_mm": float(outer), "outer_radius_stderr_mm": float(se_out),
+            "ratio": float(ratio), "ratio_stderr": float(se_ratio),
+            "method": "moments of r^2 about the centroid (a uniformly lit annulus), jackknife over the batches"}
+
+
+def _tilt_shift(args: argparse.Namespace, lens: Any) -> tuple[Any, bool]:
+    """The lens tilted/swung/shifted by --lens-tilt-deg/--lens-swing-deg/--lens-shift-mm (and whether it moved)."""
+    if args.lens_tilt_deg is None and args.lens_swing_deg is None and args.lens_shift_mm is None:
+        return lens, False
+    from ..prescription.tilt_shift import tilt_shift_lens
+    tilt = math.radians(0.0 if args.lens_tilt_deg is None else args.lens_tilt_deg)
+    swing = math.radians(0.0 if args.lens_swing_deg is None else args.lens_swing_deg)
+    shift = (0.0, 0.0) if args.lens_shift_mm is None else parse_pair(args.lens_shift_mm, "--lens-shift-mm", True)
+    return tilt_shift_lens(lens, tilt, shift, swing_rad=swing), True
+
+
 def cmd_bokeh(args: argparse.Namespace) -> int:
     from ..analysis.bokeh.entry import bokeh_map, bokeh_spot, gaussian_blur, spot_source, stop_radius_for_f_number
     from ..errors import LensrtError
@@ -203,6 +237,7 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
         from ..paraxial.fnumber import check_f_number
         check_f_number(lens, args.f_number)  # as render and sweep refuse it: never wider than the lens opens
     stop_r = None if args.f_number is None else stop_radius_for_f_number(lens, args.f_number)
+    lens, moved = _tilt_shift(args, lens)
     rays = args.rays
     stem = _checked_name(args)
     if not rays >= args.batches >= 2:
@@ -248,7 +283,9 @@ def cmd_bokeh(args: argparse.Namespace) -> int:
                          time_budget_s=args.time_budget, **common)
         name = stem or "bokeh"
         extra = {}
-        if field is None and obj is None and im is None:
+        if field is None and obj is None and im is None and img.batch_xyz is not None and _obscured(lens):
+            extra["annulus"] = _annulus(img)
+        if field is None and obj is None and im is None and not moved:
             g = gaussian_blur(lens, focus, args.source_m * MM_PER_M, stop_radius_mm=stop_r)
             extra["gaussian_blur_diameter_mm"] = g.diameter_mm
             extra["paraxial_defocus_mm"] = g.defocus_mm
@@ -293,6 +330,11 @@ def _report(d: dict, lens: Any) -> str:
             lines.append(f"Gaussian blur disc {d['gaussian_blur_diameter_mm'] * 1000:.5g} um (defocus "
                          f"{d['paraxial_defocus_mm']:+.4f} mm); 2 sqrt(2) x RMS radius "
                          f"{2 * math.sqrt(2) * r['rms_radius_mm'] * 1000:.5g} um")
+        if "annulus" in d:
+            a = d["annulus"]
+            lines.append(f"ring (central obscuration): radii {a['inner_radius_mm']:.4f} +- "
+                         f"{a['inner_radius_stderr_mm']:.2g} / {a['outer_radius_mm']:.4f} +- "
+                         f"{a['outer_radius_stderr_mm']:.2g} mm, ratio {a['ratio']:.4f} +- {a['ratio_stderr']:.2g}")
     nz = d["noise"]
     noise = (f"{nz['rel_stderr_median']:.3g} median, {nz['rel_stderr_max']:.3g} worst source, RMS over a disc "
              f"{nz['rel_stderr_rms_max']:.3g} worst" if nz["rel_stderr_median"] is not None else "n/a")

@@ -28,10 +28,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     b = p.add_argument_group("focus breathing (real rays, the lens's own focus mechanism)")
     b.add_argument("--breathing", action="store_true",
-                   help="angle of view against focus distance, real rays beside the unit-focus formula (p. 18)")
+                   help="angle of view against focus distance, real rays beside the unit-focus formula (p. 18); "
+                        "with --config all, one curve per configuration")
     b.add_argument("--distances-m", metavar="LIST", default="inf,10,5,3,2,1.5,1,0.7,0.5",
                    help="focus distances in m from the first vertex (default inf,10,5,3,2,1.5,1,0.7,0.5)")
     b.add_argument("--out", metavar="DIR", help="write breathing.json and breathing.png (and zoom.png) here")
+    z = p.add_argument_group("configurations (--config all)")
+    z.add_argument("--mtf", action="store_true",
+                   help="also the geometric S/T MTF per configuration at Hy 0, 0.7, 1 and the reference frequencies "
+                        "(10/20/40 lp/mm on full frame scaled to --sensor, p. 114), real best focus")
+    z.add_argument("--mtf-rays", type=int, default=20_000, metavar="N",
+                   help="Monte Carlo rays per field point of --mtf (default 20000)")
     p.set_defaults(func=cmd_info)
 
 
@@ -98,16 +105,19 @@ def _info_all(args: argparse.Namespace) -> int:
     from ..io.table import format_table
     from ..loading import load_configurations
     family = load_configurations(args.file, **reader_options(args))
+    if args.breathing:
+        return _info_breathing_all(args, family)
     rows = configuration_rows(family, args.wavelength_nm)
     if args.out:
         from pathlib import Path
         from ..views.plots.zoom import plot_zoom_curve
         plot_zoom_curve(Path(args.out) / "zoom.png", family.names, [r["efl_mm"] for r in rows],
                         [r["f_number"] for r in rows], family.name)
+    mtf = _configuration_mtf(args, family) if args.mtf else None
     if args.json:
         print_json({"lens": family.name, "path": family.path, "configurations": rows,
                     "current": family.names[family.current],
-                    "varying": [op.label for op in family.varying()]})
+                    "varying": [op.label for op in family.varying()], **({"mtf": mtf} if mtf else {})})
         return 0
     emit(f"{family.name or family.path}: {family.count} configuration(s), EFL ratio {zoom_ratio(rows):.3f}; "
          f"varying: {', '.join(op.label for op in family.varying()) or 'nothing'}")
@@ -116,15 +126,31 @@ def _info_all(args: argparse.Namespace) -> int:
     emit(format_table(table, [h for _, h in CONFIG_COLUMNS], digits=4))
     emit("* the file's current configuration; z from the first vertex (mm); distortion: real chief ray at the "
          "largest field against the paraxial image height")
+    if mtf:
+        from ..analysis.configurations import mtf_table
+        mrows, heads = mtf_table(mtf)
+        emit("")
+        emit(format_table(mrows, heads, title=f"geometric MTF, sagittal / tangential, at cycles/mm "
+                                              f"({mtf[0]['rays']} rays per field point; focus: real best focus "
+                                              "of the axial point, or the image surface where that search fails)"))
     return 0
 
 
-def _info_breathing(args: argparse.Namespace, lens) -> int:
-    """``info --breathing``: real AFoV against focus distance for the lens's mechanism and the p. 18 formula."""
-    from ..analysis.focusing import focus_breathing
+def _configuration_mtf(args: argparse.Namespace, family) -> list[dict]:
+    """``info --config all --mtf``: :func:`lensrt.analysis.configurations.configuration_mtf` as JSON-ready dicts."""
+    from ..analysis.configurations import configuration_mtf
+    from ..analysis.psf.otf import reference_frequencies_cpmm
     from ..errors import LensrtError
-    from ..io.table import format_table
-    from ..paraxial import photographic as ph
+    from ..paraxial.photographic import sensor_format
+    if args.mtf_rays < 100:
+        raise LensrtError(f"--mtf-rays {args.mtf_rays} is too few for an MTF", hint="use 1000 or more")
+    freqs = reference_frequencies_cpmm(sensor_format(args.sensor or "full-frame").diagonal_mm)
+    out = configuration_mtf(family, freqs, rays=args.mtf_rays)
+    return [{k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in m.items()} for m in out]
+
+
+def _breathing_distances_mm(args: argparse.Namespace) -> list[float]:
+    from ..errors import LensrtError
     try:
         dists = [float(v) * 1000.0 for v in args.distances_m.split(",") if v.strip()]
     except ValueError:
@@ -132,6 +158,49 @@ def _info_breathing(args: argparse.Namespace, lens) -> int:
                           hint="e.g. --distances-m inf,3,1,0.5") from None
     if not dists or any(not d > 0 for d in dists):
         raise LensrtError("--distances-m must list positive distances in m (inf allowed)")
+    return dists
+
+
+def _breathing_table(data: dict, travel_unit: str) -> str:
+    from ..io.table import format_table
+    rows = [[d / 1000.0, a, u, a - data["afov_real_deg"][0], t] for d, a, u, t in
+            zip(data["distance_mm"], data["afov_real_deg"], data["afov_unit_focus_formula_deg"], data["travel"])]
+    return format_table(rows, ["focus m", "AFoV real deg", "AFoV unit formula deg", "real change deg",
+                               f"travel {travel_unit.split(' ')[0]}"], digits=4)
+
+
+def _info_breathing_all(args: argparse.Namespace, family) -> int:
+    """``info --config all --breathing``: the breathing curve of every configuration (zoom position)."""
+    from ..analysis.focusing import focus_breathing
+    from ..paraxial import photographic as ph
+    dists = _breathing_distances_mm(args)
+    fmt = ph.sensor_format(args.sensor or "full-frame")
+    curves = [focus_breathing(lens, dists, fmt.diagonal_mm, args.wavelength_nm) for lens in family.configurations()]
+    data = {"lens": family.name, "sensor": fmt.name,
+            "configurations": [{"name": n, **c.to_dict()} for n, c in zip(family.names, curves)]}
+    if args.out:
+        from pathlib import Path
+        from ..io.paths import output_file
+        from ..io.table import dumps_json
+        from ..views.plots.zoom import plot_breathing_family
+        out = Path(args.out)
+        output_file(out / "breathing.json").write_text(dumps_json(data) + "\n")
+        plot_breathing_family(out / "breathing.png", data["configurations"],
+                              f"{family.name}: focus breathing per configuration ({fmt.name})")
+    if args.json:
+        print_json(data)
+        return 0
+    for c, curve in zip(data["configurations"], curves):
+        emit(f"{c['name']}: {curve.mechanism}; sensor {fmt.name} (diagonal {fmt.diagonal_mm:.2f} mm)")
+        emit(_breathing_table(c, curve.travel_unit))
+    return 0
+
+
+def _info_breathing(args: argparse.Namespace, lens) -> int:
+    """``info --breathing``: real AFoV against focus distance for the lens's mechanism and the p. 18 formula."""
+    from ..analysis.focusing import focus_breathing
+    from ..paraxial import photographic as ph
+    dists = _breathing_distances_mm(args)
     fmt = ph.sensor_format(args.sensor or "full-frame")
     curve = focus_breathing(lens, dists, fmt.diagonal_mm, args.wavelength_nm)
     data = curve.to_dict()
@@ -147,8 +216,5 @@ def _info_breathing(args: argparse.Namespace, lens) -> int:
         print_json(data)
         return 0
     emit(f"{lens.name or lens.path}: {curve.mechanism}; sensor {fmt.name} (diagonal {fmt.diagonal_mm:.2f} mm)")
-    rows = [[d / 1000.0, a, u, a - data["afov_real_deg"][0], t] for d, a, u, t in
-            zip(data["distance_mm"], data["afov_real_deg"], data["afov_unit_focus_formula_deg"], data["travel"])]
-    emit(format_table(rows, ["focus m", "AFoV real deg", "AFoV unit formula deg", "real change deg",
-                             f"travel {curve.travel_unit.split(' ')[0]}"], digits=4))
+    emit(_breathing_table(data, curve.travel_unit))
     return 0

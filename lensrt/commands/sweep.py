@@ -20,6 +20,14 @@ FULL_STOPS = (1.0, 1.4, 2.0, 2.8, 4.0, 5.6, 8.0, 11.0, 16.0, 22.0)
 DEFAULT_FOCUS_MM = (500.0, 1000.0, 2000.0, 5000.0, math.inf)
 
 
+def _default_focus_mm(lens: Any) -> list[float]:
+    """:data:`DEFAULT_FOCUS_MM` less the distances at or inside the lens's front focal point (no real image
+    there: a 500 mm lens does not focus at 500 mm)."""
+    from ..paraxial import first_order
+    near = -first_order(lens).front_focal_z_mm
+    return [d for d in DEFAULT_FOCUS_MM if d > near]
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sweep", help="a quantity over lens variants (focus distance x f-number), one table",
                        description="Runs each lens variant -- the lens focused at a distance, stopped to an "
@@ -142,10 +150,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     lens = variants[0][1]
     if args.wavelength_nm is not None:
         lens.check_wavelengths(args.wavelength_nm)  # an ExtrapolationWarning where a glass is extrapolated
-    focus = parse_values(args.focus_distance_mm, "--focus-distance-mm", args.max_rows) if args.focus_distance_mm \
-        else list(DEFAULT_FOCUS_MM)
+    given = parse_values(args.focus_distance_mm, "--focus-distance-mm", args.max_rows) if args.focus_distance_mm \
+        else None
     rows = []
     for name, one in variants:
+        focus = given if given is not None else _default_focus_mm(one)
         fnums = parse_values(args.f_number, "--f-number", args.max_rows) if args.f_number \
             else _default_f_numbers(one, args.wavelength_nm)
         _check_rows(len(variants) * len(focus) * len(fnums),

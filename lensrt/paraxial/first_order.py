@@ -373,7 +373,7 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm,
         half_field_deg=half_field, paraxial_image_height_mm=h_img,
         field_image_heights_mm=tuple(float(h) for h in heights),
-        image_virtual=bool(image_offset * math.copysign(1.0, nk) < 0.0), unfolded_axis=not lens.is_centred,
+        image_virtual=bool(image_offset * math.copysign(1.0, nk) < 0.0), unfolded_axis=_has_transforms(lens),
     )
 
 
@@ -422,4 +422,11 @@ def _afocal_first_order(lens: Lens, sysm: ParaxialSystem, d_obj: float) -> First
         overall_length_mm=lens.length_mm, total_track_mm=lens.image_z_mm, half_field_deg=half_field,
         paraxial_image_height_mm=float(c_ray.height_at(image_offset)) if math.isfinite(image_offset) else inf,
         field_image_heights_mm=heights, image_virtual=virtual,
-        afocal=True, angular_magnification=D * n0 / nk, unfolded_axis=not lens.is_centred)
+        afocal=True, angular_magnification=D * n0 / nk, unfolded_axis=_has_transforms(lens))
+
+
+def _has_transforms(lens: Lens) -> bool:
+    """True when a surface or the image surface changes frame (tilts/decenters); centred obscurations keep
+    the lens rotationally symmetric and its paraxial data exact."""
+    return lens.image_transform is not None or any(s.transform_before is not None or s.transform_after is not None
+                                                   for s in lens.surfaces)

@@ -15,6 +15,14 @@ lenses at 32-48 rays a side). Here the pupil box gets an n x n grid (default 128
 pupil's boundary (a cell whose centre ray's fate differs from a neighbour's) is replaced by s x s sub-rays
 (default 8), so the edge is resolved as finely as an (n s) x (n s) grid at a fraction of the rays: on the
 two f/1.4 library lenses it agrees with a 2048 x 2048 grid to < 0.1 um (tests/trace/test_focus.py).
+
+The real pupil is the beam through the stop's opening around the chief ray. Some prescriptions also pass a
+disconnected ring of rays far outside it -- e.g. a wide-angle zoom whose large aspheric front elements (sized
+for the off-axis beams) bend axial rays at 20 mm height back through the stop when the patent's flare-cut
+stop is left out; those rays land millimetres off axis and would drag the "best focus" tens of mm away. So
+the grid's passing cells are split into 8-connected regions (a thin annulus stays one), only the region holding the chief ray's cell
+(the ray toward the paraxial entrance pupil's centre) is kept, and the grid is laid again over that region
+alone (:func:`main_pupil_box`).
 """
 from __future__ import annotations
 
@@ -28,9 +36,10 @@ from ..errors import LensrtError
 from ..prescription.model import Lens
 from .aiming import FieldPoint, field_point, ray_through_point
 from .api import RayBatch, trace
-from .pupil_boxes import PupilBox, pupil_boxes
+from .pupil_boxes import PupilBox, pupil_box
 
-__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_many", "best_focus_plane", "BestFocusPlane"]
+__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_many", "best_focus_plane",
+           "BestFocusPlane"]
 
 BEST_FOCUS_DEFINITION = ("minimum RMS spot radius about the centroid, rays filling the real pupil uniformly "
                          "(stream-kernel weights), wavelengths pooled by weight; pupil edge resolved by "
@@ -88,68 +97,87 @@ def _boundary_cells(ok: np.ndarray) -> np.ndarray:
     return near
 
 
+def _chief_cell_ab(lens: Lens, fp: FieldPoint, box: PupilBox) -> tuple[float, float]:
+    """(a, b) in ``box`` of the ray from ``fp`` toward the paraxial entrance pupil's centre."""
+    from ..paraxial import first_order
+    centre, axis = np.asarray(box.centre, dtype=np.float64), np.asarray(box.axis, dtype=np.float64)
+    target = np.array([0.0, 0.0, first_order(lens).entrance_pupil_z_mm])
+    if fp.infinite:
+        d = np.asarray(fp.direction, dtype=np.float64)
+        o = target
+    else:
+        o = np.asarray(fp.point_mm, dtype=np.float64)
+        d = target - o
+    t = float(np.dot(centre - o, axis) / np.dot(d, axis))
+    q = o + t * d - centre
+    return float(np.dot(q, box.e1)), float(np.dot(q, box.e2))
+
+
+def main_pupil_box(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray) -> PupilBox | None:
+    """The box of the 8-connected region of passing cells ``ok`` (n x n over ``box``) that holds the chief
+    ray's cell (or the passing cell nearest it), one cell wider each side; None when that region is all
+    there is (nothing to cut away)."""
+    from dataclasses import replace
+    from scipy import ndimage
+    labels, count = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
+    if count <= 1:
+        return None
+    n0, n1 = ok.shape
+    da, db = (box.a1 - box.a0) / n0, (box.b1 - box.b0) / n1
+    a, b = _chief_cell_ab(lens, fp, box)
+    ia, ib = np.nonzero(ok)
+    k = int(np.argmin((box.a0 + (ia + 0.5) * da - a) ** 2 + (box.b0 + (ib + 0.5) * db - b) ** 2))
+    ra, rb = np.nonzero(labels == labels[ia[k], ib[k]])
+    return replace(box, a0=box.a0 + (ra.min() - 1) * da, a1=box.a0 + (ra.max() + 2) * da,
+                   b0=box.b0 + (rb.min() - 1) * db, b1=box.b0 + (rb.max() + 2) * db)
+
+
 def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = None, z0_mm: float | None = None,
                   n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
                   device: str | None = None) -> FocusMoments:
     """The focus moments of one wavelength (module docstring): an n x n grid, boundary cells sub x sub."""
-    return focus_moments_many(lens, [wavelength_nm], fp=fp, z0_mm=z0_mm, n=n, sub=sub, stop_radius_mm=stop_radius_mm,
-                              device=device)[0]
-
-
-def focus_moments_many(lens: Lens, wavelengths_nm: Sequence[float], *, fp: FieldPoint | None = None,
-                       z0_mm: float | None = None, n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
-                       device: str | None = None) -> list[FocusMoments]:
-    """:func:`focus_moments` of several wavelengths, the same moments bit for bit: each step (pupil boxes,
-    the grids, the boundary cells' sub-grids) traces the rays of every wavelength together."""
     fp = field_point(lens, 0.0, 0.0) if fp is None else fp
     z0 = lens.image_z_mm if z0_mm is None else float(z0_mm)
-    wls = [float(w) for w in wavelengths_nm]
-    boxes = pupil_boxes(lens, [fp] * len(wls), stop_radius_mm=stop_radius_mm, device=device, field_wavelengths_nm=wls)
-    if not all(box.area_mm2 > 0 for box in boxes):
+    box = pupil_box(lens, fp, [wavelength_nm], stop_radius_mm=stop_radius_mm, device=device)
+    if not box.area_mm2 > 0:
         raise LensrtError("no ray of this field point passes the lens: no best focus",
                           hint="choose a field point inside the lens's coverage")
-    ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    grids = [_grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * (box.a1 - box.a0) / n,
-                        box.b0 + (ib.ravel() + 0.5) * (box.b1 - box.b0) / n, wl) for box, wl in zip(boxes, wls)]
-    res = _trace_all(lens, [g[0] for g in grids], stop_radius_mm, z0, device)
-    m = n * n
-    parts, subs = [], []
-    for j, (box, wl) in enumerate(zip(boxes, wls)):
-        ok = (res.ok[j * m:(j + 1) * m] & (res.direction[j * m:(j + 1) * m, 2] > 0)).reshape(n, n)
-        edge = _boundary_cells(ok)
-        keep = ok & ~edge
-        parts.append(([res.position_mm[j * m:(j + 1) * m].reshape(n, n, 3)[keep][:, :2]],
-                      [res.direction[j * m:(j + 1) * m].reshape(n, n, 3)[keep]], [grids[j][1].reshape(n, n)[keep]]))
-        if edge.any():  # replace each boundary cell by sub x sub rays of 1/sub^2 of its weight
-            da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
-            ea, eb = np.nonzero(edge)
-            off = (np.arange(sub) + 0.5) / sub
-            oa, ob = np.meshgrid(off, off, indexing="ij")
-            a = (box.a0 + (ea[:, None] + oa.ravel()[None, :]) * da).ravel()
-            b = (box.b0 + (eb[:, None] + ob.ravel()[None, :]) * db).ravel()
-            subs.append((j,) + _grid_rays(fp, box, a, b, wl))
-    if subs:
-        sr = _trace_all(lens, [s[1] for s in subs], stop_radius_mm, z0, device)
-        start = 0
-        for j, rays, sw in subs:
-            sl = slice(start, start + len(sw))
-            start += len(sw)
-            sok = sr.ok[sl] & (sr.direction[sl, 2] > 0)
-            parts[j][0].append(sr.position_mm[sl][sok, :2])
-            parts[j][1].append(sr.direction[sl][sok])
-            parts[j][2].append(sw[sok] / sub ** 2)
-    return [_moments_of(wl, z0, *part) for wl, part in zip(wls, parts)]
-
-
-def _trace_all(lens: Lens, batches: list[RayBatch], stop_radius_mm: float | None, z0: float, device: str | None):
-    """The rays of several batches (each of one wavelength) in one float64 trace to the plane z0."""
-    wl = np.concatenate([np.broadcast_to(np.asarray(r.wavelength_nm, dtype=np.float64), (len(r),)) for r in batches])
-    rays = RayBatch(np.concatenate([r.origin_mm for r in batches]), np.concatenate([r.direction for r in batches]), wl)
-    return trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
-
-
-def _moments_of(wavelength_nm: float, z0: float, pos: list, dirs: list, wts: list) -> FocusMoments:
-    """FocusMoments of the passing rays' positions, directions and weights (lists of pieces)."""
+    for attempt in range(3):  # the grid, then again over the main pupil alone (module docstring)
+        da, db = (box.a1 - box.a0) / n, (box.b1 - box.b0) / n
+        ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        rays, w = _grid_rays(fp, box, box.a0 + (ia.ravel() + 0.5) * da, box.b0 + (ib.ravel() + 0.5) * db,
+                             wavelength_nm)
+        res = trace(lens, rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
+        ok = (res.ok & (res.direction[:, 2] > 0)).reshape(n, n)
+        main = main_pupil_box(lens, fp, box, ok) if ok.any() else None
+        if main is None:
+            break
+        if attempt == 2:  # still disconnected pieces inside the refined box: keep the main region's cells only
+            from scipy import ndimage
+            labels, _ = ndimage.label(ok, structure=np.ones((3, 3), dtype=bool))
+            a, b = _chief_cell_ab(lens, fp, box)
+            ca = int(np.clip((a - box.a0) / da, 0, n - 1))
+            cb = int(np.clip((b - box.b0) / db, 0, n - 1))
+            ok &= labels == labels[ca, cb] if labels[ca, cb] else ok
+            break
+        box = main
+    edge = _boundary_cells(ok)
+    keep = ok & ~edge
+    pos = [res.position_mm.reshape(n, n, 3)[keep][:, :2]]
+    dirs = [res.direction.reshape(n, n, 3)[keep]]
+    wts = [w.reshape(n, n)[keep]]
+    if edge.any():  # replace each boundary cell by sub x sub rays of 1/sub^2 of its weight
+        ea, eb = np.nonzero(edge)
+        off = (np.arange(sub) + 0.5) / sub
+        oa, ob = np.meshgrid(off, off, indexing="ij")
+        a = (box.a0 + (ea[:, None] + oa.ravel()[None, :]) * da).ravel()
+        b = (box.b0 + (eb[:, None] + ob.ravel()[None, :]) * db).ravel()
+        sub_rays, sw = _grid_rays(fp, box, a, b, wavelength_nm)
+        sr = trace(lens, sub_rays, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=z0)
+        sok = sr.ok & (sr.direction[:, 2] > 0)
+        pos.append(sr.position_mm[sok, :2])
+        dirs.append(sr.direction[sok])
+        wts.append(sw[sok] / sub ** 2)
     p, d, wt = np.concatenate(pos), np.concatenate(dirs), np.concatenate(wts)
     if len(p) < 16:
         raise LensrtError("too few real rays reach the image to find the best focus")
@@ -157,6 +185,15 @@ def _moments_of(wavelength_nm: float, z0: float, pos: list, dirs: list, wts: lis
     wt = wt / wt.sum()
     return FocusMoments(float(wavelength_nm), z0, wt @ p, wt @ t, float(wt @ np.sum(p * p, axis=1)),
                         float(wt @ np.sum(p * t, axis=1)), float(wt @ np.sum(t * t, axis=1)), int(len(p)))
+
+
+def focus_moments_many(lens: Lens, wavelengths_nm: Sequence[float], *, fp: FieldPoint | None = None,
+                       z0_mm: float | None = None, n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
+                       device: str | None = None) -> list[FocusMoments]:
+    """:func:`focus_moments` of several wavelengths (one after the other: each wavelength's grid may be
+    refined to its main pupil on its own)."""
+    return [focus_moments(lens, float(w), fp=fp, z0_mm=z0_mm, n=n, sub=sub, stop_radius_mm=stop_radius_mm,
+                          device=device) for w in wavelengths_nm]
 
 
 @dataclass(frozen=True)

@@ -33,9 +33,10 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
     rays or stream sources, not with its field specification.
     """
     if lens.has_mirrors or not lens.is_centred:
-        raise LensrtError("tracing from the image side (render, bokeh maps) does not support mirrors, tilts/decenters "
+        raise LensrtError("tracing from the image side (render) does not support mirrors, tilts/decenters "
                           "or surface apertures yet", path=lens.path,
-                          hint="trace such lenses forward (trace, psf, spot) or with the float64 reference tracer")
+                          hint="trace such lenses forward (trace, psf, bokeh spots and maps) or with the float64 "
+                               "reference tracer")
     n = lens.n_surfaces
     media = lens.media()
     old = lens.surfaces

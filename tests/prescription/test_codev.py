@@ -137,7 +137,7 @@ def test_variable_codes_are_ignored_and_pim_is_solved() -> None:
     (("  STO", "  STO\n  DIF DOE"), "diffractive"),
     (("  STO", "  STO\n  REX 3"), "rectangle aperture without REY"),
     (("  STO", "  STO\n  REX 3; ELY 2"), "mixes a rectangular and an elliptical"),
-    (("EPD 10", "EPD 10\nZOO 3"), "zoom"),
+    (("EPD 10", "EPD 10\nZOO XYZ 1 2 3"), "zooming XYZ is not supported"),  # ZOO 3 alone: 3 positions
     (("EPD 10", "EPD 10\nPRV"), "close the private catalog with END"),
     (("EPD 10", "EPD 10\nNA 0.1"), "image-space NA"),
     (("EPD 10", "EPD 10\nFNO 2"), "two system apertures"),

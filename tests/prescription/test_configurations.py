@@ -8,7 +8,9 @@ writer gives back an equal family.
 The fixtures ``cooke_triplet_mce.zmx`` and ``ag_dblgauss_zoom.seq`` are lensrt
 test data (public single-configuration lenses with multi-configuration rows
 added by hand, following the format the Zemax/CODE V documentation and public
-exporters show); no public multi-configuration .zmx or zoom .seq was found.
+exporters show). The public multi-configuration file is the corpus's
+``US20250155694_Example01P.zmx`` (see tests/data/corpus/SOURCES.md); no public
+zoom .seq was found.
 """
 from __future__ import annotations
 
@@ -56,6 +58,27 @@ def test_codev_zoom_positions_and_current_position() -> None:
     assert z3.surfaces[4].thickness_mm == 18.0 and z3.surfaces[10].thickness_mm == 61.0
     assert fam.configuration(2).aperture.value == 45.0
 
+
+
+def test_codev_zoom_as_codev_saves_it() -> None:
+    """The rows CODE V writes around zoom data when it saves a lens: ``ZOO n`` (the position count),
+    ``ZOO TIT`` with ``TIT Zk`` titles (CODE V doubles the quotes), per-position solve/variable codes
+    (``ZOO THC S5 100 100 100``, skipped: no optics). Same positions as the plain fixture, named."""
+    text = SEQ.read_text().replace(
+        "ZOO THI S5", "ZOO 3\nZOO TIT\nTIT Z1 \"\"wide\"\"\nTIT Z2 'mid'\nTIT Z3 \"\"tele\"\"\n"
+        "ZOO THC S5 100 100 100\nZOO THI S5", 1).replace("POS 2", "ZOO CCY S6 100 0 100\nPOS 2")
+    fam = loads_seq(text, "saved.seq")
+    plain = read_configurations(SEQ)
+    assert fam.names == ("wide", "mid", "tele") and fam.current == 1
+    for a, b in zip(fam.configurations(), plain.configurations()):
+        assert a.surfaces == b.surfaces and a.fields == b.fields and a.aperture == b.aperture
+    assert fam.configuration("tele").surfaces[4].thickness_mm == 18.0
+    with pytest.raises(PrescriptionError, match="ZOO 4: an earlier ZOO command gives 3"):
+        loads_seq(text.replace("ZOO TIT", "ZOO TIT\nZOO 4", 1), "bad.seq")
+    with pytest.raises(PrescriptionError, match="gives 3 positions, the first ZOO command 2"):
+        loads_seq(text.replace("ZOO 3", "ZOO 2").replace('TIT Z3 ""tele""\n', ""), "bad.seq")
+    with pytest.raises(PrescriptionError, match="TIT Z5: position 5 is not one of the 3"):
+        loads_seq(text.replace("TIT Z3", "TIT Z5"), "bad.seq")
 
 def _position_seq(text: str, values: dict[str, str]) -> str:
     """The zoom sequence as a plain sequence of one position (ZOO/POS lines dropped)."""
@@ -203,3 +226,65 @@ def test_model_errors_and_lookup() -> None:
         fam.configuration("tele")
     with pytest.raises(PrescriptionError, match="one configuration|configuration 2 does not exist"):
         read_lens(DATA / "ag_dblgauss.seq", config=2)
+
+
+# ---- a public multi-configuration file: the corpus's Canon RF 70-200 Z (US 2025/0155694 ex. 1) -----
+
+PUBLIC_ZMX = DATA / "corpus" / "US20250155694_Example01P.zmx"
+#: glasses of that file that the catalogs rayoptics reads lack or name differently (rayoptics puts
+#: n = 1.5 for NBFD29 and another vendor's BACD12): both readers get them as n_d/V_d model glasses
+_MODEL_GLASSES = ("S-LAL7Q", "NBFD29", "BACD12")
+
+
+def _as_model_glasses(text: str) -> str:
+    """The ``GLAS NAME 0 0 nd vd ...`` rows of the glasses above as ``___BLANK`` model glasses."""
+    out = []
+    for ln in text.splitlines():
+        f = ln.split()
+        if len(f) > 5 and f[0] == "GLAS" and f[1] in _MODEL_GLASSES:
+            ln = f"  GLAS ___BLANK 1 0 {f[4]} {f[5]} 0 0 0 0 0 0"
+        out.append(ln)
+    return "\n".join(out) + "\n"
+
+
+def test_public_zemax_zoom_loads_and_each_configuration_matches_rayoptics(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """BeamFour's OpticStudio transcription of US 2025/0155694 example 1 (two zoom positions, nine
+    zoomed gaps, aspheres, catalog glasses) loads as two configurations (its three non-catalog
+    glasses as the file's n_d/V_d); each configuration written as a plain .zmx (its gaps in the
+    lens data, the MNUM rows dropped) and read by rayoptics gives lensrt's EFL at the d line."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fam = read_configurations(PUBLIC_ZMX, glass_model_fallback=True)
+    assert fam.count == 2 and fam.current == 0
+    assert {op.kind for op in fam.operands} == {"thickness"} and len(fam.operands) == 9
+    efl = [first_order(c).efl_mm for c in fam.configurations()]
+    assert 70.0 < efl[0] < 74.0 and 190.0 < efl[1] < 198.0  # the 70-200 mm zoom's two ends
+    pytest.importorskip("rayoptics")
+    monkeypatch.chdir(tmp_path)  # rayoptics writes its reader log into the working folder
+    from rayoptics.environment import open_model
+    text = _as_model_glasses(PUBLIC_ZMX.read_text())
+    rows = [ln.split() for ln in text[text.index("MNUM"):].splitlines()[1:] if ln.startswith("THIC")]
+    gaps = {(int(r[1]), int(r[2])): r[3] for r in rows}
+    surf_blocks = text[:text.index("MNUM")].split("\nSURF ")  # [header, SURF 0, SURF 1, ...]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        family = loads_zmx(text, "model.zmx")
+    for k in (1, 2):
+        blocks = list(surf_blocks)
+        for (s, c), value in gaps.items():
+            if c == k:
+                head, _, rest = blocks[s + 1].partition("DISZ ")
+                blocks[s + 1] = head + "DISZ " + value + "\n" + rest.split("\n", 1)[1]
+        p = tmp_path / f"conf{k}.zmx"
+        p.write_text("\nSURF ".join(blocks))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            opm = open_model(str(p))
+        efl_ro = opm["analysis_results"]["parax_data"].fod.efl
+        lens = family.configuration(k)
+        assert [s.thickness_mm for s in lens.surfaces] == [g.thi for g in opm["seq_model"].gaps[1:]]
+        assert first_order(lens).efl_mm == pytest.approx(efl_ro, rel=1e-9)
+        # the file as published (model-glass fallback, or a catalog's S-LAL7Q once one is read:
+        # n_d differs in the 6th decimal) gives the same EFL to that precision
+        assert efl[k - 1] == pytest.approx(efl_ro, rel=1e-5)

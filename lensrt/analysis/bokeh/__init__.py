@@ -10,7 +10,7 @@ Files:
 - ``light``    the sources' spectrum and the CIE tables the kernel samples
 - ``trace``    stream windows: many sources' rays into windows of one frame
 - ``job``      a bokeh map as a parallel Job (chunks of sources, windows pasted in order)
-- ``measure``  disc level, area, ring ratio, polygon angles, colour fringes of one spot
+- ``measure``  disc level, area, ring ratio, annulus radii, polygon angles, colour fringes of one spot
 """
 from __future__ import annotations
 

@@ -36,6 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from ...errors import LensrtError
+from ...prescription.frames import travel_signs
 from ...prescription.model import Iris, Lens
 from ...trace import RayBatch, trace
 from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
@@ -87,13 +88,15 @@ def physical_rim_mm(lens: Lens, index: int) -> float | None:
     # search out to generous multiples of the aperture the lens already knows (or 1 m)
     known = [x.semi_diameter_mm for x in surfaces if x.semi_diameter_mm is not None]
     reach = min(rim, 20.0 * max(known) if known else 1000.0)
+    signs = travel_signs(lens)  # after an odd number of mirrors the gap runs toward local -z
     for j in (index - 1, index + 1):
         if j < 0 or j >= len(surfaces) or virtual(j):
             continue
         a, b = (surfaces[j], s) if j < index else (s, surfaces[j])
+        sign = signs[max(j, index)]
         r_max = min(reach, a.max_semi_diameter_mm, b.max_semi_diameter_mm) * (1.0 - 1e-12)
-        hit = _first_crossing_mm(lambda r, a=a, b=b: a.thickness_mm + np.asarray(b.sag(r)) - np.asarray(a.sag(r)),
-                                 r_max)
+        hit = _first_crossing_mm(lambda r, a=a, b=b, sign=sign: sign * (a.thickness_mm + np.asarray(b.sag(r))
+                                                                        - np.asarray(a.sag(r))), r_max)
         if hit is not None:
             rim = min(rim, hit)
     return None if math.isinf(rim) else rim

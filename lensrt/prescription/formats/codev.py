@@ -229,6 +229,8 @@ class _Seq:
             self.radius_mode = not (args and args[0].upper().startswith("N"))
             self.rdm_given = True
             return True
+        if name == "TIT" and self.zoom.title(args, line):
+            return True
         if name in ("TIT", "TITLE"):
             self.title = " ".join(a.strip("'\"") for a in args)
             return True
@@ -509,6 +511,8 @@ class _Seq:
         if len(wtw[0]) != len(nm):
             raise self.err(f"WTW gives {len(wtw[0])} weights for {len(nm)} wavelengths", wtw[1])
         ref = self.values("REF", "reference wavelength")
+        if ref is not None and len(ref[0]) != 1:
+            raise self.err(f"REF needs one wavelength number, not {len(ref[0])}", ref[1], "e.g. REF 2")
         primary = int(ref[0][0]) - 1 if ref else len(nm) // 2
         if not 0 <= primary < len(nm):
             raise self.err(f"REF {primary + 1} is not one of the {len(nm)} wavelengths", ref[1] if ref else None)

@@ -12,8 +12,16 @@ Read::
     ZOO REF 2 2 2
     POS 2                             ! the current position (default 1)
 
-Every ``ZOO`` command must give the same number of positions (the first one
-sets it). Any other zoomed item is an error naming it.
+and what CODE V writes around them when it saves a zoomed lens::
+
+    ZOO 3                             ! the number of positions (then every ZOO row gives 3 values)
+    ZOO TIT                           ! the positions carry titles:
+    TIT Z1 'wide'                     ! the title of position 1 (CODE V writes ""wide"": quotes stripped)
+    ZOO THC S5 100 100 100            ! variable/solve codes per position (THC, CCY, GLC, ...): no
+                                      ! optics, skipped
+
+Every ``ZOO`` command must give the same number of positions (``ZOO n`` or the
+first one sets it). Any other zoomed item is an error naming it.
 """
 from __future__ import annotations
 
@@ -39,6 +47,8 @@ ZOOM_ITEMS: dict[str, tuple[str, str]] = {
     "REF": ("primary_wavelength", "-"),
     **{f"{a}{k}": ("field_y" if a == "Y" else "field_x", "F") for a in "XY" for k in ("AN", "OB", "IM", "RI")},
 }
+#: CODE V's per-position optimisation codes (variable, frozen, solve): they carry no optics
+ZOOM_CODES = frozenset({"THC", "CCY", "GLC", "KC", *(f"{c}C" for c in "ABCDEFGHJ")})
 _SURF = re.compile(r"^S(\d+|O|I)$", re.IGNORECASE)
 _QUAL = re.compile(r"^([FW])(\d+)$", re.IGNORECASE)
 
@@ -52,6 +62,8 @@ class ZoomReader:
         self.current = 0
         self.pos_line: int | None = None
         self.items: list[tuple[str, str, list[str], int]] = []  # item, qualifier, values, line
+        self.count_line: int | None = None
+        self.titles: dict[int, str] = {}  # position (0-based) -> TIT Zk title
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -67,6 +79,13 @@ class ZoomReader:
         if not args:
             raise self.err("ZOO without an item", line, "e.g. ZOO THI S5 1.86 25.27 48.678")
         item = args[0].upper()
+        if item.isdigit() and len(args) == 1:
+            self.declare(int(item), line)
+            return
+        if item == "TIT" and len(args) == 1:
+            return  # the titles follow as TIT Zk lines
+        if item in ZOOM_CODES:
+            return
         if item not in ZOOM_ITEMS:
             raise self.err(f"ZOO {item}: zooming {item} is not supported", line,
                            f"lensrt zooms {', '.join(sorted(ZOOM_ITEMS))}")
@@ -89,6 +108,25 @@ class ZoomReader:
                            line, "every ZOO command gives one value per zoom position")
         self.items.append((item, qual, values, line))
 
+    def declare(self, count: int, line: int) -> None:
+        """``ZOO n``: the number of zoom positions."""
+        if count < 1 or (self.count is not None and count != self.count):
+            raise self.err(f"ZOO {count}: " + ("a zoom needs at least one position" if count < 1 else
+                           f"an earlier ZOO command gives {self.count} positions"), line)
+        self.count, self.count_line = count, line
+
+    def title(self, args: list[str], line: int) -> bool:
+        """``TIT Zk 'name'``: the title of position k (True when ``args`` is one)."""
+        m = re.match(r"^Z(\d+)$", args[0], re.IGNORECASE) if args else None
+        if m is None:
+            return False
+        k = int(m.group(1)) - 1
+        if self.count is not None and not 0 <= k < self.count:
+            raise self.err(f"TIT {args[0]}: position {k + 1} is not one of the {self.count} zoom positions", line)
+        name = " ".join(a.strip("'\"") for a in args[1:]).strip()
+        self.titles[k] = name
+        return True
+
     def build(self, lens: Lens, unit_mm: float, glass: Callable[[str, int], Material]) -> Lens | MultiConfigLens:
         """The zoom positions over ``lens`` (the S lines' values are shared where nothing is zoomed)."""
         if self.count is None:
@@ -98,7 +136,10 @@ class ZoomReader:
         if not 0 <= self.current < self.count:
             raise self.err(f"POS {self.current + 1} is not one of the {self.count} zoom positions", self.pos_line)
         ops = [self.operand(item, qual, values, line, lens, unit_mm, glass) for item, qual, values, line in self.items]
-        names = tuple(f"Z{k + 1}" for k in range(self.count))
+        names = [self.titles.get(k) or f"Z{k + 1}" for k in range(self.count)]
+        if len(set(names)) != len(names):  # repeated titles: keep them readable and distinct
+            names = [f"Z{k + 1} {n}" if n != f"Z{k + 1}" else n for k, n in enumerate(names)]
+        names = tuple(names)
         return MultiConfigLens(lens, names, tuple(ops), self.current).validate()
 
     def operand(self, item: str, qual: str, values: list[str], line: int, lens: Lens, unit_mm: float,

@@ -3,7 +3,7 @@
 Surfaces are drawn to their clear semi-diameters; the two faces of an element
 (glass between them) are joined at the rim by a flat flange and an edge parallel
 to the axis, and the element is shaded. The stop is drawn as two blades outside
-its clear radius; the image surface as a line. Meridional rays of each field point
+its clear radius; central obscurations (a reflex lens's secondary) as dark bars; the image surface as a line. Meridional rays of each field point
 (aimed at the real stop) are spread evenly across the meridional extent of the
 real, vignetted pupil (found by tracing 97 probe rays with every aperture), so the
 drawn bundle is the one that reaches the image.
@@ -75,6 +75,21 @@ def element_outlines(lens: Lens) -> list[np.ndarray]:
     return out
 
 
+def _draw_obscurations(ax, lens: Lens, i: int) -> None:
+    """Surface i's central (circular, undecentred) obscurations as thick dark bars across the meridional section
+    (not on a mirror, where an obscuration is an unsilvered zone)."""
+    s = lens.surfaces[i]
+    if s.mirror:
+        return
+    for a in s.apertures:
+        if a.obscuration and a.shape in ("circle", "annulus") and not (a.decenter_x_mm or a.decenter_y_mm):
+            lo = a.b if a.shape == "annulus" else 0.0
+            for sgn in (1.0, -1.0):
+                r = sgn * np.linspace(lo, a.a, 21)
+                bz, by = to_plane(lens, i, r, np.asarray(s.sag(np.minimum(np.abs(r), s.max_semi_diameter_mm))))
+                ax.plot(bz, by, color="0.15", lw=2.5, solid_capstyle="butt", zorder=4)
+
+
 def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: float | None = None,
                 rays_per_field: int = 9, device: str | None = None, title: str = "") -> Path:
     """Cross-section of ``lens`` (y-z plane) with meridional ray bundles at normalised fields ``hy``."""
@@ -106,8 +121,10 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
         if s.is_plane and s.transform_before is not None and not s.mirror and not s.apertures \
                 and s.material == (lens.surfaces[i - 1].material if i else lens.object_material):
             continue  # a coordinate break: a frame change, nothing to draw
-        if s.mirror or (i != lens.stop_index and s.material.is_air and (i == 0 or lens.surfaces[i - 1].material.is_air)):
-            pz, py_ = _profile(lens, i, r)  # a lone surface (a mirror drawn thicker)
+        _draw_obscurations(ax, lens, i)
+        lone = i != lens.stop_index and s.material.is_air and (i == 0 or lens.surfaces[i - 1].material.is_air)
+        if s.mirror or (lone and not (s.is_plane and s.apertures and all(a.obscuration for a in s.apertures))):
+            pz, py_ = _profile(lens, i, r)  # a lone surface (a mirror drawn thicker); not a plane that only obscures
             ax.plot(pz, py_, color="#1b3a57", lw=2.0 if s.mirror else 1.0, zorder=3)
     # rays
     img_h = 0.0
