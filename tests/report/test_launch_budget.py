@@ -57,10 +57,10 @@ def test_the_real_half_field_is_found_in_a_few_batched_rounds(dg):
 @pytest.mark.slow
 def test_the_report_keeps_its_launch_budget(tmp_path, dg):
     """The report's plan at draft quality on the CPU (normal quality, the default, traces ~30x more rays
-    and runs the same loops with more fields: 612 launches, docs/benchmarks.md). Today's breakdown
+    and runs the same loops with more fields: 548 launches, docs/benchmarks.md). Today's breakdown
     (draft, CPU): lens 15, first_order 158, zoom 184 (at each of the breathing table's 8 distances --
-    one lens per distance -- a focus secant and ~3 rounds of batched chief rays), psf 21, mtf 41,
-    bokeh 28: 447."""
+    one lens per distance -- a focus secant and ~3 rounds of batched chief rays), psf 21, mtf 31,
+    bokeh 28: 437."""
     from lensrt.report import ReportOptions, build_report
     rep = build_report(dg, tmp_path, ReportOptions(quality="draft", device="cpu"), quiet=True)
     assert not rep.failed
