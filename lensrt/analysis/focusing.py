@@ -75,16 +75,19 @@ def focus_at(lens: Lens, distance_mm: float, wavelength_nm: float | None = None,
 
 
 def _chief_tracer(lens: Lens, wavelength_nm: float | None):
-    """v -> (real chief-ray height on the image surface, its object-space angle), v an object field value."""
+    """vs -> (real chief-ray heights on the image surface, their object-space angles), vs object field values
+    (NaN where the chief ray does not pass). All the values are aimed and traced together (one aiming run and
+    one trace for the lot)."""
     from .raysets import chief_batch, object_field_point, trace64
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
 
-    def trace(v: float) -> tuple[float, float]:
-        batch = chief_batch(lens, [object_field_point(lens, v)], wl)
+    def trace(vs) -> tuple[np.ndarray, np.ndarray]:
+        vs = np.atleast_1d(np.asarray(vs, dtype=np.float64))
+        batch = chief_batch(lens, [object_field_point(lens, float(v)) for v in vs], wl)
         res = trace64(lens, batch)
-        if not (bool(res.ok[0]) and bool(batch.aimed[0])):
-            return math.nan, math.nan
-        return float(res.position_mm[0, 1]), math.atan2(float(batch.direction[0, 1]), float(batch.direction[0, 2]))
+        good = res.ok & batch.aimed
+        y = np.where(good, res.position_mm[:, 1], np.nan)
+        return y, np.where(good, np.arctan2(batch.direction[:, 1], batch.direction[:, 2]), np.nan)
     return trace
 
 
@@ -102,7 +105,7 @@ def largest_field_value(lens: Lens) -> float:
 def image_circle_radius_mm(lens: Lens, wavelength_nm: float | None = None) -> float:
     """Real chief-ray height on the image surface at the lens's largest field (mm)."""
     y, _ = _chief_tracer(lens, wavelength_nm)(largest_field_value(lens))
-    return abs(y)
+    return abs(float(y[0]))
 
 
 def _field_guess(lens: Lens, image_height_mm: float, wavelength_nm: float | None) -> float:
@@ -114,51 +117,100 @@ def _field_guess(lens: Lens, image_height_mm: float, wavelength_nm: float | None
     return image_height_mm / max(abs(fo.magnification), 1e-12)
 
 
+#: object field values traced together in each round of :func:`real_half_field_rad`: the regula falsi
+#: estimate and probes on either side of it at these fractions of the bracket
+_PROBE_FRACTIONS = (3e-2, 1e-3, 3e-5, 1e-6)
+
+
 def real_half_field_rad(lens: Lens, image_height_mm: float, wavelength_nm: float | None = None,
                         tol_mm: float = 1e-7, max_iter: int = 80) -> float:
     """Object-space angle of the real chief ray that lands at ``image_height_mm`` on the image surface (rad).
 
-    The object field is bracketed between the axis and the lens's largest field and found by
-    the Illinois (regula falsi) method; a height beyond the largest field's is an error.
+    The object field is bracketed between the axis and the lens's largest field; each round traces
+    the regula falsi estimate together with probes on either side of it (one aiming run and one
+    trace for all of them) and keeps the tightest bracket, until a chief ray lands within ``tol_mm``
+    (``max_iter`` chief rays at most). The first round traces the bracket's end with probes around
+    the paraxial estimate. A height beyond the largest field's is an error.
     """
     trace = _chief_tracer(lens, wavelength_nm)
     h = abs(float(image_height_mm))
     lo, hi = 0.0, _field_guess(lens, 1.3 * h, wavelength_nm)
-    y_hi = trace(hi)[0]
-    for _ in range(40):  # shrink until the chief ray passes
-        if not math.isnan(y_hi):
-            break
-        hi *= 0.8
-        y_hi = trace(hi)[0]
+    v_par = _field_guess(lens, h, wavelength_nm)
+    fractions = np.asarray(_PROBE_FRACTIONS)
+    probes = v_par * np.concatenate([[1.0], 1.0 - fractions, 1.0 + fractions])
+    ys, angles = trace(np.concatenate([[hi], probes]))
+    y_hi = float(ys[0])
+    if math.isnan(y_hi):  # shrink until the chief ray passes (the candidates of 40 shrink steps, traced together)
+        shrink = hi * 0.8 ** np.arange(1, 41)
+        ys_s = trace(shrink)[0]
+        passing = np.nonzero(np.isfinite(ys_s))[0]
+        k = int(passing[0]) if len(passing) else 39
+        hi, y_hi = float(shrink[k]), float(ys_s[k])
     limit = math.radians(89.0) if math.isinf(lens.object_distance_mm) else 50.0 * hi
     while abs(y_hi) < h and hi < limit:  # beyond the lens's nominal field, while real chief rays still pass
         wider = min(1.2 * hi, limit)
-        y_wider = trace(wider)[0]
+        y_wider = float(trace(wider)[0][0])
         if math.isnan(y_wider):
             break
         hi, y_hi = wider, y_wider
     if not abs(y_hi) >= h:
         raise LensrtError(f"no real chief ray reaches {h:.4g} mm on the image surface: the widest that passes "
                           f"lands at {abs(y_hi):.4g} mm", hint="use a smaller sensor (the image circle is smaller)")
-    f_lo, f_hi, side = -h, abs(y_hi) - h, 0
-    v, a = hi, 0.0
-    for _ in range(max_iter):
+    bracket = [lo, -h, hi, abs(y_hi) - h]
+    inside = (probes > lo) & (probes < hi)
+    a, done = _tighten(bracket, probes[inside], ys[1:][inside], angles[1:][inside], h, tol_mm)
+    return a if done else _bracketed_root(trace, h, bracket, tol_mm, max_iter)
+
+
+def _tighten(bracket: list, vs: np.ndarray, ys: np.ndarray, angles: np.ndarray, h: float,
+             tol_mm: float) -> tuple[float, bool]:
+    """Fold traced probes (field values ``vs``, heights ``ys``, chief angles) into ``bracket`` =
+    [lo, f_lo, hi, f_hi] (in place): the last probe below the root and the first above it.
+    Returns (|angle| of the probe closest to the height, whether it lands within tol_mm)."""
+    fv = np.abs(ys) - h
+    fin = np.isfinite(fv)
+    if not fin.any():
+        return 0.0, False
+    best = int(np.nanargmin(np.where(fin, np.abs(fv), np.nan)))
+    if abs(fv[best]) < tol_mm:
+        return abs(float(angles[best])), True
+    below, above = fin & (fv < 0.0), fin & (fv > 0.0)
+    if above.any():
+        j = int(np.argmax(above))
+        bracket[2], bracket[3] = float(vs[j]), float(fv[j])
+        below &= vs < bracket[2]
+    if below.any():
+        j = int(np.nonzero(below)[0][-1])
+        bracket[0], bracket[1] = float(vs[j]), float(fv[j])
+    return abs(float(angles[best])), False
+
+
+def _bracketed_root(trace, h: float, bracket: list, tol_mm: float, max_iter: int) -> float:
+    """|chief angle| at the field value in [lo, hi] where |y| - h changes sign (bracket = [lo, f_lo, hi, f_hi],
+    f_lo < 0 < f_hi), found by rounds of regula falsi estimates and probes around them traced together
+    (see :func:`real_half_field_rad`)."""
+    a, used, spread = 0.0, 0, False
+    fractions = np.asarray(_PROBE_FRACTIONS)
+    while used < max_iter and bracket[2] > bracket[0]:
+        lo, f_lo, hi, f_hi = bracket
         v = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        y, a = trace(v)
-        if math.isnan(y):
-            v, (y, a) = 0.5 * (lo + hi), trace(0.5 * (lo + hi))
-        fv = abs(y) - h
-        if abs(fv) < tol_mm:
+        w = hi - lo
+        vs = np.unique(np.clip(np.concatenate([[v], v - w * fractions, v + w * fractions]), lo, hi))
+        vs = vs[(vs > lo) & (vs < hi)]
+        if spread or len(vs) == 0:  # evenly over the bracket (after a round where no chief ray passed)
+            vs = np.linspace(lo, hi, 2 + 2 * len(fractions))[1:-1]
+        ys, angles = trace(vs)
+        used += len(vs)
+        if not np.isfinite(ys).any():
+            if spread:
+                break
+            spread = True
+            continue
+        spread = False
+        a, done = _tighten(bracket, vs, ys, angles, h, tol_mm)
+        if done:
             break
-        if fv > 0:
-            hi, f_hi = v, fv
-            f_lo = f_lo / 2 if side == -1 else f_lo
-            side = -1
-        else:
-            lo, f_lo = v, fv
-            f_hi = f_hi / 2 if side == 1 else f_hi
-            side = 1
-    return abs(a)
+    return a
 
 
 @dataclass

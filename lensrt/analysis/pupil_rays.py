@@ -20,7 +20,8 @@ import numpy as np
 from ..errors import LensrtError
 from ..prescription.model import Lens
 
-__all__ = ["PupilRays", "pupil_grid_rays", "trace_pupil_rays", "chief_ray_at", "field_xy_of"]
+__all__ = ["PupilRays", "pupil_grid_rays", "trace_pupil_rays", "trace_pupil_rays_many",
+           "chief_ray_at", "chief_rays_at_many", "field_xy_of"]
 
 
 @dataclass
@@ -70,6 +71,18 @@ def trace_pupil_rays(lens: Lens, rays: PupilRays, wavelength_nm: float, plane_z_
     return trace(lens, batch, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
 
 
+def trace_pupil_rays_many(lens: Lens, rays: PupilRays, wavelengths_nm: Sequence[float], plane_z_mm: float,
+                          device: str | None = None, clip: bool = True) -> list:
+    """:func:`trace_pupil_rays` at each of several wavelengths, the same results, in one trace (one launch)."""
+    from ..trace import RayBatch, trace
+    wls = [float(w) for w in wavelengths_nm]
+    m = len(rays.weight)
+    batch = RayBatch(np.tile(rays.origin_mm, (len(wls), 1)), np.tile(rays.direction, (len(wls), 1)),
+                     np.repeat(np.asarray(wls, dtype=np.float64), m))
+    res = trace(lens, batch, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
+    return [res.part(k * m, (k + 1) * m) for k in range(len(wls))]
+
+
 def chief_ray_at(lens: Lens, fp, wavelengths_nm: Sequence[float], plane_z_mm: float,
                  device: str | None = None):
     """The real chief ray (through the real stop's centre) of ``fp`` at each wavelength, traced without
@@ -84,6 +97,29 @@ def chief_ray_at(lens: Lens, fp, wavelengths_nm: Sequence[float], plane_z_mm: fl
         raise LensrtError("the real chief ray of this field point cannot be traced to the image",
                           hint="choose a field point inside the lens's coverage")
     return res
+
+
+def chief_rays_at_many(lens: Lens, fps, wavelengths_nm: Sequence[float], plane_z_mm: float,
+                       device: str | None = None) -> list:
+    """:func:`chief_ray_at` of several field points, the same rays: one aiming run and one trace for all.
+    An entry is the field point's RayResult, or the :class:`LensrtError` :func:`chief_ray_at` raises for it."""
+    from ..trace import RayBatch, trace
+    from ..trace.aiming import aim_many
+    from ..trace.api import kernel_to_stop
+    fps = list(fps)
+    wl = np.asarray(wavelengths_nm, dtype=np.float64)
+    w = len(wl)
+    wls = np.tile(wl, len(fps))
+    o, d, ok = aim_many(lens, fps, np.repeat(np.arange(len(fps)), w), 0.0, 0.0, wls, "real",
+                        kernel_to_stop(lens, device))
+    res = trace(lens, RayBatch(o, d, wls), "float64", device, clip=False, plane_z_mm=plane_z_mm)
+    out = []
+    for k in range(len(fps)):
+        part = res.part(k * w, (k + 1) * w)
+        out.append(part if ok[k * w:(k + 1) * w].all() and part.ok.all() else LensrtError(
+            "the real chief ray of this field point cannot be traced to the image",
+            hint="choose a field point inside the lens's coverage"))
+    return out
 
 
 def field_xy_of(lens: Lens, hx: float, hy: float) -> tuple[float, float]:

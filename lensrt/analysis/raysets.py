@@ -28,9 +28,10 @@ from ..trace import RayBatch, RayResult, kernel_to_stop, trace
 from ..trace.aiming import FieldPoint, aim_many, aim_rays, beam_basis, field_point, pupil_geometry
 
 __all__ = ["FieldSpec", "lens_fields", "field_spec", "object_field_point", "aim_batch", "aim_batches", "chief_batch", "chief_batches",
-           "trace64", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
+           "trace64", "trace64_many", "close_ray_batch", "meridional_intersection_z", "axis_crossing_z", "plane_crossing_z",
            "paraxial_chief", "first_orders", "exit_pupil_point_z_mm", "field_unit", "field_key", "field_display",
-           "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays"]
+           "FIELD_KEYS", "CLOSE_RAY_FRACTION", "pupil_grid_rays",
+           "pupil_grid_rays_many"]
 
 #: close rays sit this fraction of the entrance-pupil radius beside the chief ray
 CLOSE_RAY_FRACTION = 1e-4
@@ -185,6 +186,20 @@ def trace64(lens: Lens, rays: RayBatch, device: str | None = None, *, clip: bool
     return trace(lens, rays, "float64", device, clip=clip, plane_z_mm=plane_z_mm)
 
 
+def trace64_many(lens: Lens, batches: Sequence[RayBatch], device: str | None = None, *, clip: bool = False,
+                 plane_z_mm: float | None = None) -> list[RayResult]:
+    """:func:`trace64` of several batches (any wavelengths) in one trace (one launch): one result per batch,
+    the same as tracing them one by one."""
+    batches = list(batches)
+    if not batches:
+        return []
+    joined = RayBatch(np.concatenate([b.origin_mm for b in batches]), np.concatenate([b.direction for b in batches]),
+                      np.concatenate([b.wavelength_nm for b in batches]), np.concatenate([b.aimed for b in batches]))
+    res = trace64(lens, joined, device, clip=clip, plane_z_mm=plane_z_mm)
+    ends = np.cumsum([0] + [len(b) for b in batches])
+    return [res.part(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:])]
+
+
 def close_ray_batch(lens: Lens, chief: RayBatch, fps: Sequence[FieldPoint],
                     fraction: float = CLOSE_RAY_FRACTION) -> RayBatch:
     """Three close rays per chief ray: tangential +delta, tangential -delta, sagittal +delta.
@@ -272,13 +287,29 @@ def exit_pupil_point_z_mm(lens: Lens, p: np.ndarray, v: np.ndarray, wavelength_n
 
 def pupil_grid_rays(lens: Lens, fp: FieldPoint, wavelength_nm: float, n: int, device: str | None = None) -> RayBatch:
     """A square n x n grid of rays over the box of the real pupil of ``fp`` (vignetted rays fail when traced)."""
-    from ..trace.aiming import ray_through_point
-    from ..trace.stream import pupil_box
-    box = pupil_box(lens, fp, [wavelength_nm], device=device, coarse=64, fine=32)
-    if box.area_mm2 <= 0:
+    rays = pupil_grid_rays_many(lens, [(fp, wavelength_nm)], n, device)[0]
+    if rays is None:
         raise LensrtError("no ray of this field point passes the lens")
-    a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
-    b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
-    A, B = np.meshgrid(a, b, indexing="ij")
-    o, d = ray_through_point(fp, box.points(A.ravel(), B.ravel()))
-    return RayBatch(o, d, wavelength_nm)
+    return rays
+
+
+def pupil_grid_rays_many(lens: Lens, jobs: Sequence[tuple[FieldPoint, float]], n: int,
+                         device: str | None = None) -> list[RayBatch | None]:
+    """:func:`pupil_grid_rays` of several (field point, wavelength nm) jobs, the same rays, their pupil boxes
+    found in one batched search (None for a job whose field point no ray passes)."""
+    from ..trace.aiming import ray_through_point
+    from ..trace.stream import pupil_boxes
+    jobs = list(jobs)
+    boxes = pupil_boxes(lens, [fp for fp, _ in jobs], device=device, coarse=64, fine=32,
+                        field_wavelengths_nm=[float(w) for _, w in jobs])
+    out: list[RayBatch | None] = []
+    for (fp, wavelength_nm), box in zip(jobs, boxes):
+        if box.area_mm2 <= 0:
+            out.append(None)
+            continue
+        a = box.a0 + (np.arange(n) + 0.5) * (box.a1 - box.a0) / n
+        b = box.b0 + (np.arange(n) + 0.5) * (box.b1 - box.b0) / n
+        A, B = np.meshgrid(a, b, indexing="ij")
+        o, d = ray_through_point(fp, box.points(A.ravel(), B.ravel()))
+        out.append(RayBatch(o, d, wavelength_nm))
+    return out

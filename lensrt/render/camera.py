@@ -204,10 +204,10 @@ def best_focus_z_mm(lens: Lens, object_distance_mm: float, wavelengths_nm: tuple
                     weights: tuple[float, ...], stop_radius_mm: float | None = None) -> float:
     """z (lens frame) of least weighted RMS spot radius for the axial object point at ``object_distance_mm``,
     with the stop at ``stop_radius_mm``: :mod:`lensrt.trace.focus`, the routine every table uses."""
-    from ..trace.focus import best_focus_plane, focus_moments
+    from ..trace.focus import best_focus_plane, focus_moments_many
     fp = _axial_point(object_distance_mm)
-    moments = [focus_moments(lens, float(wl), fp=fp, z0_mm=lens.image_z_mm, stop_radius_mm=stop_radius_mm)
-               for wl in wavelengths_nm]
+    moments = focus_moments_many(lens, [float(wl) for wl in wavelengths_nm], fp=fp, z0_mm=lens.image_z_mm,
+                                 stop_radius_mm=stop_radius_mm)
     return best_focus_plane(moments, weights).z_mm
 
 

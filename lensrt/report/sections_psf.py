@@ -31,9 +31,9 @@ def _executor(ctx: ReportContext):
 
 
 def _groups(ctx: ReportContext, n_fields: int) -> int | None:
-    """Work items of a map: on the CPU up to 8 groups of fields, so the progress bar moves (the map is
-    the same bits for any grouping, and on the CPU no slower); on a GPU the stage's default (one launch)."""
-    return None if ctx.device.startswith("cuda") else max(1, min(n_fields, 8))
+    """Work items of a map: the stage's default on every device (one group on one device: the fewest
+    launches, the same count on a CPU and a GPU; the map is the same bits for any grouping)."""
+    return None
 
 
 def _budget(ctx: ReportContext, share: float, n_fields: int) -> dict:

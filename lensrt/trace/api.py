@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -106,6 +106,14 @@ class RayResult:
 
     def __len__(self) -> int:
         return len(self.status)
+
+    def part(self, start: int, stop: int) -> RayResult:
+        """Rays ``start`` .. ``stop - 1`` (several batches traced together in one launch, split again)."""
+        n = len(self)
+
+        def cut(v):
+            return v[start:stop] if isinstance(v, np.ndarray) and v.ndim and len(v) == n else v
+        return replace(self, **{f.name: cut(getattr(self, f.name)) for f in fields(self)})
 
 
 def _cpu_count() -> int:

@@ -38,7 +38,8 @@ from .aiming import FieldPoint, field_point, ray_through_point
 from .api import RayBatch, trace
 from .pupil_boxes import PupilBox, pupil_box
 
-__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "best_focus_plane", "BestFocusPlane"]
+__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_many", "best_focus_plane",
+           "BestFocusPlane"]
 
 BEST_FOCUS_DEFINITION = ("minimum RMS spot radius about the centroid, rays filling the real pupil uniformly "
                          "(stream-kernel weights), wavelengths pooled by weight; pupil edge resolved by "
@@ -184,6 +185,15 @@ def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = N
     wt = wt / wt.sum()
     return FocusMoments(float(wavelength_nm), z0, wt @ p, wt @ t, float(wt @ np.sum(p * p, axis=1)),
                         float(wt @ np.sum(p * t, axis=1)), float(wt @ np.sum(t * t, axis=1)), int(len(p)))
+
+
+def focus_moments_many(lens: Lens, wavelengths_nm: Sequence[float], *, fp: FieldPoint | None = None,
+                       z0_mm: float | None = None, n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
+                       device: str | None = None) -> list[FocusMoments]:
+    """:func:`focus_moments` of several wavelengths (one after the other: each wavelength's grid may be
+    refined to its main pupil on its own)."""
+    return [focus_moments(lens, float(w), fp=fp, z0_mm=z0_mm, n=n, sub=sub, stop_radius_mm=stop_radius_mm,
+                          device=device) for w in wavelengths_nm]
 
 
 @dataclass(frozen=True)

@@ -115,20 +115,24 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         def rays(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return _rays_from_points(obj, np.stack([np.zeros(n), b, np.full(n, z_ep)], axis=1))
 
-        def at_stop(b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, end=stop)
-            return res.position_mm[:, 1], res.ok
+        def at_stop(b: np.ndarray) -> tuple[np.ndarray, ...]:
+            """Stop heights at b and at b + h_fd (the finite difference's neighbour) in one trace."""
+            bb = np.concatenate([b, b + h_fd])
+            o, d = _rays_from_points(np.concatenate([obj, obj]),
+                                     np.stack([np.zeros(2 * n), bb, np.full(2 * n, z_ep)], axis=1))
+            res = _trace(lens, o, d, wavelength_nm, device, clip=False, end=stop)
+            yb, okb = res.position_mm[:, 1], res.ok
+            return yb[:n], okb[:n], yb[n:], okb[n:]
 
         b = np.zeros(n)  # aim point (0, b) in the paraxial entrance-pupil plane; Newton to the stop centre
-        f0, ok = at_stop(b)
+        f0, ok, f1, ok1 = at_stop(b)
         for _ in range(30):
             if np.all(~ok | (np.abs(f0) < 1e-11)):
                 break
-            f1, ok1 = at_stop(b + h_fd)
             slope = (f1 - f0) / h_fd
             good = ok & ok1 & (slope != 0.0) & (np.abs(f0) >= 1e-11)
             b = b - np.where(good, f0 / np.where(good, slope, 1.0), 0.0)
-            f0, ok_new = at_stop(b)
+            f0, ok_new, f1, ok1 = at_stop(b)
             ok &= ok_new
         ok &= np.abs(f0) < 1e-8
         res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, plane_z_mm=plane_z_mm)

@@ -37,8 +37,8 @@ from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...stats import Estimate, jackknife
 from ...units import NM_PER_MM
-from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point, pupil_grid_rays,
-                   trace64)
+from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point,
+                       pupil_grid_rays_many, trace64, trace64_many)
 
 __all__ = ["RayFan", "ray_fan", "fan_jobs", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
@@ -134,7 +134,10 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     # every ray of the fan aimed at once: the reference chief ray, then per wavelength the fan and its chief ray
     if aimed is None:
         aimed = aim_batches(lens, fan_jobs(lens, hy, fan, wavelengths_nm, pupil, object_value), aim, device)
-    ref = trace64(lens, aimed[0], device, plane_z_mm=z)
+    # the fans of every wavelength in one trace; the reference chief ray and each wavelength's chief ray
+    # (traced without apertures: the reference even when vignetted) in another
+    fans = trace64_many(lens, aimed[1::2][:len(wls)], device, clip=clip, plane_z_mm=z)
+    ref, *chiefs = trace64_many(lens, [aimed[0]] + aimed[2::2][:len(wls)], device, plane_z_mm=z)
     if not ref.ok[0]:
         raise LensrtError(f"the chief ray of field {label} does not reach the image")
     ref_xy = (float(ref.position_mm[0, 0]), float(ref.position_mm[0, 1]))
@@ -143,10 +146,7 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
     passed = np.zeros((k, m), dtype=bool)
     xps = np.full(k, np.nan)
     for i, w in enumerate(wls):
-        rays = aimed[1 + 2 * i]
-        r = trace64(lens, rays, device, clip=clip, plane_z_mm=z)
-        # the chief ray itself is traced without apertures: it is the reference even when vignetted
-        c = trace64(lens, aimed[2 + 2 * i], device, plane_z_mm=z)
+        rays, r, c = aimed[1 + 2 * i], fans[i], chiefs[i]
         p, v, opl = r.position_mm.copy(), r.direction.copy(), r.opl_mm.copy()
         p[0], v[0], opl[0] = c.position_mm[0], c.direction[0], c.opl_mm[0]
         ok = r.ok & rays.aimed
@@ -225,7 +225,7 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     whose every ray is vignetted has no spot diagram and is left out of the list.
     """
     from ...trace.sampling import spectrum_discrete
-    from ...trace.stream import Grid, stream, stream_source
+    from ...trace.stream import Grid, stream, stream_sources
     if reference not in ("chief", "centroid"):
         raise LensrtError(f"unknown spot reference {reference!r}", hint="use 'chief' or 'centroid'")
     wls = tuple(float(w) for w in (lens.wavelengths.nm if wavelengths_nm is None else wavelengths_nm))
@@ -234,9 +234,10 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     fps = [object_field_point(lens, s.object_value) for s in specs]
     primary = lens.wavelengths.primary_nm
     chief = trace64(lens, chief_batch(lens, fps, primary, device), device, plane_z_mm=z)
-    sources = [stream_source(lens, field=fp, plane_z_mm=z, centre_mm=(float(chief.position_mm[k, 0]),
-                                                                       float(chief.position_mm[k, 1])),
-                             wavelengths_nm=wls, device=device) for k, fp in enumerate(fps)]
+    # every field point's pupil box in one batched pass (the same sources as stream_source one by one)
+    sources = stream_sources(lens, fps, plane_z_mm=z, layers=[0] * len(fps), wavelengths_nm=wls, device=device,
+                             centres_mm=[(float(chief.position_mm[k, 0]), float(chief.position_mm[k, 1]))
+                                         for k in range(len(fps))])
     # fields whose every ray is vignetted have no spot: they are left out
     keep = [k for k, src in enumerate(sources) if src.box.area_mm2 > 0 and chief.ok[k]]
     if not keep:
@@ -255,17 +256,17 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
 
     per_wl = {w: run(spectrum_discrete([w], [1.0]), i) for i, w in enumerate(wls)}
     poly = run(spectrum_discrete(list(wls), [table.get(w, 1.0) for w in wls]), len(wls))
+    # the spot grids of every field point and wavelength: one pupil-box search, one trace
+    grid_rays = pupil_grid_rays_many(lens, [(fp, w) for fp in fps for w in wls], n_grid, device)
+    traced = iter(trace64_many(lens, [g for g in grid_rays if g is not None], device, clip=True, plane_z_mm=z))
+    grids = [None if g is None else next(traced) for g in grid_rays]
     out = []
     for k, (spec, fp) in enumerate(zip(specs, fps)):
         xs, ys = [], []
-        for w in wls:
-            try:
-                r = trace64(lens, pupil_grid_rays(lens, fp, w, n_grid, device), device, clip=True, plane_z_mm=z)
-                xs.append(r.position_mm[r.ok, 0] - chief_pos[k, 0])
-                ys.append(r.position_mm[r.ok, 1] - chief_pos[k, 1])
-            except LensrtError:
-                xs.append(np.zeros(0))
-                ys.append(np.zeros(0))
+        for i in range(len(wls)):
+            r = grids[k * len(wls) + i]
+            xs.append(np.zeros(0) if r is None else r.position_mm[r.ok, 0] - chief_pos[k, 0])
+            ys.append(np.zeros(0) if r is None else r.position_mm[r.ok, 1] - chief_pos[k, 1])
         allx, ally = np.concatenate(xs), np.concatenate(ys)
         if not len(allx):
             continue

@@ -29,7 +29,6 @@
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -38,7 +37,7 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
-from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments
+from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments_many
 from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64)
 
 __all__ = ["FocalLength", "real_focal_length", "LongitudinalAberration", "longitudinal_aberration", "BestFocus",
@@ -214,10 +213,22 @@ class BestFocus:
                 "rays": self.rays, "definition": self.definition}
 
 
-@lru_cache(maxsize=64)
-def _moments(lens: Lens, wavelength_nm: float, object_value: float, z0_mm: float, device: str | None):
-    """One wavelength's focus moments on the plane ``z0_mm`` (cached: a comparison asks for each several times)."""
-    return focus_moments(lens, wavelength_nm, fp=object_field_point(lens, object_value), z0_mm=z0_mm, device=device)
+#: focus moments already traced, per (lens, wavelength, object value, plane, device): a comparison asks
+#: for each several times (at most _MOMENTS_KEPT kept)
+_MOMENTS: dict = {}
+_MOMENTS_KEPT = 64
+
+
+def _moments(lens: Lens, wavelengths_nm: Sequence[float], object_value: float, z0_mm: float, device: str | None):
+    """The focus moments of each wavelength on the plane ``z0_mm``, those not traced yet traced together."""
+    keys = [(lens, float(w), object_value, z0_mm, device) for w in wavelengths_nm]
+    missing = sorted({k[1] for k in keys if k not in _MOMENTS})
+    if missing:
+        got = focus_moments_many(lens, missing, fp=object_field_point(lens, object_value), z0_mm=z0_mm, device=device)
+        if len(_MOMENTS) + len(got) > _MOMENTS_KEPT:
+            _MOMENTS.clear()
+        _MOMENTS.update({(lens, w, object_value, z0_mm, device): m for w, m in zip(missing, got)})
+    return [_MOMENTS[k] for k in keys]
 
 
 def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weights: Sequence[float] | None = None,
@@ -233,7 +244,7 @@ def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weight
         table = dict(zip(lens.wavelengths.nm, lens.wavelengths.weights))
         weights = [table.get(w, 1.0) for w in wls]
     z_par = first_order(lens, lens.wavelengths.primary_nm).image_z_mm
-    moments = [_moments(lens, w, float(object_value), z_par, device) for w in wls]
+    moments = _moments(lens, wls, float(object_value), z_par, device)
     plane = best_focus_plane(moments, weights)
     return BestFocus(tuple(wls), tuple(float(x) for x in weights), float(object_value), plane.z_mm, z_par,
                      plane.z_mm - z_par, plane.rms_radius_mm, plane.rms_radius_z0_mm, plane.rays)

@@ -245,6 +245,10 @@ def pupil_outline(lens: Lens, object_value: float, wavelength_nm: float | None =
     return out
 
 
+#: bisection steps of a pupil outline per trace (2**_LEVELS - 1 rays per azimuth in each)
+_LEVELS = 3
+
+
 def pupil_outlines(lens: Lens, object_values: Sequence[float], wavelength_nm: float | None = None, *,
                    n_azimuth: int = 360, iterations: int = 40, clip: bool = True, tracer: str = "kernel",
                    iris: Iris | None = None, device: str | None = None,
@@ -295,10 +299,18 @@ def pupil_outlines(lens: Lens, object_values: Sequence[float], wavelength_nm: fl
     if not live:
         return results
     lo = np.zeros((len(fps), n_azimuth))
-    for _ in range(iterations):
-        mid = 0.5 * (lo[live] + hi[live])
-        ok = shoot(live, a0[live, None] + mid * cos, b0[live, None] + mid * sin)[0]
-        lo[live], hi[live] = np.where(ok, mid, lo[live]), np.where(ok, hi[live], mid)
+    # bisection, _LEVELS steps per trace: the 2**_LEVELS - 1 points that split [lo, hi] into equal parts are traced
+    # together; the new bracket is the part where the first ray that fails lies (as bisection, step by step, finds it)
+    frac = np.arange(1, 2 ** _LEVELS) / 2 ** _LEVELS
+    for _ in range(-(-iterations // _LEVELS)):
+        w = (hi[live] - lo[live])[:, :, None]
+        pts = lo[live][:, :, None] + w * frac  # (L, n_azimuth, 2**_LEVELS - 1)
+        ok = shoot(live, (a0[live, None, None] + pts * cos[:, None]).reshape(len(live), -1),
+                   (b0[live, None, None] + pts * sin[:, None]).reshape(len(live), -1))[0].reshape(pts.shape)
+        first_fail = np.where(ok.all(axis=2), len(frac), np.argmin(ok, axis=2))  # index of the first failing point
+        below = np.take_along_axis(np.concatenate([lo[live][:, :, None], pts], axis=2), first_fail[:, :, None], 2)
+        above = np.take_along_axis(np.concatenate([pts, hi[live][:, :, None]], axis=2), first_fail[:, :, None], 2)
+        lo[live], hi[live] = below[:, :, 0], above[:, :, 0]
     ok, dirs, pos = shoot(live, a0[live, None] + lo[live] * cos, b0[live, None] + lo[live] * sin)
     ch_img = trace64(lens, RayBatch(np.concatenate([chs[k].origin_mm for k in live]),
                                     np.concatenate([chs[k].direction for k in live]), wl), device)

@@ -157,11 +157,12 @@ def _per_batch_sums(lens: Lens, object_values: np.ndarray, wavelength_nm: float,
     area (mm^2) or projected solid angle (sr), rays per source, seconds (all) and the stream kernel's
     seconds."""
     from ...trace.sampling import spectrum_discrete
-    from ...trace.stream import Grid, stream, stream_source
+    from ...trace.stream import Grid, stream, stream_sources
     fps = [object_field_point(lens, float(v)) for v in object_values]
     t0 = time.perf_counter()
-    sources = [stream_source(lens, field=fp, centre_mm=(0.0, 0.0), wavelengths_nm=[wavelength_nm], device=device)
-               for fp in fps]
+    # every field point's pupil box in one batched pass (the same sources as stream_source one by one)
+    sources = stream_sources(lens, fps, centres_mm=[(0.0, 0.0)] * len(fps), layers=[0] * len(fps),
+                             wavelengths_nm=[wavelength_nm], device=device)
     res = stream(lens, sources, Grid(1, 1, 1.0), rays, spectrum=spectrum_discrete([wavelength_nm], [1.0]),
                  sampler=sampler, seed=seed, batches=batches, precision=precision, device=device)
     n_b = res.rays_per_source // res.batches

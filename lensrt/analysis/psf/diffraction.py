@@ -51,10 +51,10 @@ from ..grid import ImageGrid
 from .result import PsfResult, diffraction_result
 from .setup import PsfSetup
 from .geometric import FieldGeometry, add_mtf_estimates, prepare_field
-from ..pupil_rays import field_xy_of
+from ..pupil_rays import chief_rays_at_many, field_xy_of
 from ..wave.wavefront import pupil_function_from_wavefront, trace_wavefronts
 
-__all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet"]
+__all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet", "wavefront_chief_wavelengths"]
 
 #: ray-grid interpolation error goal (waves) and pupil phase-step limit (waves per cell)
 _INTERP_GOAL_WAVES = 0.02
@@ -64,12 +64,17 @@ _PHASE_STEP_MAX = 0.5
 class WavefrontSet:
     """Traced wavefronts of one field point with the ray grid adapted to the interpolation goal."""
 
-    def __init__(self, setup: PsfSetup, geom: FieldGeometry, device: str | None = None) -> None:
+    def __init__(self, setup: PsfSetup, geom: FieldGeometry, device: str | None = None, chief=None) -> None:
         spec = setup.spectrum
         m = int(setup.ray_grid)
+        if chief is None:  # the chief rays do not depend on the grid: traced once (chief_rays_at_many's entry)
+            chief = chief_rays_at_many(setup.lens, [geom.fp], wavefront_chief_wavelengths(setup), setup.plane_z_mm,
+                                       device)[0]
+        if isinstance(chief, LensrtError):
+            raise chief
         while True:
             wfs = trace_wavefronts(setup.lens, geom.fp, geom.box, spec.lines_nm, setup.plane_z_mm, m,
-                                   spec.primary_nm, device)
+                                   spec.primary_nm, device, chief)
             err = max(w.interp_error_waves for w in wfs)
             if err <= _INTERP_GOAL_WAVES or m >= setup.max_ray_grid:
                 break
@@ -90,6 +95,11 @@ class WavefrontSet:
     def pupils(self, n: int):
         out = [pupil_function_from_wavefront(w, n) for w in self.wavefronts]
         return [p for p, _ in out], [i for _, i in out]
+
+
+def wavefront_chief_wavelengths(setup: PsfSetup) -> list[float]:
+    """The wavelengths (nm) of a field's chief rays for :class:`WavefrontSet`: the primary, then the lines."""
+    return [float(setup.spectrum.primary_nm)] + [float(v) for v in setup.spectrum.lines_nm]
 
 
 def choose_method(setup: PsfSetup, wset: WavefrontSet) -> tuple[str, str]:

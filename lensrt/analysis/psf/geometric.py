@@ -133,7 +133,7 @@ def _window(setup: PsfSetup, half: float) -> tuple[float, int, float]:
 def psf_windows(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None = None, n_side: int = 48
                 ) -> list[tuple[float, int, float]]:
     """(pitch_um, pixels, pilot half-width mm) of the grid of each field (module docstring, step 2):
-    the pilot grids of all fields traced together, one trace per wavelength."""
+    the pilot grids of all fields at all wavelengths traced together (one launch)."""
     from ...trace import RayBatch, trace
     spec = setup.spectrum
     sets = [pupil_grid_rays(g.fp, g.box, n_side) for g in geoms]
@@ -142,11 +142,15 @@ def psf_windows(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None 
     m = n_side * n_side
     ref = np.repeat(np.array([g.reference_mm for g in geoms], dtype=np.float64), m, axis=0)
     half = np.zeros(len(geoms))
-    for wl in sorted({spec.min_nm, spec.primary_nm, spec.max_nm}):
-        r = trace(setup.lens, RayBatch(o, d, np.full(len(o), float(wl))), "float64", device,
-                  plane_z_mm=setup.plane_z_mm)
-        dev = np.max(np.abs(r.position_mm[:, :2] - ref), axis=1)
-        dev = np.where(r.ok, dev, 0.0).reshape(len(geoms), m)
+    wls = sorted({spec.min_nm, spec.primary_nm, spec.max_nm})
+    n = len(o)
+    r = trace(setup.lens, RayBatch(np.tile(o, (len(wls), 1)), np.tile(d, (len(wls), 1)),
+                                   np.repeat(np.asarray(wls, dtype=np.float64), n)), "float64", device,
+              plane_z_mm=setup.plane_z_mm)
+    for j in range(len(wls)):
+        pos, ok = r.position_mm[j * n:(j + 1) * n], r.ok[j * n:(j + 1) * n]
+        dev = np.max(np.abs(pos[:, :2] - ref), axis=1)
+        dev = np.where(ok, dev, 0.0).reshape(len(geoms), m)
         half = np.maximum(half, dev.max(axis=1))
     return [_window(setup, float(h)) for h in half]
 

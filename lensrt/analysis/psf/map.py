@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -32,19 +32,25 @@ from ..fields import FieldSpec
 from .result import PsfResult
 from .setup import PsfSetup
 
+if TYPE_CHECKING:
+    from .geometric import FieldGeometry
+
 __all__ = ["PsfMap", "psf_at", "psf_map_job", "run_psf_item", "run_psf_group", "prepare_psf", "collect_map",
            "map_arrays", "psf_map_workload", "run_psf_map", "default_groups", "field_seeds", "WORKLOAD_PRESETS"]
 
 
-def psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | None = None) -> PsfResult:
-    """The PSF of one field point by ``setup.method`` (``auto``: per the rules of :mod:`.diffpsf`)."""
+def psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | None = None,
+           geom: FieldGeometry | None = None, chief=None) -> PsfResult:
+    """The PSF of one field point by ``setup.method`` (``auto``: per the rules of :mod:`.diffpsf`);
+    ``geom``, ``chief``: the field's :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometry and
+    :func:`~lensrt.analysis.pupil_rays.chief_rays_at_many` entry when already found."""
     from .geometric import geometric_psf_at, prepare_field
     if setup.method == "geometric":
-        return geometric_psf_at(setup, f, seed, device)
+        return geometric_psf_at(setup, f, seed, device, geom)
     from .diffraction import WavefrontSet, choose_method, diffraction_psf_at
     t0 = time.perf_counter()
-    geom = prepare_field(setup, f, device)
-    wset = WavefrontSet(setup, geom, device)
+    geom = prepare_field(setup, f, device) if geom is None else geom
+    wset = WavefrontSet(setup, geom, device, chief)
     method, reason = choose_method(setup, wset)
     if method == "geometric":
         res = geometric_psf_at(setup, f, seed, device, geom, reason=reason)
@@ -74,7 +80,15 @@ def run_psf_group(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence[
     if setup.method == "geometric":
         from .groups import geometric_psfs
         return geometric_psfs(setup, fields, seeds, device)
-    return [psf_at(setup, f, int(s), device) for f, s in zip(fields, seeds)]
+    from ..pupil_rays import chief_rays_at_many
+    from .diffraction import wavefront_chief_wavelengths
+    from .geometric import prepare_fields
+    # the pupil boxes and chief rays of every field in one batched search, and the wavefronts' chief rays
+    # at every wavelength in another (the same as field by field)
+    geoms = prepare_fields(setup, list(fields), device)
+    chiefs = chief_rays_at_many(setup.lens, [g.fp for g in geoms], wavefront_chief_wavelengths(setup),
+                                setup.plane_z_mm, device)
+    return [psf_at(setup, f, int(s), device, g, c) for f, s, g, c in zip(fields, seeds, geoms, chiefs)]
 
 
 def run_psf_item(item: WorkItem, setup: PsfSetup, device: str) -> PsfResult | list[PsfResult]:

@@ -9,20 +9,23 @@ from typing import Sequence
 from ...errors import LensrtError
 from ..fields import FieldSpec
 from ..wave.metrics import WavefrontMetrics, wavefront_metrics
-from .diffraction import WavefrontSet
-from .geometric import prepare_field
+from ..pupil_rays import chief_rays_at_many
+from .diffraction import WavefrontSet, wavefront_chief_wavelengths
+from .geometric import FieldGeometry, prepare_field, prepare_fields
 from .setup import PsfSetup
 
 __all__ = ["wavefront_error", "wavefront_error_table"]
 
 
 def wavefront_error(setup: PsfSetup, f: FieldSpec, *, reference: str = "chief", n_terms: int = 37,
-                    device: str | None = None) -> list[WavefrontMetrics]:
+                    device: str | None = None, geom: FieldGeometry | None = None, chief=None) -> list[WavefrontMetrics]:
     """The wavefront metrics of field ``f`` at each wavelength of the set-up's spectrum (its lines), at the
-    set-up's focus plane; the ray grid adapted to the interpolation goal as for diffraction PSFs."""
+    set-up's focus plane; the ray grid adapted to the interpolation goal as for diffraction PSFs.
+    ``geom``, ``chief``: the field's :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometry and
+    :func:`~lensrt.analysis.pupil_rays.chief_rays_at_many` entry when already found."""
     t0 = time.perf_counter()
-    geom = prepare_field(setup, f, device)
-    wset = WavefrontSet(setup, geom, device)
+    geom = prepare_field(setup, f, device) if geom is None else geom
+    wset = WavefrontSet(setup, geom, device, chief)
     out = []
     for wf in wset.wavefronts:
         m = wavefront_metrics(wf, reference=reference, n_terms=n_terms, pupil_samples=int(setup.pupil_samples))
@@ -40,9 +43,16 @@ def wavefront_error_table(setup: PsfSetup, fields: Sequence[FieldSpec], *, refer
     """RMS WFE (no tilt) and Strehl against field at the primary wavelength: one dict per field that could be
     traced (a field that cannot is listed with its reason)."""
     rows = []
-    for f in fields:
+    fields = list(fields)
+    try:  # the pupil boxes and chief rays of every field in one batched search, the wavefronts' chief rays in another
+        geoms = prepare_fields(setup, fields, device)
+        chiefs = chief_rays_at_many(setup.lens, [g.fp for g in geoms], wavefront_chief_wavelengths(setup),
+                                    setup.plane_z_mm, device)
+    except LensrtError:  # some field cannot be traced: each field on its own, to say which
+        geoms, chiefs = [None] * len(fields), [None] * len(fields)
+    for f, geom, chief in zip(fields, geoms, chiefs):
         try:
-            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device)
+            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device, geom=geom, chief=chief)
         except LensrtError as err:
             rows.append({"field": f.label, "error": str(err)})
             continue

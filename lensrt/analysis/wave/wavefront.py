@@ -178,20 +178,24 @@ def _amplitude(px: np.ndarray, py: np.ndarray, ok: np.ndarray, weight: np.ndarra
 
 
 def trace_wavefronts(lens: Lens, fp, box, wavelengths_nm: Sequence[float], plane_z_mm: float, m: int,
-                     primary_nm: float | None = None, device: str | None = None) -> list[RayWavefront]:
-    """Trace an m x m ray grid over ``box`` at each wavelength; OPDs to the common reference sphere."""
-    from ..pupil_rays import chief_ray_at, trace_pupil_rays
+                     primary_nm: float | None = None, device: str | None = None, chief=None) -> list[RayWavefront]:
+    """Trace an m x m ray grid over ``box`` at each wavelength; OPDs to the common reference sphere.
+    ``chief``: the :func:`~lensrt.analysis.pupil_rays.chief_ray_at` result at [primary] + wavelengths when
+    already traced."""
+    from ..pupil_rays import chief_ray_at, trace_pupil_rays_many
     wls = [float(v) for v in wavelengths_nm]
     prim = float(primary_nm if primary_nm is not None else lens.wavelengths.primary_nm)
-    chief_all = chief_ray_at(lens, fp, [prim] + wls, plane_z_mm, device)
+    chief_all = chief_ray_at(lens, fp, [prim] + wls, plane_z_mm, device) if chief is None else chief
     sphere = reference_sphere(lens, chief_all.position_mm[0], chief_all.direction[0])
     dc = chief_all.direction[0]
     rays: PupilRays = pupil_grid_rays(fp, box, m)
     traced = []
+    # every wavelength's grid in one trace, clipped and unclipped (two launches)
+    all_clipped = trace_pupil_rays_many(lens, rays, wls, plane_z_mm, device)
+    all_free = trace_pupil_rays_many(lens, rays, wls, plane_z_mm, device, clip=False)
     for k, wl in enumerate(wls):
         n_img = float(lens.indices(wl)[-1])
-        clipped = trace_pupil_rays(lens, rays, wl, plane_z_mm, device)
-        free = trace_pupil_rays(lens, rays, wl, plane_z_mm, device, clip=False)
+        clipped, free = all_clipped[k], all_free[k]
         ok = clipped.ok
         placed = free.ok  # rays that can be put in the pupil (their unclipped path exists)
         s = opd_to_sphere_mm(clipped.position_mm, clipped.direction, clipped.opl_mm, n_img, sphere)
