@@ -41,10 +41,38 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="render only these sensor pixels (rows R0..R1-1, columns C0..C1-1)")
     p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
     p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
+    t = p.add_argument_group("tilt-shift camera (the whole lens moved in front of the fixed sensor, after focusing; "
+                             "overrides the scene's [camera] lens_tilt_deg, lens_swing_deg, lens_shift_mm; "
+                             "docs/guide/tilt-shift.md)")
+    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
+                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
+                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
+    t.add_argument("--lens-swing-deg", type=float, metavar="S",
+                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
+    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
     add_max_memory_argument(p)
     from ._parallel import add_parallel_arguments
     add_parallel_arguments(p)
     p.set_defaults(func=cmd_render)
+
+
+def _tilt_shift(args: argparse.Namespace, scene):
+    """``scene`` with --lens-tilt-deg / --lens-swing-deg / --lens-shift-mm put into its camera block."""
+    import math
+    from dataclasses import replace
+    from .bokeh import parse_pair
+    cam = scene.camera
+    changes = {}
+    for opt, key in (("lens_tilt_deg", "lens_tilt_rad"), ("lens_swing_deg", "lens_swing_rad")):
+        v = getattr(args, opt, None)
+        if v is not None:
+            if not (math.isfinite(v) and abs(v) < 45.0):
+                raise LensrtError(f"--{opt.replace('_', '-')} {v:g} must be a finite angle below 45 deg",
+                                  hint="tilt-shift lenses tilt and swing by a few degrees (about 8 to 15 at most)")
+            changes[key] = math.radians(v)
+    if getattr(args, "lens_shift_mm", None) is not None:
+        changes["lens_shift_mm"] = parse_pair(args.lens_shift_mm, "--lens-shift-mm", True)
+    return replace(scene, camera=replace(cam, **changes)) if changes else scene
 
 
 def _load_lens_or_note(scene, override: str | None):
@@ -70,7 +98,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             for r in rows:
                 emit(f"{r['name']:<{width}}  {r['description']}")
         return 0
-    scene = load_scene(args.scene)
+    scene = _tilt_shift(args, load_scene(args.scene))
     if args.preview:
         return _preview(args, scene)
     from ._render_run import options_from_args
