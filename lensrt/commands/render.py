@@ -43,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
     t = p.add_argument_group("tilt-shift camera (the whole lens moved in front of the fixed sensor, after focusing; "
                              "overrides the scene's [camera] lens_tilt_deg, lens_swing_deg, lens_shift_mm; "
-                             "docs/guide/tilt-shift.md)")
+                             "docs/guide/reflex.md)")
     t.add_argument("--lens-tilt-deg", type=float, metavar="T",
                    help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
                         "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
