@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..errors import LensrtError
 from ._common import emit, print_json
@@ -41,15 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="render only these sensor pixels (rows R0..R1-1, columns C0..C1-1)")
     p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
     p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
-    t = p.add_argument_group("tilt-shift camera (the whole lens moved in front of the fixed sensor, after focusing; "
-                             "overrides the scene's [camera] lens_tilt_deg, lens_swing_deg, lens_shift_mm; "
-                             "docs/guide/reflex.md)")
-    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
-                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
-                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
-    t.add_argument("--lens-swing-deg", type=float, metavar="S",
-                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
-    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
+    from .bokeh import add_tilt_shift_arguments
+    add_tilt_shift_arguments(p, "tilt-shift camera (the whole lens moved in front of the fixed sensor, after "
+                                "focusing; overrides the scene's [camera] lens_tilt_deg, lens_swing_deg, "
+                                "lens_shift_mm; docs/guide/reflex.md)")
     add_max_memory_argument(p)
     from ._parallel import add_parallel_arguments
     add_parallel_arguments(p)
@@ -58,7 +54,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _tilt_shift(args: argparse.Namespace, scene):
     """``scene`` with --lens-tilt-deg / --lens-swing-deg / --lens-shift-mm put into its camera block."""
-    import math
     from dataclasses import replace
     from .bokeh import parse_pair
     cam = scene.camera
@@ -125,13 +120,16 @@ def _plan(args: argparse.Namespace, checked, lens) -> int:
     if args.json:
         print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": None,
                     "camera": {"f_number": cam.f_number, "focus_distance_mm": cam.focus_distance_mm,
-                               "sensor_z_mm": cam.sensor_z_mm},
+                               "sensor_z_mm": cam.sensor_z_mm, "lens_tilt_rad": cam.tilt_rad,
+                               "lens_swing_rad": cam.swing_rad, "lens_shift_mm": list(cam.shift_mm)},
                     "memory": {"estimate_bytes": checked.memory.bytes, "detail": checked.memory.detail}})
         return 0
     emit(scene.summary())
     emit("")
     emit(plan.describe())
-    emit(f"  camera       f/{cam.f_number:.3g}, focus {focus}, sensor at z = {cam.sensor_z_mm:.4f} mm")
+    moved = (f"; lens tilted {math.degrees(cam.tilt_rad):g} deg, swung {math.degrees(cam.swing_rad):g} deg, shifted "
+             f"({cam.shift_mm[0]:g}, {cam.shift_mm[1]:g}) mm" if cam.is_tilt_shift else "")
+    emit(f"  camera       f/{cam.f_number:.3g}, focus {focus}, sensor at z = {cam.sensor_z_mm:.4f} mm{moved}")
     emit(f"  memory       about {format_bytes(checked.memory.bytes)} ({checked.memory.detail})")
     return 0
 

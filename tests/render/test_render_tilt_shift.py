@@ -276,3 +276,16 @@ def test_tilt_shift_bad_input_gets_one_clear_error(tmp_path) -> None:
     scene.write_text(CHART.format(camera=""))
     assert main(["render", str(scene), "--lens-tilt-deg", "60", "--device", "cpu", "-o", str(tmp_path / "x")]) == 2
     assert main(["render", str(scene), "--lens-shift-mm", "a,b", "--device", "cpu", "-o", str(tmp_path / "x")]) == 2
+
+
+def test_cli_render_takes_the_tilt_shift_options(capsys) -> None:
+    """--lens-tilt-deg / --lens-swing-deg / --lens-shift-mm reach the camera (the plan shows it, as JSON)."""
+    import json
+
+    from lensrt.cli import main
+    assert main(["render", "sodium_star_test", "--plan", "--json", "--lens-tilt-deg", "5", "--lens-swing-deg", "-2",
+                 "--lens-shift-mm", "1,2"]) == 0
+    cam = json.loads(capsys.readouterr().out)["camera"]
+    assert cam["lens_tilt_rad"] == pytest.approx(math.radians(5.0), abs=1e-15)
+    assert cam["lens_swing_rad"] == pytest.approx(math.radians(-2.0), abs=1e-15)
+    assert cam["lens_shift_mm"] == [1.0, 2.0]
