@@ -516,6 +516,11 @@ class _Seq:
         if ref is not None and len(ref[0]) != 1:
             raise self.err(f"REF needs one wavelength number, not {len(ref[0])}", ref[1], "e.g. REF 2")
         primary = int(ref[0][0]) - 1 if ref else len(nm) // 2
+        if ref is None and len(nm) > 1:
+            self.warnings.append(LoadWarning(
+                "assumed_default", f"no REF command: the reference wavelength is the middle one, {nm[primary]:g} nm "
+                "(CODE V's default is not documented in any source lensrt found; rayoptics takes the first)",
+                None, wl_line))
         if not 0 <= primary < len(nm):
             raise self.err(f"REF {primary + 1} is not one of the {len(nm)} wavelengths", ref[1] if ref else None)
         with located(path, wl_line):
