@@ -103,6 +103,13 @@ class ParabasalFirstOrder:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
 
+def _ratio(num: float, den: float) -> float:
+    """num / den, or a signed inf where den vanishes (an afocal section: focal lengths beyond 1e12 mm)."""
+    if abs(den) < 1e-12 * max(abs(num), 1e-300):
+        return math.copysign(math.inf, num) * (1.0 if den >= 0.0 else -1.0)
+    return float(num / den)
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
@@ -230,25 +237,30 @@ def parabasal_first_order(lens: Lens, wavelength_nm: float | None = None,
     n0, n1 = rays.n_obj, rays.n_img
     inf = math.inf
     X, Y, U, V = 0, 1, 2, 3
+    efl_y, efl_x = _ratio(-1.0, n1 * m[V, Y]), _ratio(-1.0, n1 * m[U, X])
     if rays.infinite:
-        efl_y, efl_x = -1.0 / (n1 * m[V, Y]), -1.0 / (n1 * m[U, X])
-        bfl_y, bfl_x = -m[Y, Y] / m[V, Y], -m[X, X] / m[U, X]
+        bfl_y, bfl_x = _ratio(-m[Y, Y], m[V, Y]), _ratio(-m[X, X], m[U, X])
         mag_y = mag_x = 0.0
         img_y, img_x = bfl_y, bfl_x
     else:
-        efl_y, efl_x, bfl_y, bfl_x = -1.0 / (n1 * m[V, Y]), -1.0 / (n1 * m[U, X]), inf, inf
-        mag_y, mag_x = n0 / (n1 * m[V, V]), n0 / (n1 * m[U, U])
-        img_y, img_x = -m[Y, V] / m[V, V], -m[X, U] / m[U, U]
+        bfl_y = bfl_x = inf
+        mag_y, mag_x = _ratio(n0, n1 * m[V, V]), _ratio(n0, n1 * m[U, U])
+        img_y, img_x = _ratio(-m[Y, V], m[V, V]), _ratio(-m[X, U], m[U, U])
     # the neighbour through the stop centre with unit slope v: offsets that keep the stop intercept still
     dxy = np.linalg.solve(s[:, :2], -s[:, V])
     w = np.array([dxy[0], dxy[1], 0.0, 1.0])
     out = m @ w
     ep = -dxy[1] - (0.0 if rays.infinite else float(np.linalg.norm(rays.hit_global(rays.base, 0)[0] - rays.p0)))
-    xp = -out[Y] / out[V]
-    mp = n0 / (n1 * out[V])
+    xp = _ratio(-out[Y], out[V])
+    mp = _ratio(n0, n1 * out[V])
     epd = first_order(lens, wl).entrance_pupil_diameter_mm
-    coupling = max(abs(m[X, Y]), abs(m[Y, X]), abs(m[U, Y]) * abs(efl_y), abs(m[V, X]) * abs(efl_x)) / \
-        max(abs(m[Y, Y]), abs(m[X, X]), 1e-300)
+    # x-y coupling: the largest term linking the x-z and y-z sections over the largest within them, offsets
+    # measured in entrance-pupil diameters so that lengths and slopes weigh alike
+    scale = np.array([epd, epd, 1.0, 1.0])
+    md = np.abs(m * scale[None, :] / scale[:, None])
+    xs, ys = [X, U], [Y, V]
+    within = max(md[np.ix_(xs, xs)].max(), md[np.ix_(ys, ys)].max())
+    coupling = max(md[np.ix_(xs, ys)].max(), md[np.ix_(ys, xs)].max()) / within
     img_pt, img_dir = rays.hit_global(rays.base, lens.n_surfaces)
     return ParabasalFirstOrder(
         method=FIRST_ORDER_METHOD, wavelength_nm=wl, efl_y_mm=float(efl_y), efl_x_mm=float(efl_x),

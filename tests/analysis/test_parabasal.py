@@ -164,3 +164,15 @@ def test_info_labels_the_method(capsys, tmp_path) -> None:
     assert main(["info", str(centred), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["first_order_method"] == "paraxial ynu" and "parabasal" not in d
+
+
+def test_afocal_section_gives_infinite_focal_data() -> None:
+    """A Keplerian telescope of two ideal lenses (f 100 and 25 mm, 125 mm apart): dv'/dy vanishes, so the
+    focal quantities are inf, and the pupil magnification is the y-nu trace's 1/M = 0.25 in size."""
+    lens = Lens((Surface(0.0, 125.0, AIR, ideal_focal_mm=100.0, is_stop=True),
+                 Surface(0.0, 30.0, AIR, ideal_focal_mm=25.0)), aperture=Aperture("epd", 10.0),
+                fields=Fields("angle", (0.0,)), wavelengths=Wavelengths((587.5618,)))
+    p, f = parabasal_first_order(lens), first_order(lens)
+    assert f.afocal and math.isinf(p.efl_y_mm) and math.isinf(p.bfl_x_mm) and math.isinf(p.f_number_y)
+    assert abs(p.pupil_magnification) == pytest.approx(f.pupil_magnification, rel=REL)
+    assert p.to_dict()["efl_y_mm"] is None
