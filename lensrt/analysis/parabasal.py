@@ -32,9 +32,11 @@ section (x into x', u') separately, with the same signs as the y-nu trace
   space) and the exit pupil (image space); pupil magnification ``n/(n' v')``.
 
 Signs after mirrors follow the y-nu trace: the image-space frame's z is the
-image surface's z (light travels toward -z after an odd number of mirrors,
-``n'`` is then negative), its x the image surface's x made normal to the base
-ray. For a rotationally symmetric lens the base ray is the axis and every
+base ray's direction, reversed after an odd number of mirrors (light travels
+toward -z there and ``n'`` is negative), its x the object-space x axis carried
+along the base ray (at each surface the component normal to the plane of
+incidence is kept, the in-plane one turns with the ray), so that a flat fold
+mirror tilted about any axis does not rotate the sections. For a rotationally symmetric lens the base ray is the axis and every
 number equals the y-nu trace's (``tests/analysis/test_parabasal.py``: 1e-8
 relative).
 """
@@ -182,10 +184,27 @@ class _Rays:
         self.p_img, k_img = self.hit_global(base, self.lens.n_surfaces - 1)
         self.k_img = k_img
         self.ez1 = self.sign_img * k_img
-        ax = self.frames[-1][1][:, 0]
+        ax = self.transported_x(base)
         self.ex1 = _unit(ax - (ax @ self.ez1) * self.ez1)
         self.ey1 = np.cross(self.ez1, self.ex1)
         self.base = base
+
+    def transported_x(self, base) -> np.ndarray:
+        """The object-space x axis carried along the base ray to image space: at each surface the component
+        normal to the plane of incidence (s) is kept and the in-plane one (q = d x s) turns with the ray
+        (a refraction: a rotation about s) or is mirrored with it (a reflection: e - 2 (e.n) n, q -> -q')."""
+        e, d_in = self.ex0.copy(), self.k0
+        for i, surf in enumerate(self.lens.surfaces):
+            d_out = self.hit_global(base, i)[1]
+            s = np.cross(d_in, d_out)
+            if np.linalg.norm(s) > 1e-14:  # the ray turned: move e with it (else e stays normal to it)
+                s = _unit(s)
+                q_sign = -1.0 if surf.mirror else 1.0
+                e = (e @ s) * s + q_sign * (e @ np.cross(d_in, s)) * np.cross(d_out, s)
+            elif surf.mirror:  # normal incidence on a mirror: d_out = -d_in, e is its own mirror image
+                pass
+            d_in = d_out
+        return e
 
     def image_state(self, r) -> np.ndarray:
         """(x', y', u', v') of ray ``r`` about the base ray, image-space reference plane."""

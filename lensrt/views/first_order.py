@@ -32,6 +32,7 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
         if sensor is not None:
             raise LensrtError("the lens is afocal: it forms no image on a sensor", hint="leave out --sensor")
         return {"lens": lens.name, "path": lens.path, **fo.to_dict(),
+                "first_order_method": YNU_METHOD + (" (unfolded axis)" if fo.unfolded_axis else ""),
                 "field_image_heights_mm": list(fo.field_image_heights_mm), "seidel": None,
                 "warnings": [w.to_dict() for w in lens.warnings]}
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
@@ -118,9 +119,11 @@ def parabasal_data(lens, fo, object_distance_mm: float | None = None) -> dict[st
     real rays about the central field's chief ray (:mod:`lensrt.analysis.parabasal`).
 
     The method is ``"real-ray parabasal about chief ray"`` when those data differ from the y-nu trace of the
-    unfolded axis (a genuinely decentred or tilted system: more than 1e-6 relative in a focal length or
-    focal distance); a lens whose unfolded axis they confirm (tilted flat fold mirrors) keeps
-    ``"paraxial ynu"``. ``parabasal_error`` says why the real rays could not give them.
+    unfolded axis (a genuinely decentred or tilted system: more than 1e-6 relative in the EFL of either
+    section, or for a finite object in its magnification); a lens whose unfolded axis they confirm (flat fold
+    mirrors, tilted and decentred as they may be; a lens shifted as a whole) keeps ``"paraxial ynu"``. Back
+    focal distances are not compared: they run from the chief ray's hit on the last surface, which a
+    decentred fold mirror moves along the beam. ``parabasal_error`` says why the real rays could not give them.
     """
     from ..analysis.parabasal import FIRST_ORDER_METHOD, parabasal_first_order
     from ..errors import LensrtError
@@ -132,9 +135,7 @@ def parabasal_data(lens, fo, object_distance_mm: float | None = None) -> dict[st
         return {"first_order_method": YNU_METHOD + " (unfolded axis)", "parabasal": None,
                 "parabasal_error": str(exc)}
     pairs = [(p.efl_y_mm, fo.efl_mm), (p.efl_x_mm, fo.efl_mm)]
-    if fo.object_distance_mm is None:
-        pairs += [(p.bfl_y_mm, fo.bfl_mm), (p.bfl_x_mm, fo.bfl_mm)]
-    else:
+    if fo.object_distance_mm is not None:
         pairs += [(p.magnification_y, fo.magnification), (p.magnification_x, fo.magnification)]
     agree = all(abs(a - b) <= 1e-6 * max(abs(b), 1e-9) for a, b in pairs)
     return {"first_order_method": YNU_METHOD + " (unfolded axis)" if agree else FIRST_ORDER_METHOD,

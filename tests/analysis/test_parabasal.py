@@ -75,6 +75,36 @@ def test_fold_mirror_equals_the_unfolded_axis() -> None:
     assert info_data(lens)["first_order_method"] == "paraxial ynu (unfolded axis)"
 
 
+def test_decentred_compound_fold_keeps_the_focal_length() -> None:
+    """tests/data/folded_obscured.zmx: the singlet's beam folded by a flat mirror decentred 0.5 mm and tilted
+    45 deg about x and 2 deg about y. A flat mirror has no power, so the focal length in both sections is the
+    singlet's (y-nu) -- which holds only if the sections are carried through the compound fold (the image
+    surface's own x axis is turned 1.4 deg about the beam: read there, the EFL would be f / cos 1.4 deg)."""
+    lens = load_lens(ROOT / "tests/data/folded_obscured.zmx")
+    p, f = parabasal_first_order(lens), first_order(lens)
+    assert p.efl_y_mm == pytest.approx(f.efl_mm, rel=REL) and p.efl_x_mm == pytest.approx(f.efl_mm, rel=REL)
+    assert p.coupling < 1e-8
+    assert info_data(lens)["first_order_method"] == "paraxial ynu (unfolded axis)"
+
+
+def test_off_axis_parabola_focuses_at_its_focal_radius() -> None:
+    """tests/data/readers_keywords.zmx: a 90 deg off-axis parabola (R = -190.6 mm, k = -1) fed by a
+    collimated beam parallel to its axis. Every such ray reflects to the focus (stigmatic), at the distance
+    f + r^2 / (4 f) from its hit (the focus-directrix property; f = R/2 in size, r the hit's distance from
+    the parabola's axis): both sections' EFL and back focal distance are that distance."""
+    lens = load_lens(ROOT / "tests/data/readers_keywords.zmx")
+    p = parabasal_first_order(lens)
+    mirror = next(i for i, s in enumerate(lens.surfaces) if s.mirror)
+    wl = lens.wavelengths.nm[lens.wavelengths.primary]
+    hit = trace_reference(lens, p.chief_ray_origin_mm, p.chief_ray_direction, wl, clip=False).hits[mirror]
+    f = 0.5 / abs(lens.surfaces[mirror].curvature_per_mm)
+    expected = f + (hit.x_mm ** 2 + hit.y_mm ** 2) / (4.0 * f)
+    assert expected == pytest.approx(2 * f, rel=1e-9)  # the hit is 2 f off the axis: a 90 deg OAP
+    for got in (p.efl_y_mm, p.efl_x_mm, p.bfl_y_mm, p.bfl_x_mm):
+        assert abs(got) == pytest.approx(expected, rel=1e-9)
+    assert info_data(lens)["first_order_method"] == FIRST_ORDER_METHOD
+
+
 @pytest.mark.parametrize("theta_deg", [10.0, 25.0])
 def test_tilted_spherical_mirror_follows_coddington(theta_deg: float) -> None:
     r = -200.0  # concave toward the light
