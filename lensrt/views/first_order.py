@@ -148,7 +148,8 @@ def parabasal_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
     if not p:
         return []
     pair = lambda a, b, spec=".4f": f"{format_value(p[a], spec)} / {format_value(p[b], spec)}"  # noqa: E731
-    rows = [("EFL y-z / x-z section", pair("efl_y_mm", "efl_x_mm"), "mm")]
+    rows = [("first-order method (y-nu rows: the unfolded axis)", d["first_order_method"], ""),
+            ("EFL y-z / x-z section", pair("efl_y_mm", "efl_x_mm"), "mm")]
     if d["object_distance_mm"] is None:
         rows += [("back focal distance y-z / x-z (along the chief ray)", pair("bfl_y_mm", "bfl_x_mm"), "mm"),
                  ("f-number y-z / x-z", pair("f_number_y", "f_number_x"), "")]

@@ -34,7 +34,7 @@ from lensrt.prescription.materials import AIR
 from lensrt.prescription.model import Aperture, Fields, Lens, Surface, Wavelengths
 from lensrt.prescription.tilt_shift import tilt_shift_lens
 from lensrt.trace.reference import trace_reference
-from lensrt.views.first_order import info_data
+from lensrt.views.first_order import first_order_rows, info_data
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 REL = 1e-8
@@ -189,6 +189,9 @@ def test_info_labels_the_method(capsys, tmp_path) -> None:
     assert main(["info", str(path)]) == 0
     out = capsys.readouterr().out
     assert 'first_order_method = "real-ray parabasal about chief ray"' in out and "[parabasal]" in out
+    # the first-order table (lensrt info and the report) names the method in a row of its own
+    rows = first_order_rows(info_data(lens))
+    assert ("first-order method (y-nu rows: the unfolded axis) [parabasal]", FIRST_ORDER_METHOD, "") in rows
     centred = tmp_path / "plain.toml"
     centred.write_text(dumps_native(load_lens(ROOT / "tests/data/cooke_triplet.toml")))
     assert main(["info", str(centred), "--json"]) == 0
