@@ -70,8 +70,12 @@ class ParabasalFirstOrder:
     ``*_y`` is the y-z section, ``*_x`` the x-z section. Distances run along
     the base ray: ``bfl`` / ``image_distance`` / ``exit_pupil_distance`` from
     its hit on the last surface, ``entrance_pupil_distance`` from its hit on
-    surface 1. Focal quantities are ``inf`` for a finite-object-only quantity
-    and vice versa (``None`` in JSON via ``to_dict``).
+    surface 1. What does not apply is ``inf`` (the back focal distance and
+    f-number of a finite object, the focal data of an afocal section; ``None``
+    in JSON via ``to_dict``) or 0 (the magnification of an object at infinity).
+    The entrance-pupil diameter is the lens's aperture specification as
+    :func:`lensrt.paraxial.first_order` reads it (for an f-number aperture:
+    from the y-nu focal length of the unfolded axis).
     """
 
     method: str
@@ -178,9 +182,10 @@ class _Rays:
         self.ex0 = _unit(np.array([1.0, 0.0, 0.0]) - self.k0[0] * self.k0)
         self.ey0 = np.cross(self.k0, self.ex0)
         self.p0 = np.array(o)
-        if self.infinite:  # the object-space reference plane goes through the base ray's hit on surface 1
-            self.p0 = self.hit_global(self.trace(np.zeros(4)), 0)[0]
         base = self.trace(np.zeros(4))
+        if self.infinite:  # the object-space reference plane goes through the base ray's hit on surface 1
+            self.p0 = self.hit_global(base, 0)[0]
+            base = self.trace(np.zeros(4))
         self.p_img, k_img = self.hit_global(base, self.lens.n_surfaces - 1)
         self.k_img = k_img
         self.ez1 = self.sign_img * k_img
@@ -201,9 +206,7 @@ class _Rays:
                 s = _unit(s)
                 q_sign = -1.0 if surf.mirror else 1.0
                 e = (e @ s) * s + q_sign * (e @ np.cross(d_in, s)) * np.cross(d_out, s)
-            elif surf.mirror:  # normal incidence on a mirror: d_out = -d_in, e is its own mirror image
-                pass
-            d_in = d_out
+            d_in = d_out  # (normal incidence on a mirror, d_out = -d_in: e is its own mirror image)
         return e
 
     def image_state(self, r) -> np.ndarray:

@@ -30,7 +30,7 @@ reader and this one do not collide.
   ``lens convert`` keeps it as an explicit frame change. Source: OpticStudio's
   CODE V conversion macro maps ``RET Sk`` to a coordinate break with a
   coordinate-return solve ("Orientation, XYZ") to surface k
-  (``docs/guide/geometry.md``). ``RET`` with a decenter on the same surface,
+  (``docs/guide/decentred.md``). ``RET`` with a decenter on the same surface,
   ``RET`` in a zoom file and ``RET`` on ``SI`` are refused (their meaning is
   not documented in any source found).
 """
