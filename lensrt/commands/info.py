@@ -107,7 +107,8 @@ def _decentred_line(d: dict) -> str:
                 "(exact for tilted flat fold mirrors only)")
     if method.startswith("paraxial"):
         return (f"first_order_method = \"{method}\": the lens has tilts/decenters, and real rays about the central "
-                "field's chief ray confirm the paraxial data of its unfolded axis (rows marked [parabasal])")
+                "field's chief ray confirm the focal length of its unfolded axis (rows marked [parabasal]; their "
+                "distances run along the chief ray)")
     return (f"first_order_method = \"{method}\": the lens is genuinely decentred or tilted; its first-order data "
             "are the rows marked [parabasal] (real rays about the central field's chief ray, y-z and x-z sections, "
             "as CODE V); the other rows are the y-nu trace of the unfolded axis, for reference only")

@@ -148,8 +148,7 @@ def parabasal_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
     if not p:
         return []
     pair = lambda a, b, spec=".4f": f"{format_value(p[a], spec)} / {format_value(p[b], spec)}"  # noqa: E731
-    rows = [("first-order method (y-nu rows: the unfolded axis)", d["first_order_method"], ""),
-            ("EFL y-z / x-z section", pair("efl_y_mm", "efl_x_mm"), "mm")]
+    rows = [("EFL y-z / x-z section", pair("efl_y_mm", "efl_x_mm"), "mm")]
     if d["object_distance_mm"] is None:
         rows += [("back focal distance y-z / x-z (along the chief ray)", pair("bfl_y_mm", "bfl_x_mm"), "mm"),
                  ("f-number y-z / x-z", pair("f_number_y", "f_number_x"), "")]
@@ -162,7 +161,7 @@ def parabasal_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
              ("entrance / exit pupil diameter", pair("entrance_pupil_diameter_mm", "exit_pupil_diameter_mm"), "mm"),
              ("pupil magnification", format_value(p["pupil_magnification"]), ""),
              ("x-y coupling of the parabasal matrix", format_value(p["coupling"], ".3g"), "")]
-    return [(f"{a} [parabasal]", b, c) for a, b, c in rows]
+    return [("first-order method", d["first_order_method"], "")] + [(f"{a} [parabasal]", b, c) for a, b, c in rows]
 
 
 def first_order_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
