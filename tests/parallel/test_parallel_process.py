@@ -1,0 +1,147 @@
+"""Work stealing and the process-per-device executor, on CPU devices.
+
+Oracle: the one-device, one-thread run of the same job. Every other way of
+running it -- 2 or 3 threads, 2 or 3 worker processes, items finishing in the
+most shuffled order, a worker process killed in the middle of an item -- must
+give the same value bit for bit (the float reductions here change with the
+order of their additions, so an out-of-order fold would show).
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+
+import workload_mc_histogram as W
+import workload_order as O
+from lensrt.errors import LensrtError
+from lensrt.parallel import Job, LocalExecutor, ProcessExecutor, WorkItem, make_items
+
+
+@pytest.fixture(scope="module")
+def order_reference() -> dict:
+    return LocalExecutor("cpu").run(O.make_job(12)).value
+
+
+@pytest.fixture(scope="module")
+def procs():
+    """Two worker processes on the CPU, shared by the tests of this module."""
+    with ProcessExecutor("cpu,cpu") as ex:
+        yield ex
+
+
+def _check_stolen(value: dict, reference: dict) -> None:
+    assert value["sum"] == reference["sum"] and value["values"] == reference["values"]
+    runners = value["runners"]
+    # item 0's device ran nothing else: the other devices took every other item from the queue
+    assert runners[0] not in runners[1:]
+    assert len(set(runners)) >= 2
+
+
+def test_order_workload_really_depends_on_the_order(order_reference) -> None:
+    values = order_reference["values"]
+    backwards = 0.0
+    for v in reversed(values):
+        backwards += v
+    rotated = 0.0
+    for v in values[1:] + values[:1]:  # item 0 added last: the order it finishes in when blocked
+        rotated += v
+    assert backwards != order_reference["sum"] or rotated != order_reference["sum"]
+
+
+@pytest.mark.parametrize("devices", ["cpu,cpu", "cpu,cpu,cpu"])
+def test_threads_steal_work_and_fold_in_index_order(tmp_path, order_reference, devices) -> None:
+    res = LocalExecutor(devices).run(O.make_job(12, block_dir=str(tmp_path)))
+    _check_stolen(res.value, order_reference)
+    assert res.duplicates == 0
+
+
+def test_processes_steal_work_and_fold_in_index_order(tmp_path, order_reference, procs) -> None:
+    res = procs.run(O.make_job(12, block_dir=str(tmp_path)))
+    _check_stolen(res.value, order_reference)
+    assert len(set(res.item_workers)) == 2  # two processes (hostname:pid)
+    assert res.executor == "processes (cpu, cpu)"
+
+
+def test_two_processes_give_the_one_thread_psf_map(procs) -> None:
+    reference = LocalExecutor("cpu").run(W.make_job(8))
+    res = procs.run(W.make_job(8))
+    assert np.array_equal(res.value["map"], reference.value["map"])
+    assert np.array_equal(res.value["sum_of_unit_psfs"], reference.value["sum_of_unit_psfs"])
+    assert res.n_items == 8 and res.duplicates == 0 and len(set(res.item_workers)) == 2
+    # the processes stay up: a second job reuses them (no new process) and their prepared context
+    again = procs.run(W.make_job(8))
+    assert np.array_equal(again.value["map"], reference.value["map"])
+    assert again.meta["processes_started"] == res.meta["processes_started"] == 2
+    stats = procs_stats(procs)
+    assert len(stats) == 2 and all(s["prepare_calls"] == 1 for s in stats)  # once per process, never per item or per job
+
+
+def procs_stats(ex: ProcessExecutor) -> list[dict]:
+    """Each worker process's prepared-context counters, read by running a host-only job on each."""
+    out = {}
+    for _ in range(20):  # items go to whichever process is free: ask until both have answered
+        res = ex.run(Job(make_items([0] * 4), _stats, list, uses_device=False))
+        out.update({s["pid"]: s for s in res.value})
+        if len(out) == 2:
+            break
+    return list(out.values())
+
+
+def _stats(item: WorkItem, context: object, device: str) -> dict:
+    from lensrt.parallel import cache_stats
+    return cache_stats()
+
+
+def test_a_process_killed_mid_item_changes_nothing(tmp_path) -> None:
+    """The first attempt of item 3 kills its worker process; the item re-runs on a new one."""
+    marker = tmp_path / "killed"
+    setup = W.HistogramSetup(kill_marker=str(marker))
+    expect = LocalExecutor("cpu").run(W.make_job(8, setup=setup))
+    with ProcessExecutor("cpu,cpu") as ex:
+        res = ex.run(W.make_job(8, setup=setup, killing=True))
+        assert marker.read_text().startswith("killed pid")  # a worker really died mid-item
+        assert res.meta["processes_started"] == 3  # two, and one to replace the dead one
+        assert np.array_equal(res.value["map"], expect.value["map"])
+        assert np.array_equal(res.value["sum_of_unit_psfs"], expect.value["sum_of_unit_psfs"])
+        assert res.n_items == 8 and res.duplicates == 0
+
+
+def _always_dies(item: WorkItem, context: object, device: str) -> int:
+    import os
+    if item.index == 1:
+        os._exit(9)
+    return item.index
+
+
+def _fail_on_two(item: WorkItem, context: object, device: str) -> int:
+    if item.index == 2:
+        raise LensrtError("item two is bad", hint="fix it")
+    return item.index
+
+
+def test_errors_reach_the_caller_and_the_executor_stays_usable(procs) -> None:
+    with pytest.raises(LensrtError, match="item two is bad -- fix it"):
+        procs.run(Job(make_items(range(6)), _fail_on_two, list, name="failing"))
+    with pytest.raises(LensrtError, match="cannot be sent to a worker process"):
+        procs.run(Job(make_items(range(2)), lambda item, ctx, dev: 1, list, name="lambda"))
+    assert procs.run(Job(make_items(range(5)), _stats, list)).n_items == 5
+
+
+def test_an_item_that_kills_every_process_stops_the_job() -> None:
+    with ProcessExecutor("cpu", max_failures=2) as ex:
+        with pytest.raises(LensrtError, match=r"item 1 of job 'deadly' killed 2 worker processes"):
+            ex.run(Job(make_items(range(3)), _always_dies, list, name="deadly"))
+        assert ex.run(Job(make_items(range(3)), _stats, list)).n_items == 3  # fresh processes serve the next job
+
+
+def test_executor_option_builds_the_process_executor() -> None:
+    from lensrt.commands._parallel import add_parallel_arguments, executor_from_args
+    p = argparse.ArgumentParser()
+    add_parallel_arguments(p)
+    ex = executor_from_args(p.parse_args(["--devices", "cpu,cpu", "--executor", "process"]))
+    assert isinstance(ex, ProcessExecutor) and ex.devices == ["cpu", "cpu"]
+    ex.close()  # never started: nothing to stop
+    with pytest.raises(LensrtError, match="--executor process starts its own worker processes"):
+        executor_from_args(p.parse_args(["--executor", "process", "--workers", "2"]))
