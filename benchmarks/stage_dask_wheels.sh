@@ -6,7 +6,7 @@
 #   dask, distributed and what distributed needs beyond that image (tornado, zict, tblib, partd,
 #   locket), with cloudpickle, msgpack, psutil, toolz, sortedcontainers at the versions the tests
 #   pass with here -- for --executor dask;
-#   trimesh (>= 4.4.1: older releases call ndarray.ptp, which NumPy 2 removed) and colour-science --
+#   trimesh (>= 4.4.0: older releases call ndarray.ptp, which NumPy 2 removed) and colour-science --
 #   for --workload render (the still-life scene's meshes, the spectral-to-colour tables).
 #
 # Versions are those of this project's Python environment (PYTHON, default .venv/bin/python, else python3),
@@ -54,8 +54,8 @@ tm=$(echo "$specs" | tr ' ' '\n' | sed -n 's/^trimesh==//p')
 "$py" - "$tm" <<'EOF'
 import sys
 v = tuple(int(p) for p in sys.argv[1].split(".")[:3] if p.isdigit())
-if v < (4, 4, 1):
-    sys.exit(f"stage_dask_wheels.sh: trimesh {sys.argv[1]} predates NumPy 2 support (needs >= 4.4.1)")
+if v < (4, 4, 0):
+    sys.exit(f"stage_dask_wheels.sh: trimesh {sys.argv[1]} predates NumPy 2 support (needs >= 4.4.0)")
 EOF
 shared="${LENSRT_SHARED:-}"
 for cand in "$root/../shared" "$root/../../shared"; do
