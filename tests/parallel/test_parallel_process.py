@@ -57,11 +57,14 @@ def test_threads_steal_work_and_fold_in_index_order(tmp_path, order_reference, d
     assert res.duplicates == 0
 
 
-def test_processes_steal_work_and_fold_in_index_order(tmp_path, order_reference, procs) -> None:
-    res = procs.run(O.make_job(12, block_dir=str(tmp_path)))
+@pytest.mark.parametrize("devices", ["cpu,cpu", "cpu,cpu,cpu"])
+def test_processes_steal_work_and_fold_in_index_order(tmp_path, order_reference, devices) -> None:
+    n = len(devices.split(","))
+    with ProcessExecutor(devices) as ex:
+        res = ex.run(O.make_job(12, block_dir=str(tmp_path)))
     _check_stolen(res.value, order_reference)
-    assert len(set(res.item_workers)) == 2  # two processes (hostname:pid)
-    assert res.executor == "processes (cpu, cpu)"
+    assert len(set(res.item_workers)) == n  # every process ran items (hostname:pid)
+    assert res.executor == f"processes ({devices.replace(',', ', ')})"
 
 
 def test_two_processes_give_the_one_thread_psf_map(procs) -> None:
