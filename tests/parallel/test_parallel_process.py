@@ -148,3 +148,31 @@ def test_executor_option_builds_the_process_executor() -> None:
     ex.close()  # never started: nothing to stop
     with pytest.raises(LensrtError, match="--executor process starts its own worker processes"):
         executor_from_args(p.parse_args(["--executor", "process", "--workers", "2"]))
+
+
+def test_psf_command_on_two_processes_equals_one_device(capsys) -> None:
+    """`lensrt psf --executor process`: the same PSFs and estimates as the in-process run (only timings and
+    the grouping of fields into items differ)."""
+    import json
+
+    from lensrt.cli import main
+    argv = ["psf", "dgauss_50mm_f2", "--grid", "2x2", "--rays", "20000", "--pixels", "32", "--json"]
+    assert main(argv + ["--devices", "cpu"]) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert main(argv + ["--devices", "cpu,cpu", "--executor", "process"]) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert two["run"]["executor"] == "processes (cpu, cpu)" and two["run"]["n_items"] == 4
+    assert len(set(two["run"]["workers"])) == 2
+    assert len(one["fields"]) == len(two["fields"]) == 4
+    for a, b in zip(one["fields"], two["fields"]):
+        assert _without_timings(a) == _without_timings(b)
+        assert a["estimates"]["rms_radius_mm"]["value"] > 0  # real PSFs, not empty ones
+
+
+def _without_timings(d: object) -> object:
+    """A JSON value without its timings and run metadata (which differ from run to run)."""
+    if isinstance(d, dict):
+        return {k: _without_timings(v) for k, v in d.items() if k not in ("seconds", "metadata")}
+    if isinstance(d, list):
+        return [_without_timings(v) for v in d]
+    return d
