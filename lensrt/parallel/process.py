@@ -38,7 +38,7 @@ from multiprocessing.connection import wait
 from typing import Any, Sequence
 
 from ..errors import LensrtError
-from .context import content_hash, execute_item, store_context, stored_context
+from .context import content_hash, drop_context, execute_item, store_context, stored_context
 from .local import Progress, device_scope, resolve_devices
 from .work import Job, JobResult, OrderedFold, finish_result
 
@@ -46,6 +46,8 @@ __all__ = ["ProcessExecutor", "worker_main"]
 
 #: deaths of worker processes one item may cause before the job stops (as Dask's allowed-failures)
 MAX_FAILURES = 3
+#: contexts (lenses, scenes) a worker process keeps for later jobs; the oldest is dropped first
+MAX_CONTEXTS = 4
 
 
 def _pickle(obj: Any) -> bytes:
@@ -59,8 +61,8 @@ def _pickle(obj: Any) -> bytes:
 def worker_main(conn: Any, device: str) -> None:
     """Body of a worker process: receive contexts and items on ``conn``, send back outcomes.
 
-    Messages in: ``("context", hash, pickled context)``, ``("item", run, prepare, hash, item,
-    uses_device)``, ``("stop",)``. Out: ``("done", ItemOutcome)`` or ``("error", index, exception)``.
+    Messages in: ``("context", hash, pickled context)``, ``("drop", hash)``, ``("item", run, prepare,
+    hash, item, uses_device)``, ``("stop",)``. Out: ``("done", ItemOutcome)`` or ``("error", index, exception)``.
     """
     from ..device import warp
     warp()  # Warp initialised quietly before any job module imports it
@@ -77,6 +79,10 @@ def worker_main(conn: Any, device: str) -> None:
             continue
         if msg[0] == "stop":
             return
+        if msg[0] == "drop":
+            drop_context(msg[1])
+            unreadable.pop(msg[1], None)
+            continue
         if msg[0] == "context":
             try:
                 store_context(msg[1], pickle.loads(msg[2]))
@@ -110,7 +116,7 @@ class _Worker:
                                    daemon=True)
         self.process.start()
         child.close()
-        self.contexts: set[str] = set()
+        self.contexts: list[str] = []  # held by the process, oldest first
         self.item: int | None = None
 
     def send_item(self, job: Job, ctx_hash: str, blob: bytes, index: int) -> None:
@@ -123,9 +129,13 @@ class _Worker:
                                    "the items' params picklable") from None
         self.item = index  # in flight from now: if the process is dead, its sentinel says so and it re-runs
         try:
-            if ctx_hash not in self.contexts:
+            if ctx_hash in self.contexts:
+                self.contexts.remove(ctx_hash)
+            else:
                 self.conn.send_bytes(blob)
-                self.contexts.add(ctx_hash)
+                while len(self.contexts) >= MAX_CONTEXTS:
+                    self.conn.send(("drop", self.contexts.pop(0)))
+            self.contexts.append(ctx_hash)
             self.conn.send_bytes(msg)
         except (BrokenPipeError, ConnectionResetError):
             pass

@@ -176,3 +176,15 @@ def _without_timings(d: object) -> object:
     if isinstance(d, list):
         return [_without_timings(v) for v in d]
     return d
+
+
+def test_a_worker_process_keeps_at_most_four_contexts() -> None:
+    from lensrt.parallel.process import MAX_CONTEXTS
+    with ProcessExecutor("cpu") as ex:
+        for k in range(6):  # six jobs, six contexts
+            job = O.make_job(3)
+            job = Job(job.items, job.run, job.reduce, context=O.OrderSetup(block_timeout_s=float(k + 1)))
+            assert ex.run(job).value["values"] == LocalExecutor("cpu").run(job).value["values"]
+        stats = ex.run(Job(make_items([0]), _stats, list)).value[0]  # a seventh context: None
+    assert stats["contexts_received"] == 7
+    assert stats["contexts"] == MAX_CONTEXTS == 4
