@@ -188,3 +188,18 @@ def test_a_worker_process_keeps_at_most_four_contexts() -> None:
         stats = ex.run(Job(make_items([0]), _stats, list)).value[0]  # a seventh context: None
     assert stats["contexts_received"] == 7
     assert stats["contexts"] == MAX_CONTEXTS == 4
+
+
+@pytest.mark.gpu
+def test_every_gpu_in_its_own_process_gives_the_one_gpu_result() -> None:
+    """On a CUDA machine: one worker process per GPU against cuda:0 alone in this process, bit for bit."""
+    from lensrt.device import cuda_available
+    if not cuda_available():
+        pytest.skip("no CUDA device")
+    job = W.make_job(12)
+    one = LocalExecutor("cuda:0").run(job)
+    with ProcessExecutor("all") as ex:
+        every = ex.run(job)
+    assert np.array_equal(every.value["map"], one.value["map"])
+    assert np.array_equal(every.value["sum_of_unit_psfs"], one.value["sum_of_unit_psfs"])
+    assert set(every.item_devices) <= {f"cuda:{k}" for k in range(len(ex.devices))}
