@@ -203,3 +203,24 @@ def test_every_gpu_in_its_own_process_gives_the_one_gpu_result() -> None:
     assert np.array_equal(every.value["map"], one.value["map"])
     assert np.array_equal(every.value["sum_of_unit_psfs"], one.value["sum_of_unit_psfs"])
     assert set(every.item_devices) <= {f"cuda:{k}" for k in range(len(ex.devices))}
+
+
+@pytest.mark.slow  # 46 s on the loaded 2-core machine (two processes compile/load the render kernels)
+@pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
+def test_render_tiles_on_two_processes_equal_one_device() -> None:
+    """A fixed-sample render as row-band tiles on two worker processes: the image bits of the one-device
+    render in this process (the render's own tests do the same with threads)."""
+    import dataclasses
+
+    from lensrt.render.integrator import render
+    from lensrt.render.scene.load import load_scene
+    from lensrt.render.setup import RenderOptions
+    scene = load_scene("default")
+    opts = RenderOptions(width=48, samples_per_pixel=6, spp_per_pass=2, device="cpu")
+    a = render(scene, options=opts)
+    with ProcessExecutor("cpu,cpu") as ex:
+        b = render(scene, options=dataclasses.replace(opts, device=None), executor=ex)
+    assert b.executor_items == "tiles" and b.executor_item_count == 6
+    for f in ("irradiance", "xyz", "xyz_stderr"):
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    assert b.samples == a.samples and b.through.value == a.through.value
