@@ -72,13 +72,7 @@ echo "staging warp-lang==$warp_ver and: $specs"
 last=$(ls -d .dev-wheel-[0-9]* | sort -V | tail -1)
 mkdir -p .dev-wheel-extra
 mv "$last"/*.whl .dev-wheel-extra/
-# stage-warp.sh writes its ignore lines into $(git rev-parse --git-dir)/info/exclude; in a git worktree git
-# reads the common one, so the parts would travel as untracked files with every run: add them there too
-common="$(git rev-parse --git-common-dir)/info/exclude"
-mkdir -p "$(dirname "$common")"
-for d in .dev-wheel-*; do
-  grep -qx "/$d/" "$common" 2>/dev/null || echo "/$d/" >> "$common"
-done
+# the parts are git-ignored (.gitignore: /.dev-wheel-*/), so they travel only where a run carries them
 du -sh .dev-wheel-* | sed 's/^/  /'
 echo "order of the runs: .dev-wheel-extra, then .dev-wheel-1 .. $last (the last one installs; see this script's header)"
 echo "each run carries one part plus the tracked tree ($(git ls-files -z | du -ch --files0-from=- | tail -1 | cut -f1)): keep both under 64 MiB"
