@@ -41,7 +41,7 @@ def add_parallel_arguments(parser: argparse.ArgumentParser) -> None:
                         "a crashed process's item re-runs on a new one)")
     g.add_argument("--workers", type=int, default=0, metavar="N",
                    help="run on N local worker processes (a Dask LocalCluster on 127.0.0.1, spread over "
-                        "--devices); 0 (default): in this process, one thread per device")
+                        "--devices); 0 (default): this machine's --devices, driven as --executor says")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on the Dask cluster at ADDRESS (e.g. tcp://host:8786); its workers need lensrt "
                         "installed, and for GPU work `--resources GPU=1`")
