@@ -31,6 +31,7 @@ importable: the worker imports them by name; context and results picklable).
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import pickle
 import time
 from collections import deque
@@ -48,6 +49,8 @@ __all__ = ["ProcessExecutor", "worker_main"]
 MAX_FAILURES = 3
 #: contexts (lenses, scenes) a worker process keeps for later jobs; the oldest is dropped first
 MAX_CONTEXTS = 4
+#: seconds the first worker processes may take to start (Python, lensrt, Warp)
+START_TIMEOUT_S = 300.0
 
 
 def _pickle(obj: Any) -> bytes:
@@ -62,10 +65,12 @@ def worker_main(conn: Any, device: str) -> None:
     """Body of a worker process: receive contexts and items on ``conn``, send back outcomes.
 
     Messages in: ``("context", hash, pickled context)``, ``("drop", hash)``, ``("item", run, prepare,
-    hash, item, uses_device)``, ``("stop",)``. Out: ``("done", ItemOutcome)`` or ``("error", index, exception)``.
+    hash, item, uses_device)``, ``("stop",)``. Out: ``("ready", pid)`` once started, then per item
+    ``("done", ItemOutcome)`` or ``("error", index, exception)``.
     """
     from ..device import warp
     warp()  # Warp initialised quietly before any job module imports it
+    conn.send(("ready", os.getpid()))
     unreadable: dict[str, BaseException] = {}  # contexts that did not unpickle here, by hash
     while True:
         try:
@@ -198,8 +203,25 @@ class ProcessExecutor:
         return _Worker(self._ctx, self.devices[slot], slot)
 
     def _ensure_workers(self) -> None:
-        if not self._workers:
-            self._workers = [self._start(k) for k in range(len(self.devices))]
+        """Start one process per device and wait until each has said it is ready (replacements of dead
+        processes are not waited for: their ready message comes before their first result)."""
+        if self._workers:
+            return
+        self._workers = [self._start(k) for k in range(len(self.devices))]
+        deadline = time.monotonic() + START_TIMEOUT_S
+        for w in self._workers:
+            ready = wait([w.conn, w.process.sentinel], timeout=max(0.0, deadline - time.monotonic()))
+            try:
+                msg = w.conn.recv() if w.conn in ready else None
+            except (EOFError, OSError):
+                msg = None
+            if msg is None or msg[0] != "ready":
+                self.close(kill=True)
+                raise LensrtError(
+                    f"the worker process for {w.device} did not start (exit code {w.process.exitcode})",
+                    hint="a script that runs a ProcessExecutor needs its code under `if __name__ == "
+                         "'__main__':` (worker processes import the main module); otherwise run with "
+                         "--executor thread to see the error")
 
     def run(self, job: Job, progress: Progress | None = None) -> JobResult:
         """Run every item of ``job`` and reduce in item order; see :class:`~lensrt.parallel.JobResult`."""
@@ -250,6 +272,8 @@ class ProcessExecutor:
             msg = w.conn.recv() if w.conn.poll() else None
         except (EOFError, OSError):
             msg = None
+        if msg is not None and msg[0] == "ready":
+            return error  # a replacement process has started; its item is still running
         if msg is not None:
             w.item = None
             if msg[0] == "done":

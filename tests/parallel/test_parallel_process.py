@@ -224,3 +224,30 @@ def test_render_tiles_on_two_processes_equal_one_device() -> None:
     for f in ("irradiance", "xyz", "xyz_stderr"):
         assert np.array_equal(getattr(a, f), getattr(b, f)), f
     assert b.samples == a.samples and b.through.value == a.through.value
+
+
+def test_a_script_without_the_main_guard_gets_one_clear_error(tmp_path) -> None:
+    """Spawned workers import the main module: a script that starts the executor at top level makes each
+    worker try to start processes of its own and die. The parent says so, instead of retrying items."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = tmp_path / "no_guard.py"
+    script.write_text(
+        "import sys\n"
+        f"sys.path[:0] = [{str(root)!r}, {str(root / 'tests' / 'oracles')!r}]\n"
+        "import workload_order as O\n"
+        "from lensrt.errors import LensrtError\n"
+        "from lensrt.parallel import ProcessExecutor\n"
+        "try:\n"
+        "    with ProcessExecutor('cpu') as ex:\n"
+        "        ex.run(O.make_job(2))\n"
+        "except LensrtError as err:\n"
+        "    print('ERROR', err)\n"
+        "    sys.exit(3)\n")
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert out.returncode == 3, out.stderr[-2000:]
+    assert "ERROR the worker process for cpu did not start (exit code 1)" in out.stdout
+    assert "if __name__ == '__main__':" in out.stdout
