@@ -402,8 +402,10 @@ class _Seq:
             raise self.err("the object surface (SO) is marked STO", obj["line"])
         defocus = 0.0
         if img is not None:
-            if img["curv"] != 0.0:
-                raise self.err("curved image surface (SI)", img["line"], "lensrt's image surface is a plane")
+            if img["conic"] != 0.0 or img["asph"] or img.get("sps") is not None:
+                raise self.err("aspheric image surface (SI)", img["line"], "lensrt's image surface is a plane or a "
+                               "sphere (the SI radius)")
+            self.image_curvature = img["curv"] / f
             defocus = img["thick"]
         self.assumed_defaults(body)
         surfaces: list[Surface] = []
@@ -561,7 +563,8 @@ class _Seq:
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
-                         notes=tuple(self.notes), warnings=found, image_transform=self.image_transform)
+                         notes=tuple(self.notes), warnings=found, image_transform=self.image_transform,
+                         image_curvature_per_mm=getattr(self, "image_curvature", 0.0))
 
 
 def _looks_number(tok: str) -> bool:
