@@ -192,3 +192,15 @@ def test_zemax_image_curvature_and_aspheric_image_refused() -> None:
     assert str(err.value).startswith("bad.zmx:") and "\n" not in str(err.value)
     with pytest.raises(PrescriptionError, match="curved object surface"):
         loads_zmx(ZMX.format(image="").replace("SURF 0\n", "SURF 0\n  CURV 0.01\n"), "bad.zmx")
+
+
+def test_specialised_kernel_and_image_side_tracing_refuse_a_curved_image(device: str) -> None:
+    from lensrt.errors import LensrtError
+    from lensrt.trace import reversed_lens
+    lens = _curved_triplet(-60.0)
+    o, d = np.array([[0.0, 1.0, -5.0]]), np.array([[0.0, 0.0, 1.0]])
+    with pytest.raises(LensrtError, match="no specialised kernel"):
+        trace(lens, RayBatch(o, d, np.full(1, 550.0)), "float32", device, kernel="specialised")
+    assert trace(lens, RayBatch(o, d, np.full(1, 550.0)), "float32", device, kernel="auto").kernel == "generic"
+    with pytest.raises(LensrtError, match="curved image surface"):
+        reversed_lens(lens)
