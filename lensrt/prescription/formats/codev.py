@@ -23,7 +23,8 @@ starts a comment, ``&`` continues a line):
   (``DOR``, ``UID``, ...).
 
 A thickness on ``SI`` is a defocus of the image surface from where the last
-thickness puts it; it is added to the last surface's thickness. An object
+thickness puts it; it is added to the last surface's thickness. A radius (curvature)
+on ``SI`` makes the image surface a sphere (``Lens.image_curvature_per_mm``). An object
 thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
 a catalog suffix (``NSK16_SCHOTT``) and are looked up as
 :mod:`lensrt.prescription.glass_lookup` says; fictitious glasses (``1.55:55.8``,
@@ -401,6 +402,7 @@ class _Seq:
         if obj["stop"]:
             raise self.err("the object surface (SO) is marked STO", obj["line"])
         defocus = 0.0
+        self.image_curvature = 0.0  # a spherical image surface: the SI radius
         if img is not None:
             if img["conic"] != 0.0 or img["asph"] or img.get("sps") is not None:
                 raise self.err("aspheric image surface (SI)", img["line"], "lensrt's image surface is a plane or a "
@@ -564,7 +566,7 @@ class _Seq:
                          object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
                          notes=tuple(self.notes), warnings=found, image_transform=self.image_transform,
-                         image_curvature_per_mm=getattr(self, "image_curvature", 0.0))
+                         image_curvature_per_mm=self.image_curvature)
 
 
 def _looks_number(tok: str) -> bool:
