@@ -139,6 +139,7 @@ def test_qbf_numbering_matches_codev_listing_of_the_same_mirror() -> None:
     ("  SCO C3 1", "SCO before SPS"),
     ("  SPS ODD 0\n  SCO C40 1", "SCO C40: not a coefficient"),
     ("  SPS ODD 0\n  SCO C32 1", "SCO C32: not a coefficient"),
+    ("  SPS XYP 0\n  SCO C67 1", "SCO C67: not a coefficient"),
     ("  SPS ODD 5\n  SCO AR3 1e-4", "only 0 or 1"),
     ("  SPS QBF\n  SCO NRADIUS 3 C2 0.1", "SCO C2 = 0.1 on an SPS QBF"),
     ("  SPS QBF\n  SCO K 0.1", "SCO K: not a coefficient"),

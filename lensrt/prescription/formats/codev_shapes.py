@@ -90,7 +90,7 @@ def _number(kind: str, name: str) -> int | None:
     m = re.fullmatch(r"C(\d+)", n)
     if m:
         j = int(m.group(1))
-        top = {"ODD": 33, "XYP": MAX_SHAPE_TERMS + 1, "QBF": MAX_SHAPE_TERMS + 2}[kind]
+        top = {"ODD": 33, "XYP": MAX_SHAPE_TERMS, "QBF": MAX_SHAPE_TERMS + 2}[kind]  # xy: 65 terms after C1
         return j if 1 <= j <= top else None
     if n == "NRADIUS":
         return _nradius_number(kind)
@@ -133,7 +133,7 @@ def special_coefficients(sps: SpecialSurface | None, args: list[str], line: int,
 
 def _known(kind: str) -> str:
     return {"ODD": "SPS ODD takes K (C1), AR1 .. AR30 (C2 .. C31) and NRADIUS (C33)",
-            "XYP": f"SPS XYP takes K (C1), C2 .. C{MAX_SHAPE_TERMS + 1} (x, y, x^2, x y, y^2, ...) and NRADIUS",
+            "XYP": f"SPS XYP takes K (C1), C2 .. C{MAX_SHAPE_TERMS} (x, y, x^2, x y, y^2, ...) and NRADIUS",
             "QBF": "SPS QBF takes NRADIUS (C1) and QB4, QB6, ... (C3, C4, ...); C2 and K are not read"}[kind]
 
 
