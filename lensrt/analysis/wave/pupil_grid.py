@@ -229,12 +229,17 @@ def defocus_opd_mm(px: np.ndarray, py: np.ndarray, na: float, dz_mm: float,
 class TriLinear:
     """Piecewise-linear interpolation on the Delaunay triangulation of scattered points.
 
-    Built on ``matplotlib.tri`` (C++ point location and plane coefficients):
+    Built on ``matplotlib.tri`` (qhull's triangulation, C++ plane coefficients):
     scipy's ``LinearNDInterpolator`` computes a barycentric transform per
     triangle through LAPACK, which behind a multi-threaded BLAS costs seconds for
     ten thousand triangles. Near-degenerate triangles (area below 1e-6 of the
     median, e.g. from collinear points on the hull of a regular ray grid) are
-    masked. ``interp(values, qx, qy, fill)`` returns ``fill`` outside the hull.
+    masked. Points are located by a bucket grid
+    (:class:`~lensrt.analysis.wave.point_location.BucketLocator`, built once per
+    triangulation) rather than matplotlib's trapezoid map, which took as long to
+    build as the triangulation; the values are matplotlib's ``LinearTriInterpolator``'s
+    (the same plane coefficients and expression). ``interp(values, qx, qy, fill)``
+    returns ``fill`` outside the hull.
     """
 
     def __init__(self, x: np.ndarray, y: np.ndarray) -> None:
@@ -248,11 +253,27 @@ class TriLinear:
         area = np.abs((xt[:, 1] - xt[:, 0]) * (yt[:, 2] - yt[:, 0]) - (xt[:, 2] - xt[:, 0]) * (yt[:, 1] - yt[:, 0]))
         tr.set_mask(area <= 1e-6 * np.median(area))
         self.tri = tr
+        self._locator = None
+
+    def find(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
+        """The (unmasked) triangle holding each point of (qx, qy), flattened; -1 outside."""
+        if self._locator is None:
+            from .point_location import BucketLocator
+            self._locator = BucketLocator(self.tri.x, self.tri.y, self.tri.triangles, self.tri.mask)
+        return self._locator.find(qx, qy)
 
     def interp(self, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, fill: float = np.nan) -> np.ndarray:
-        from matplotlib.tri import LinearTriInterpolator
-        v = LinearTriInterpolator(self.tri, np.asarray(values, dtype=np.float64))(qx, qy)
-        return np.ma.filled(v.astype(np.float64), fill)
+        qx = np.asarray(qx, dtype=np.float64)
+        qy = np.asarray(qy, dtype=np.float64)
+        coef = self.tri.calculate_plane_coefficients(np.asarray(values, dtype=np.float64))
+        k = self.find(qx, qy)
+        x, y = np.ravel(qx), np.ravel(qy)
+        out = np.full(x.size, np.nan)
+        ok = k >= 0
+        t = k[ok]
+        out[ok] = coef[t, 0] * x[ok] + coef[t, 1] * y[ok] + coef[t, 2]
+        out[~np.isfinite(out)] = fill
+        return out.reshape(qx.shape)
 
 
 def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, k: int = 16) -> np.ndarray:
