@@ -30,6 +30,7 @@ moves the PSF toward +x.
 from __future__ import annotations
 
 import math
+import threading
 from typing import Callable, Sequence
 
 import numpy as np
@@ -239,8 +240,32 @@ class TriLinear:
     triangulation) rather than matplotlib's trapezoid map, which took as long to
     build as the triangulation; the values are matplotlib's ``LinearTriInterpolator``'s
     (the same plane coefficients and expression). ``interp(values, qx, qy, fill)``
-    returns ``fill`` outside the hull.
+    returns ``fill`` outside the hull. :meth:`of` reuses the triangulation of points already
+    triangulated (a pupil resampled at a finer grid triangulates the same rays).
     """
+
+    _recent: "dict[bytes, TriLinear]" = {}
+    _lock = threading.Lock()
+    #: triangulations :meth:`of` keeps (the most recent ones)
+    KEEP = 8
+
+    @classmethod
+    def of(cls, x: np.ndarray, y: np.ndarray) -> "TriLinear":
+        """``TriLinear(x, y)``, the same object again for the same points (by content)."""
+        import hashlib
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        y = np.ascontiguousarray(y, dtype=np.float64)
+        key = hashlib.blake2b(x.tobytes() + b"|" + y.tobytes(), digest_size=20).digest()
+        with cls._lock:
+            hit = cls._recent.get(key)
+        if hit is not None:
+            return hit
+        made = cls(x, y)
+        with cls._lock:
+            cls._recent[key] = made
+            while len(cls._recent) > cls.KEEP:
+                cls._recent.pop(next(iter(cls._recent)))
+        return made
 
     def __init__(self, x: np.ndarray, y: np.ndarray) -> None:
         from matplotlib.tri import Triangulation
@@ -359,7 +384,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
                           hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
     pts = np.column_stack([px[ok], py[ok]])
-    tri = TriLinear(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
+    tri = TriLinear.of(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
     if aperture is None:
         frac = TriLinear(px, py).interp(ok.astype(np.float64), gx, gy, fill=0.0)

@@ -87,3 +87,17 @@ def test_trilinear_reproduces_a_plane_and_fills_outside():
     assert np.allclose(v[inside], 0.3 * qx[inside] - 1.7 * qy[inside] + 2.0, rtol=0, atol=1e-12)
     assert v.shape == qx.shape and (~inside).any()
     assert np.all(np.hypot(qx[~inside], qy[~inside]) > 0.8)  # only beyond the rays' hull
+
+
+def test_trilinear_of_reuses_the_triangulation_of_the_same_points():
+    x, y = ray_like_points(m=20)
+    a = TriLinear.of(x, y)
+    assert TriLinear.of(x.copy(), y.copy()) is a  # by content, not by identity
+    assert TriLinear.of(x[:-1], y[:-1]) is not a
+    fresh = TriLinear(x, y)
+    qx, qy = pupil_coordinates(48)
+    v = np.cos(x) + y
+    assert np.array_equal(a.interp(v, qx, qy), fresh.interp(v, qx, qy), equal_nan=True)
+    for k in range(TriLinear.KEEP + 1):  # only the most recent are kept
+        TriLinear.of(x + 1e-3 * (k + 1), y)
+    assert TriLinear.of(x, y) is not a
