@@ -116,14 +116,17 @@ class FigureRenderer:
         self.pending: list[tuple[int, str, Path]] = []
         self.workers = [_Worker(self.results) for _ in range(workers)]
         self.owner = ""
+        self._lock = threading.Lock()
 
     def submit(self, fig, path: Path) -> None:
-        k = len(self.results)
-        self.results.append(RuntimeError("not drawn"))
-        self.pending.append((k, self.owner, path))
-        # the worker with the fewest figures waiting
-        w = min(self.workers, key=lambda w: w.todo.qsize())
-        w.todo.put((k, pickle.dumps(fig), str(path)))
+        data = pickle.dumps(fig)
+        with self._lock:  # figures may come from several threads
+            k = len(self.results)
+            self.results.append(RuntimeError("not drawn"))
+            self.pending.append((k, self.owner, path))
+            # the worker with the fewest figures waiting
+            w = min(self.workers, key=lambda w: w.todo.qsize())
+            w.todo.put((k, data, str(path)))
 
     def wait(self) -> list[tuple[str, Path, BaseException | None]]:
         """Wait for every figure (the workers end): (owner, path, error or None) each, in submission order."""
