@@ -38,7 +38,7 @@ from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distor
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
                     real_focal_length)
-from .pupils import RealPupils, real_pupils
+from .pupils import RealPupils, pupil_outlines, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
                        object_field_point, paraxial_chief, trace64)
 from .vignetting import RI_DEFINITION, Vignetting, vignetting
@@ -271,8 +271,12 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     chrom = chromatic_focal_shift(lens, best_focus_wavelengths_nm=wls, device=dev)
     fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
     lat = lateral_colour(lens, fields, wls, device=dev)
-    pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
+    # the pupil outlines of the real pupils' fields and of vignetting's exit-pupil illumination in one batched
+    # search (each analysis then finds its outlines in pupil_outlines' cache: the same outlines, fewer launches)
+    pupil_outlines(lens, [0.0] + [field_spec(lens, h).object_value for h in [f.hy for f in fields] + list(vhy)],
+                   primary, n_azimuth=180, device=dev)
+    pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vig = vignetting(lens, vhy, primary, rays=rays, seed=seed, device=dev)
     if vig.ri_disagreement_note():
         notes.append(vig.ri_disagreement_note())
