@@ -175,22 +175,13 @@ def _joint_chief_tracer(lenses: Sequence[Lens], wavelength_nm: float | None):
     """
     from ..trace.aiming import pupil_geometry
     from .raysets import chief_batch, object_field_point, trace64
-    if len(lenses) < 2:
+    if not _share_rays(lenses):
         return None
     base = lenses[0]
-    last = base.n_surfaces - 1
-    t_base = base.surfaces[last].thickness_mm
 
-    def normalised(L: Lens) -> Lens:
-        return L.replace_surface(last, thickness_mm=t_base).replace(object_distance_mm=base.object_distance_mm)
-
-    if base.image_transform is not None or any(L.n_surfaces != base.n_surfaces or normalised(L) != base
-                                               for L in lenses[1:]):
-        return None
-
-    def key(L: Lens) -> tuple[float, float]:
+    def key(L: Lens) -> float:
         g = pupil_geometry(L)
-        return g.ep_z_mm, max(g.ep_radius_mm, g.stop_radius_mm)
+        return max(g.ep_radius_mm, g.stop_radius_mm)
 
     if len({key(L) for L in lenses}) > 1:  # aiming's parameters differ: not the same Newton iterates
         return None
@@ -213,6 +204,65 @@ def _joint_chief_tracer(lenses: Sequence[Lens], wavelength_nm: float | None):
         return {k: (y[a:b], ang[a:b]) for k, a, b in zip(ks, ends[:-1], ends[1:])}
 
     return trace
+
+
+def _share_rays(lenses: Sequence[Lens]) -> bool:
+    """Whether the lenses (two at least) are unit-focus positions of one lens that one trace can serve: they
+    differ only in the object distance and the last thickness, the image surface is a plane square to the
+    axis without a change of frame (every ``image_*`` setting of the lens at its default), and the paraxial
+    entrance pupil -- where aiming and pupil boxes put their frames -- is at the same z."""
+    from dataclasses import MISSING, fields
+    from ..trace.aiming import pupil_geometry
+    if len(lenses) < 2:
+        return False
+    base = lenses[0]
+    last = base.n_surfaces - 1
+    t_base = base.surfaces[last].thickness_mm
+    plain = all(f.default is MISSING or getattr(base, f.name) == f.default
+                for f in fields(base) if f.name.startswith("image_"))
+    if not plain or any(L.n_surfaces != base.n_surfaces or L.replace_surface(last, thickness_mm=t_base).replace(
+            object_distance_mm=base.object_distance_mm) != base for L in lenses[1:]):
+        return False
+    return len({pupil_geometry(L).ep_z_mm for L in lenses}) == 1
+
+
+def _focus_all(lens: Lens, distances_mm: Sequence[float], wavelength_nm: float | None) -> list[FocusSolution]:
+    """:func:`focus_at` at every distance. Unit focusing takes one secant step (the best focus of the lens as it
+    is, then of the lens moved by that extension, as the check: :func:`solve_travel`); each of the two is
+    evaluated for all distances together (:func:`_best_focus_residuals`) where one trace serves them all,
+    and the same :func:`solve_travel` turns them into solutions."""
+    d = [float(x) for x in distances_mm]
+    if not lens.focus.is_unit or len(d) < 2 or any(math.isnan(x) or x <= 0.0 for x in d):
+        return [focus_at(lens, x, wavelength_nm) for x in d]
+    start = [move_mechanism(lens, 0.0) for _ in d]
+    r0 = _best_focus_residuals(start, d, wavelength_nm)
+    if r0 is None:
+        return [focus_at(lens, x, wavelength_nm) for x in d]
+    moved = [move_mechanism(lens, t) for t in r0]
+    r1 = _best_focus_residuals(moved, d, wavelength_nm)
+    out = []
+    for k, x in enumerate(d):
+        table = {start[k]: r0[k], moved[k]: r1[k]}
+        t, r, it, unit = solve_travel(lens, x, lambda L, table=table: table[L])
+        out.append(FocusSolution(move_mechanism(lens, t).replace(object_distance_mm=x), x, float(t), unit, float(r),
+                                 it, lens.focus.describe()))
+    return out
+
+
+def _best_focus_residuals(lenses: list[Lens], distances_mm: list[float], wavelength_nm: float | None
+                          ) -> list[float] | None:
+    """:func:`focus_residual_mm` of each (lens, distance) from one batched best-focus search
+    (:func:`lensrt.trace.focus.focus_moments_fields`), or None where the lenses do not share their rays."""
+    from ..paraxial import first_order
+    from ..trace.focus import best_focus_plane, focus_moments_fields
+    from .raysets import object_field_point
+    ats = [L if x == L.object_distance_mm else L.replace(object_distance_mm=x) for L, x in zip(lenses, distances_mm)]
+    if not _share_rays(ats):
+        return None
+    wl = lenses[0].wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    jobs = [(object_field_point(A, 0.0), wl, first_order(A, A.wavelengths.primary_nm).image_z_mm) for A in ats]
+    moments = focus_moments_fields(ats[0], jobs)
+    return [best_focus_plane([m], [1.0]).z_mm - L.image_z_mm for m, L in zip(moments, lenses)]
 
 
 def _half_field_search(lens: Lens, image_height_mm: float, wavelength_nm: float | None, tol_mm: float,
@@ -334,7 +384,7 @@ def focus_breathing(lens: Lens, distances_mm: Sequence[float], sensor_diagonal_m
     fo = first_order(lens.replace(object_distance_mm=math.inf), wavelength_nm)
     real, formula, travel, resid = [], [], [], []
     unit = ""
-    sols = [focus_at(lens, float(d), wavelength_nm) for d in distances_mm]
+    sols = _focus_all(lens, distances_mm, wavelength_nm)
     halves = real_half_fields_rad([sol.lens for sol in sols], 0.5 * sensor_diagonal_mm, wavelength_nm)
     for d, sol, half in zip(distances_mm, sols, halves):
         real.append(2.0 * math.degrees(half))
