@@ -54,6 +54,63 @@ def test_the_real_half_field_is_found_in_a_few_batched_rounds(dg):
     assert rec.launches <= 20  # ~3 rounds of 9 chief rays (aiming + one trace each); was ~66 (one chief ray at a time)
 
 
+def test_breathing_focuses_and_aims_every_distance_together(dg):
+    """focus_breathing at several distances of a unit-focusing lens: the best-focus searches and the half-field
+    rounds of all distances share their launches, and give what each distance gives alone (focus_at and
+    real_half_field_rad one distance at a time, the oracle) to rounding."""
+    import math
+    from lensrt.analysis.focusing import focus_at, focus_breathing, real_half_field_rad
+    dists = [math.inf, 3000.0, 1000.0, 700.0]
+    focus_breathing(dg, dists[:2], 43.27)  # compile, pack
+    with measure() as two:
+        focus_breathing(dg, dists[:2], 43.27)
+    with measure() as four:
+        curve = focus_breathing(dg, dists, 43.27)
+    assert four.launches <= two.launches + 4  # the same rounds for the lot (was ~23 launches per distance)
+    for d, t, afov in zip(dists, curve.travel, curve.afov_real_deg):
+        sol = focus_at(dg, d)
+        assert t == pytest.approx(sol.travel, abs=1e-12)
+        assert afov == pytest.approx(2.0 * np.degrees(real_half_field_rad(sol.lens, 0.5 * 43.27)), abs=1e-10)
+
+
+def test_focus_moments_of_several_planes_in_one_set_of_launches(dg):
+    """focus_moments_fields: each job's moments as focus_moments finds them alone, its pupil boxes, grids and
+    boundary sub-rays of every job in a fixed number of launches whatever the number of jobs."""
+    from lensrt.trace.focus import focus_moments, focus_moments_fields
+    far = dg.replace(object_distance_mm=2000.0)
+    jobs = [(object_field_point(far, v), 587.56, z) for v, z in ((0.0, dg.image_z_mm), (3.0, dg.image_z_mm + 0.2),
+                                                                  (6.0, dg.image_z_mm - 0.1))]
+    with measure() as rec:
+        got = focus_moments_fields(far, jobs, device="cpu")
+    assert rec.launches <= 2 + 3 + 1  # boxes (2 passes), up to 3 grid rounds, sub-rays: for all three jobs
+    for (fp, wl, z0), m in zip(jobs, got):
+        alone = focus_moments(far, wl, fp=fp, z0_mm=z0, device="cpu")
+        assert m.rays == alone.rays
+        np.testing.assert_allclose(m.mean_p, alone.mean_p, rtol=0, atol=1e-12)
+        np.testing.assert_allclose([m.pp, m.pt, m.tt], [alone.pp, alone.pt, alone.tt], rtol=1e-12, atol=1e-15)
+
+
+def test_pupil_outlines_traced_once_per_field(dg):
+    from lensrt.analysis.compare.pupils import pupil_outlines
+    values = [0.0, 0.2, 0.35]
+    first = pupil_outlines(dg, values, n_azimuth=36, device="cpu")
+    with measure() as rec:
+        again = pupil_outlines(dg, values[1:], n_azimuth=36, device="cpu")
+    assert rec.launches == 0 and all(a is b for a, b in zip(again, first[1:]))
+
+
+def test_ray_fraction_scales_the_monte_carlo_counts_only():
+    from lensrt.errors import LensrtError
+    from lensrt.report import ReportOptions
+    full, part = ReportOptions().preset, ReportOptions(ray_fraction=1 / 64).preset
+    assert part.mtf_rays == full.mtf_rays // 64 and part.bokeh_rays == full.bokeh_rays // 64
+    assert (part.psf_grid, part.mtf_fields, part.bokeh_grid, part.psf_pixels) == \
+        (full.psf_grid, full.mtf_fields, full.bokeh_grid, full.psf_pixels)
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(LensrtError, match="ray fraction"):
+            ReportOptions(ray_fraction=bad)
+
+
 @pytest.mark.slow
 def test_the_report_keeps_its_launch_budget(tmp_path, dg):
     """The report's plan at draft quality on the CPU (normal quality, the default, traces ~30x more rays
