@@ -1,7 +1,7 @@
 """Kernel-launch budgets (issue 19): counts, not seconds -- the same on every machine for the same work.
 
-The fast tests pin the batching of the loops that used to launch per field point, per wavelength or
-per Newton step; the slow one holds the whole report to its budget.
+The fast tests pin the batching of the loops that used to launch per field point, per wavelength, per
+Newton step or per focus distance; the slow one holds the default report to its budget.
 """
 from __future__ import annotations
 
@@ -111,14 +111,35 @@ def test_ray_fraction_scales_the_monte_carlo_counts_only():
             ReportOptions(ray_fraction=bad)
 
 
+#: the default report's launch plan (normal quality, the built-in lens). Per section, 2-core CPU, measured by
+#: `PYTHONPATH=. python benchmarks/bench_report.py --device cpu --ray-fraction 0.015625 --no-warmup`:
+#: lens 15 (layout rays, aiming), first_order 132 (the comparison's analyses: each aims its own rays, a Newton
+#: run of ~4 launches and a trace; pupil outlines 14 bisection traces; spot and vignetting streams), zoom 23
+#: (breathing: two batched best-focus searches and ~3 half-field rounds for all 8 distances; was 184), psf 21,
+#: mtf 96 (the auto method: each field's wavefront traced on its own, 3 launches, then its geometric stream, 3;
+#: the wavefront-error table, 2 traces a field), bokeh 48 (the map's streams and pupil boxes; the chief-ray
+#: secant of the sources' object heights, ~30): 335. The issue's 200 is not reached (docs/benchmarks.md).
+REPORT_LAUNCH_BUDGET = 340
+
+
 @pytest.mark.slow
-def test_the_report_keeps_its_launch_budget(tmp_path, dg):
-    """The report's plan at draft quality on the CPU (normal quality, the default, traces ~30x more rays
-    and runs the same loops with more fields: 548 launches, docs/benchmarks.md). Today's breakdown
-    (draft, CPU): lens 15, first_order 158, zoom 184 (at each of the breathing table's 8 distances --
-    one lens per distance -- a focus secant and ~3 rounds of batched chief rays), psf 21, mtf 31,
-    bokeh 28: 437."""
+def test_the_default_report_keeps_its_launch_budget(tmp_path, dg):
+    """The default report (normal quality) on the CPU with 1/128 and 1/64 of its Monte Carlo rays
+    (``ReportOptions.ray_fraction``: same fields, grids, pixels and methods): the launches of every section are
+    the same at both fractions -- the plan does not depend on the ray counts -- and within the budget.
+
+    The full-ray CPU run counts more: the CPU splits a stream of more than 2^22 rays into several launches
+    (``rays_per_launch``; a GPU takes 2^30 in one), which only the psf, mtf and bokeh streams reach
+    (docs/benchmarks.md has both counts).
+    """
     from lensrt.report import ReportOptions, build_report
-    rep = build_report(dg, tmp_path, ReportOptions(quality="draft", device="cpu"), quiet=True)
-    assert not rep.failed
-    assert rep.telemetry["launches"] <= 500  # was 3,093 (issue 19), 1,353 before this budget
+    per_section = []
+    for fraction in (1 / 128, 1 / 64):
+        rep = build_report(dg, tmp_path / f"f{int(1 / fraction)}", ReportOptions(device="cpu", ray_fraction=fraction),
+                           quiet=True)
+        assert not rep.failed
+        per_section.append({s.key: s.telemetry["launches"] for s in rep.sections if s.telemetry})
+        assert rep.telemetry["launches"] == sum(per_section[-1].values())
+    assert per_section[0] == per_section[1]
+    assert sum(per_section[1].values()) <= REPORT_LAUNCH_BUDGET  # was 548 (normal, CPU), 437 (draft)
+    assert per_section[1]["zoom"] <= 30  # breathing: every distance in the same launches (was 184)
