@@ -9,7 +9,9 @@ Usage (from the repository root)::
 
 It runs :func:`lensrt.report.build_report` on a lens (default: the built-in 50 mm f/2 double Gauss, as
 ``lensrt report`` does) into a temporary folder, after a warm-up run that compiles the Warp kernels
-(``--no-warmup`` to time a cold cache), and prints the :mod:`lensrt.core.telemetry` record of each
+(``--no-warmup`` to time a cold cache; the warm-up also fills the analyses' in-process caches -- pupil
+outlines, focus moments and the like -- so the measured run launches fewer kernels than ``lensrt report`` in a
+fresh process: count launches with ``--no-warmup``), and prints the :mod:`lensrt.core.telemetry` record of each
 section: ``wall s``, ``kernel s`` (CUDA events on a GPU; on the CPU the wall time of the launch calls,
 summed over the cores a launch runs on), kernel ``launches``, host<->device ``copies`` (lensrt's own
 NumPy uploads and ``.numpy()`` downloads) and ``busy`` = kernel s / wall s.
