@@ -37,7 +37,7 @@ from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams
 from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
-                    real_focal_length)
+                    real_focal_lengths)
 from .pupils import RealPupils, pupil_outlines, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
                        object_field_point, paraxial_chief, trace64)
@@ -255,7 +255,7 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     hy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, curve_points), [f.hy for f in fields]]), 12))
     index = [int(np.argmin(np.abs(hy - f.hy))) for f in fields]
     notes = []
-    focal = [real_focal_length(lens, w, device=dev) for w in wls]
+    focal = real_focal_lengths(lens, wls, device=dev)  # every wavelength's rays traced together
     # the chief rays of the curves' field points at every wavelength, aimed in one solve
     curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
     chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
