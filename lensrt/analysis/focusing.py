@@ -27,7 +27,8 @@ from ..errors import LensrtError
 from ..prescription.focus_travel import move_mechanism, solve_travel
 from ..prescription.model import Lens
 
-__all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad", "real_half_fields_rad",
+__all__ = ["FocusSolution", "move_mechanism", "focus_residual_mm", "focus_at", "real_half_field_rad",
+           "real_half_fields_rad",
            "largest_field_value", "image_circle_radius_mm", "BreathingCurve", "focus_breathing"]
 
 

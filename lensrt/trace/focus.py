@@ -38,7 +38,8 @@ from .aiming import FieldPoint, field_point, ray_through_point
 from .api import RayBatch, trace
 from .pupil_boxes import PupilBox, box_wavelengths, pupil_boxes
 
-__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_fields", "focus_moments_many", "best_focus_plane",
+__all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_fields", "focus_moments_many",
+           "best_focus_plane",
            "BestFocusPlane"]
 
 BEST_FOCUS_DEFINITION = ("minimum RMS spot radius about the centroid, rays filling the real pupil uniformly "
@@ -210,7 +211,8 @@ def _trace_to_planes(lens: Lens, batches: list, planes_mm: list[float], stop_rad
     joined = RayBatch(np.concatenate([b.origin_mm for b in batches]), np.concatenate([b.direction for b in batches]),
                       np.concatenate([b.wavelength_nm for b in batches]))
     one = len(set(planes_mm)) == 1
-    res = trace(lens, joined, "float64", device, stop_radius_mm=stop_radius_mm, plane_z_mm=planes_mm[0] if one else None)
+    res = trace(lens, joined, "float64", device, stop_radius_mm=stop_radius_mm,
+                plane_z_mm=planes_mm[0] if one else None)
     ends = np.cumsum([0] + [len(b) for b in batches])
     out = []
     for z0, a, b in zip(planes_mm, ends[:-1], ends[1:]):
@@ -225,7 +227,7 @@ def _trace_to_planes(lens: Lens, batches: list, planes_mm: list[float], stop_rad
 def _moments_of(lens: Lens, jobs: list, boxes: list, found: list, da_db: list, n: int, sub: int,
                 stop_radius_mm: float | None, device: str | None) -> list[FocusMoments]:
     """Each job's moments: its grid's inner cells, and its boundary cells as sub x sub rays (one trace for all)."""
-    pos, dirs, wts, edges, sub_parts = {}, {}, {}, {}, []
+    pos, dirs, wts, sub_parts = {}, {}, {}, []
     off = (np.arange(sub) + 0.5) / sub
     oa, ob = np.meshgrid(off, off, indexing="ij")
     for k, (p, d, ok, w) in enumerate(found):

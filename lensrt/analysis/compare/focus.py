@@ -40,7 +40,8 @@ from ...trace import RayBatch
 from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments_many
 from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64)
 
-__all__ = ["FocalLength", "real_focal_length", "real_focal_lengths", "LongitudinalAberration", "longitudinal_aberration", "BestFocus",
+__all__ = ["FocalLength", "real_focal_length", "real_focal_lengths", "LongitudinalAberration",
+           "longitudinal_aberration", "BestFocus",
            "best_focus", "ChromaticFocalShift", "chromatic_focal_shift", "FieldCurvature", "field_curvature",
            "BEST_FOCUS_DEFINITION", "correction_name"]
 
