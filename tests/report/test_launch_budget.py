@@ -61,9 +61,9 @@ def test_breathing_focuses_and_aims_every_distance_together(dg):
     import math
     from lensrt.analysis.focusing import focus_at, focus_breathing, real_half_field_rad
     dists = [math.inf, 3000.0, 1000.0, 700.0]
-    focus_breathing(dg, dists[:2], 43.27)  # compile, pack
+    focus_breathing(dg, [5000.0, 1500.0], 40.0)  # compile, pack (other distances and height: no aimed ray reused)
     with measure() as two:
-        focus_breathing(dg, dists[:2], 43.27)
+        focus_breathing(dg, [2000.0, 1200.0], 43.27)
     with measure() as four:
         curve = focus_breathing(dg, dists, 43.27)
     assert four.launches <= two.launches + 4  # the same rounds for the lot (was ~23 launches per distance)
