@@ -277,7 +277,7 @@ class Surface:
             return
         if not isinstance(sh, SurfaceShape):
             raise PrescriptionError(f"surface shape {sh!r} is not a SurfaceShape", line=self.line)
-        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike"):
+        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike", "zernike_fringe"):
             raise PrescriptionError(f"even asphere terms on a {sh.kind} surface", line=self.line,
                                     hint="give every polynomial term in the shape's coefficients")
 

@@ -1,5 +1,5 @@
 """Zemax surface types beyond STANDARD/EVENASPH: ODDASPHE, XOSPHERE, XASPHERE, QED_TYPE, BICONICX, TOROIDAL,
-XPOLYNOM, SZERNSAG."""
+XPOLYNOM, SZERNSAG, FZERNSAG."""
 from __future__ import annotations
 
 import warnings
@@ -55,6 +55,11 @@ def test_types_read_with_units(unit: str, f: float) -> None:
         z = loads_zmx(zmx(unit, "SZERNSAG", "PARM 2 1e-6\n  XDAT 1 4\n  XDAT 2 8\n  XDAT 6 0.01")).surfaces[0]
     assert z.shape == SurfaceShape("zernike", (0.0, 0.0, 0.0, 0.01 * f), 8 * f)
     assert z.asphere == pytest.approx((0.0, 1e-6 * f ** -3), rel=1e-15)
+    with pytest.warns(UserWarning, match="not rotationally symmetric"):
+        fz = loads_zmx(zmx(unit, "FZERNSAG", "PARM 3 2e-9\n  XDAT 1 9\n  XDAT 2 75\n  XDAT 3 1e-6\n"
+                                             "  XDAT 11 -3e-7")).surfaces[0]
+    assert fz.shape == SurfaceShape("zernike_fringe", (1e-6 * f,) + (0.0,) * 7 + (-3e-7 * f,), 75 * f)
+    assert fz.asphere == pytest.approx((0.0, 0.0, 2e-9 * f ** -5), rel=1e-15)
 
 
 @pytest.mark.parametrize("type1,extra,needle", [
@@ -68,6 +73,8 @@ def test_types_read_with_units(unit: str, f: float) -> None:
     ("XASPHERE", "XDAT 1 1\n  XDAT 2 10\n  XDAT 3 1e308\n  XDAT 400 1", "extra data numbers"),
     ("STANDARD", "XDAT 1 1", "not supported for STANDARD"),
     ("SZERNSAG", "PARM 9 0.5", "PARM 9 = 0.5 on a SZERNSAG"),
+    ("FZERNSAG", "PARM 10 0.5", "PARM 10 = 0.5 on a FZERNSAG"),
+    ("FZERNSAG", "XDAT 1 38\n  XDAT 2 10", "at most 37 fringe Zernike terms"),
     ("XPOLYNOM", "XDAT 1 70\n  XDAT 2 1", "whole number 0..66"),
 ])
 def test_bad_shape_data_is_one_error(type1: str, extra: str, needle: str) -> None:

@@ -93,7 +93,8 @@ _TYPE_NAMES = {
     "DGRATING": "a diffraction grating",
     "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
     "PARAXIAL": "an ideal paraxial lens", "ODDASPHE": "an odd asphere", "XOSPHERE": "an extended odd asphere",
-    "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface", "BINARY_1": "a binary optic",
+    "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface",
+    "FZERNSAG": "a Zernike fringe sag surface", "BINARY_1": "a binary optic",
     "BINARY_2": "a binary optic", "GRID_SAG": "a grid sag surface", "TILTSURF": "a tilted surface",
     "NONSEQCO": "a non-sequential component", "USERSURF": "a user-defined surface", "QED_TYPE": "a Q-type asphere",
 }
@@ -124,6 +125,8 @@ class _Surf:
     apertures: list[tuple[str, float, float, int]] = field(default_factory=list)
     obdc: tuple[float, float] = (0.0, 0.0)
     scbd: tuple[list[float], int] | None = None
+    #: an ``SCBD 2`` line (the tilt/decenter after the surface): refused on a lens surface
+    scbd_after: tuple[list[float], int] | None = None
 
 
 def _rest(raw: str, keyword: str) -> str:
@@ -395,8 +398,11 @@ class _Reader:
 
     def kw_SCBD(self, args, no, raw):
         vals = self.nums(args, "tilt/decenter value", no)
-        if any(v != 0.0 for v in vals[1:]):
-            self.cur("SCBD", no).scbd = (vals, no)  # read at assembly (zemax_geometry.scbd_transform)
+        if any(v != 0.0 for v in vals[1:]):  # read at assembly (zemax_geometry.scbd_transform)
+            if vals[0] == 2.0:
+                self.cur("SCBD", no).scbd_after = (vals, no)
+            else:
+                self.cur("SCBD", no).scbd = (vals, no)
 
     def kw_XDAT(self, args, no, raw):
         s = self.cur("XDAT", no)
@@ -464,9 +470,7 @@ class _Reader:
         with located(self.path, obj.line):
             object_medium = self.material(obj)
         for k, s in enumerate(body):
-            if s.scbd is not None:
-                raise self.err("SCBD: a tilt/decenter on a lens surface is not supported (only on the image "
-                               "surface)", s.scbd[1], "write the frame change as COORDBRK surfaces around it")
+            self._check_scbd(s)
             with located(self.path, s.line):
                 before = surfaces[-1].material if surfaces else object_medium
                 if s.type == "COORDBRK":
@@ -498,8 +502,19 @@ class _Reader:
                     semi_diameter_mm=None if sd is None else sd * f,
                     conic=s.conic, asphere=asph, shape=shape, is_stop=s.stop, label=s.label, line=s.line,
                     mirror=s.mirror,
-                    apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed))
+                    apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed,
+                    transform_before=None if s.scbd is None else scbd_transform(*s.scbd, f, self.path)))
         return self._system(surfaces, obj, f)
+
+    def _check_scbd(self, s: _Surf) -> None:
+        """A lens surface's SCBD lines: "before" (``SCBD 1``) becomes its ``transform_before``
+        (:func:`.zemax_geometry.scbd_transform`) on a surface of glass or air; "after" (``SCBD 2``) is refused."""
+        if s.scbd_after is not None:
+            raise self.err("SCBD 2: a tilt/decenter after a lens surface (explicit, pickup or reverse) is not read",
+                           s.scbd_after[1], "write the frame change after the surface as a COORDBRK")
+        if s.scbd is not None and s.type in ("COORDBRK", "PARAXIAL"):
+            raise self.err(f"SCBD on a {s.type} surface is not read", s.scbd[1],
+                           "write the frame change as a COORDBRK surface")
 
     def _first_order_note(self, index: int, s: _Surf) -> None:
         self.warnings.append(LoadWarning(
