@@ -111,3 +111,24 @@ def test_toroidal_mirror_first_order_matches_rayoptics(tmp_path: Path, monkeypat
     assert tor[0].shape.curvature_x_per_mm == pytest.approx(1 / 1035.0, rel=1e-15)
     assert "first_order_y_section" in [w.code for w in lens.warnings]
     assert first_order(lens).efl_mm == pytest.approx(efl_ro, rel=1e-9)
+
+
+def test_fringe_telescope_reads_the_fringe_terms_the_surface_tilt_and_the_dummy() -> None:
+    """tests/data/fringe_telescope.zmx: a FZERNSAG parabolic mirror (F_5 = 1e-4 mm astigmatism, F_9 = -5e-5 mm
+    spherical over R_n = 30 mm) with ``SCBD 1 0 0 0 0 0.01 0.005 0`` (tilts in degrees), a plane dummy 0 mm after
+    it (inside the mirror's sag: a warning) and a lens in ``SF12?``. The y-section's paraxial curvature is the
+    closed form c + 2 a_2 with a_2 = (-A_5 - 6 A_9) / R_n^2 (F_5 = rho^2 cos 2 theta is -rho^2 on the y axis,
+    F_9 = 6 rho^4 - 6 rho^2 + 1)."""
+    import math
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from lensrt.loading import load_lens
+        lens = load_lens(Path(__file__).resolve().parents[1] / "data" / "fringe_telescope.zmx")
+    m = lens.surfaces[0]
+    assert m.mirror and m.shape == SurfaceShape("zernike_fringe", (0.0,) * 4 + (1e-4, 0.0, 0.0, 0.0, -5e-5), 30.0)
+    t = m.transform_before
+    assert (t.tilt_x_rad, t.tilt_y_rad, t.tilt_z_rad, t.order) == (math.radians(0.01), math.radians(0.005), 0.0, 0)
+    assert m.paraxial_curvature_per_mm == pytest.approx(-0.0025 + 2 * (-1e-4 + 6 * 5e-5) / 900.0, rel=1e-12)
+    codes = {w.code for w in lens.warnings}
+    assert {"dummy_crossing", "glass_uncertain_name", "first_order_y_section"} <= codes
+    assert lens.surfaces[2].material.name == "SF12"
