@@ -43,7 +43,7 @@ from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
 from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..limits import MAX_ZEMAX_PARM
-from ..materials import AIR, Material, ModelGlass
+from ..materials import AIR, ConstantIndex, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ..shapes import MAX_SHAPE_TERMS
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
@@ -187,8 +187,7 @@ class _Reader:
         if kw == "SURF":
             n = int(self.num(args[0], "surface number", no)) if args else -1
             if n != len(self.surfs):
-                raise self.err(f"SURF {args[0] if args else ''} out of order (expected SURF {len(self.surfs)})", no,
-                               "surfaces must be numbered 0 (object), 1, 2, ... in order")
+                self._numbering_gap(n, args, no)
             self.surfs.append(_Surf(number=n, line=no))
             return
         if kw == "MODE":
@@ -313,6 +312,22 @@ class _Reader:
             current = int(self.num(args[1], "current configuration", no)) if len(args) > 1 else 1
             self.mce, self.in_mce = MultiConfigReader(self.path, count, current, no), True
 
+    def _numbering_gap(self, n: int, args: list[str], no: int) -> None:
+        """A SURF number that skips some (``SURF 39`` after ``SURF 37``, a surface deleted by hand): read as the next
+        surface where the light between is in air -- there a skipped surface, were it a plane of zero thickness
+        in air (what an empty row of OpticStudio's editor is), changes nothing -- with a ``surface_numbering``
+        warning; any other order is an error."""
+        prev = self.surfs[-1] if self.surfs else None
+        if prev is None or n < len(self.surfs) or prev.glass is not None or self.mce is not None:
+            why = "" if prev is None or n < len(self.surfs) else \
+                (" after a surface whose medium is not air" if prev.glass is not None else " in a multi-configuration "
+                 "file (its operands name surfaces by number)")
+            raise self.err(f"SURF {args[0] if args else ''} out of order (expected SURF {len(self.surfs)}){why}", no,
+                           "surfaces must be numbered 0 (object), 1, 2, ... in order")
+        self.warnings.append(LoadWarning(
+            "surface_numbering", f"SURF {n} follows SURF {prev.number}: read as surface {len(self.surfs)} (the light "
+            f"between is in air, so a skipped plane surface of zero thickness would change nothing)", None, no))
+
     def glass(self, name: str, no: int) -> Material:
         """The material a multi-configuration GLSS row names (looked up as a GLAS line is)."""
         return self.material(_Surf(number=-1, line=no, glass=[name], glass_line=no))
@@ -433,6 +448,8 @@ class _Reader:
         vd = self.num(toks[4], "V_d", no) if len(toks) > 4 else 0.0
         real = nd >= 1.0 and vd > 0.0
         if name.upper() in ("___BLANK", "MODEL"):
+            if vd == 0.0 and len(toks) > 4 and 0.5 <= nd <= 5.0 and nd != 1.0:
+                return self._constant_model(name, nd, surface, no)
             if not real:
                 raise self.err(f"GLAS {name}: a model glass needs n_d >= 1 and V_d > 0 on the line "
                                f"(found {nd:g}, {vd:g})", no, "give 'GLAS ___BLANK 1 0 nd vd'")
@@ -450,6 +467,19 @@ class _Reader:
             self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); in no catalog"))
         elif _norm_name(glass.name) != _norm_name(name):
             self.subs[name] = glass.describe()
+        return glass
+
+    def _constant_model(self, name: str, nd: float, surface: int | None, no: int) -> Material:
+        """``GLAS ___BLANK 1 0 nd 0``: a model glass with V_d = 0, i.e. no dispersion to model -- a constant index.
+        Monochromatic designs write it so (a 193 nm lithography lens: fused silica 1.56029 at 193.3 nm); an index
+        below 1 there is one relative to air (helium-filled gaps: 0.999712), which Snell's law reads as it reads
+        any index (only ratios enter)."""
+        with located(self.path, no):
+            glass = ConstantIndex(nd, name=f"n={nd:g}", exotic=nd < 1.0)
+        below = "; an index below 1 is read as relative to air (only index ratios enter the trace)" \
+            if nd < 1.0 else ""
+        self.warnings.append(LoadWarning("glass_model", f"model glass n_d = {nd:g}, V_d = 0 (GLAS {name}): no "
+                                         f"dispersion, a constant index at every wavelength{below}", surface, no))
         return glass
 
     # -- assemble --------------------------------------------------------------
