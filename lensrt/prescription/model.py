@@ -362,7 +362,8 @@ class LoadWarning:
     ``code`` is one of ``glass_other_catalog``, ``glass_alias``, ``glass_substituted``,
     ``glass_model``, ``glass_line_disagrees``, ``glass_private``, ``keyword_ignored``,
     ``keyword_unknown``, ``assumed_default``, ``first_order_y_section`` (a surface that is not rotationally
-    symmetric: paraxial data are its y-section's), ...; ``surface`` the 0-based lens surface
+    symmetric: paraxial data are its y-section's), ``dummy_crossing``, ``glass_uncertain_name``,
+    ``surface_numbering``, ...; ``surface`` the 0-based lens surface
     (``None`` for system data); ``line`` the file line.
     """
 

@@ -51,3 +51,9 @@ def test_a_skipped_surface_number_in_air_reads_as_the_next_surface() -> None:
         loads_zmx(zmx().replace("SURF 2\n", "SURF 7\n"), "t.zmx")  # after SURF 1, which is in N-BK7
     with pytest.raises(PrescriptionError, match="SURF 1 out of order \\(expected SURF 2\\)"):
         loads_zmx(zmx().replace("SURF 2\n", "SURF 1\n"), "t.zmx")
+
+
+def test_variable_conic_flag_is_ignored_on_purpose() -> None:
+    """``VCON`` (the conic is an optimisation variable, in YuryStrelkov/ZemaxUtils' files): no optics, no warning."""
+    lens = _load(zmx(extra1="CONI -0.5\n  VCON"))
+    assert lens.surfaces[0].conic == -0.5 and lens.warnings == ()
