@@ -132,3 +132,10 @@ def test_fringe_telescope_reads_the_fringe_terms_the_surface_tilt_and_the_dummy(
     codes = {w.code for w in lens.warnings}
     assert {"dummy_crossing", "glass_uncertain_name", "first_order_y_section"} <= codes
     assert lens.surfaces[2].material.name == "SF12"
+
+
+def test_fringe_telescope_round_trips_through_the_native_format() -> None:
+    """``lensrt lens convert`` writes the fringe shape, the surface tilt, the mirror and the dummy exactly."""
+    lens = _read(Path(__file__).resolve().parents[1] / "data" / "fringe_telescope.zmx")
+    again = loads_native(dumps_native(lens))
+    assert again.surfaces == lens.surfaces
