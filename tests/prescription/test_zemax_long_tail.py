@@ -57,3 +57,16 @@ def test_variable_conic_flag_is_ignored_on_purpose() -> None:
     """``VCON`` (the conic is an optimisation variable, in YuryStrelkov/ZemaxUtils' files): no optics, no warning."""
     lens = _load(zmx(extra1="CONI -0.5\n  VCON"))
     assert lens.surfaces[0].conic == -0.5 and lens.warnings == ()
+
+
+def test_automatic_semi_diameter_inside_an_annular_clap_gives_way_to_the_clap() -> None:
+    """``DIAM 3 0`` (automatic) with ``CLAP 4 9``: clipping at 3 mm would stop everything the annulus passes
+    (YuryStrelkov/ZemaxUtils' primary mirrors: DIAM 72.5, CLAP 85 180); the semi-diameter is the CLAP's 9 mm, with a
+    warning. A user-defined DIAM (flag 1) or one that overlaps the annulus is kept."""
+    lens = _load(zmx(extra1="DIAM 3 0 0 0 1 \"\"\n  CLAP 4 9 0"))
+    s = lens.surfaces[0]
+    assert s.semi_diameter_mm == 9.0 and (s.apertures[0].shape, s.apertures[0].a, s.apertures[0].b) == ("annulus", 9.0, 4.0)
+    assert [w.code for w in lens.warnings] == ["semi_diameter_from_clap"]
+    for diam, want in (("DIAM 3 1 0 0 1 \"\"", 3.0), ("DIAM 6 0 0 0 1 \"\"", 6.0)):
+        other = _load(zmx(extra1=f"{diam}\n  CLAP 4 9 0"))
+        assert other.surfaces[0].semi_diameter_mm == want and other.warnings == ()

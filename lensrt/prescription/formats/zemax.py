@@ -527,6 +527,7 @@ class _Reader:
                     sd, entries, fixed = entries[0][2], [], True  # a centred circular CLAP: the semi-diameter
                 if sd is not None and sd <= 0.0:
                     sd = None  # DIAM 0: no semi-diameter given (computed on load)
+                sd = self._automatic_inside_clap(s, sd, entries, fixed, len(surfaces))
                 surfaces.append(Surface(
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
                     material=before if s.mirror else self.material(s, k),
@@ -546,6 +547,22 @@ class _Reader:
         if s.scbd is not None and s.type in ("COORDBRK", "PARAXIAL"):
             raise self.err(f"SCBD on a {s.type} surface is not read", s.scbd[1],
                            "write the frame change as a COORDBRK surface")
+
+    def _automatic_inside_clap(self, s: _Surf, sd: float | None, entries: list, fixed: bool, index: int
+                               ) -> float | None:
+        """An automatic semi-diameter (``DIAM v 0``) that lies inside the surface's annular ``CLAP rmin rmax``
+        would, clipping, stop every ray the CLAP passes; OpticStudio clips at the CLAP only. The CLAP's outer
+        radius is then the semi-diameter, with a warning."""
+        if fixed or sd is None or s.obdc != (0.0, 0.0):
+            return sd
+        clap = [e for e in entries if e[0] == "CLAP" and e[1] >= sd and math.isfinite(e[2])]
+        if not clap:
+            return sd
+        self.warnings.append(LoadWarning(
+            "semi_diameter_from_clap", f"surface {index + 1}: the automatic semi-diameter {sd:g} (DIAM, flag 0) lies "
+            f"inside its CLAP {clap[0][1]:g} {clap[0][2]:g}, which would stop every ray; the CLAP's outer radius "
+            f"{clap[0][2]:g} is the semi-diameter (OpticStudio clips at the CLAP only)", index, clap[0][3]))
+        return clap[0][2]
 
     def _first_order_note(self, index: int, s: _Surf) -> None:
         self.warnings.append(LoadWarning(
