@@ -70,3 +70,25 @@ def test_a_dummy_does_not_hide_real_surfaces_that_cross() -> None:
         _load(_pair(dummy=False))
     with pytest.raises(PrescriptionError, match="surfaces 2 and 4 cross: .*thickness 0.5 mm"):
         _load(_pair(dummy=True))
+
+
+def test_cots_objective_stage_with_crossing_dummies_loads_like_its_siblings() -> None:
+    """m-d-young's COTS-0002-02-1 (tests/data/corpus) has a dummy 3e-10 mm before a convex face and a reference
+    plane 2.96 mm in front of its last lens surface; it was refused as crossing. It now loads with
+    ``dummy_crossing`` warnings, and its rear focal length (into water) is that of the same objective's other stages
+    (04-1, 12-1) to 1e-7 relative -- optiland 0.6.3 gives 11.10112 mm for it, the stages' common 1.5e-4 offset."""
+    from pathlib import Path
+
+    from lensrt.paraxial import first_order
+    corpus = Path(__file__).resolve().parents[1] / "data" / "corpus"
+    lens = _load_file(corpus / "COTS-0002-02-1.zmx")
+    assert "dummy_crossing" in {w.code for w in lens.warnings}
+    f2 = first_order(lens).rear_focal_length_mm
+    for sibling in ("COTS-0002-04-1.zmx", "COTS-0002-12-1.zmx"):
+        assert f2 == pytest.approx(first_order(_load_file(corpus / sibling)).rear_focal_length_mm, rel=1e-7)
+
+
+def _load_file(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_lens(path)
