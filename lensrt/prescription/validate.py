@@ -32,6 +32,11 @@ def check_geometry(lens: Lens, samples: int = 65, beam_heights_mm: np.ndarray | 
     ones often reach there; CODE V, OpticStudio and rayoptics trace such files)
     while the on-axis light passes where it is positive. A crossing inside
     the axial beam stays an error.
+    A dummy surface (the same medium on both sides, not a mirror or an ideal
+    lens) is a reference plane, not matter: where it crosses a neighbour the
+    result is a ``dummy_crossing`` warning (rays reach it by a backward
+    segment, as OpticStudio traces them), and the real surfaces on either side
+    of a run of dummies are compared with each other over the summed thickness.
     The image surface must lie behind the last vertex, unless the paraxial
     image is virtual: ``image_distance_mm`` (last vertex to the paraxial image;
     the loader passes :attr:`lensrt.paraxial.first_order.FirstOrder.image_distance_mm`)
