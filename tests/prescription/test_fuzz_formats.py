@@ -38,6 +38,8 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            # zoom and focus (issue 18): MNUM/THIC/APER/YFIE/WAVE/LTTL rows, ZOO/POS, [[configuration]] and [focus]
            ROOT / "data" / "cooke_triplet_mce.zmx", ROOT / "data" / "ag_dblgauss_zoom.seq",
            ROOT.parent / "lens_prescriptions" / "fujinon_xf_90mm_f2_inner_focus.toml",
+           # CODE V special surfaces (issue 22): SPS ODD / XYP / QBF with SCO and SCC
+           ROOT / "data" / "special_surfaces.seq",
            # the long tail (issue 25): FZERNSAG, SCBD on a lens surface, a dummy inside a mirror's sag, a glass
            # name marked uncertain (SF12?); ZOO YDE/YDC and ZOO VUY/VLY
            ROOT / "data" / "fringe_telescope.zmx", ROOT / "data" / "zoom_decenter.seq"]
