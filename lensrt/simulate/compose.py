@@ -88,10 +88,11 @@ class Geometry:
     r_mm: np.ndarray
 
 
-def geometry(cam: Camera) -> Geometry:
-    """The :class:`Geometry` of the camera's pixel frame."""
-    rows, cols = cam.shape
-    u, v = picture_positions_mm(cam, np.arange(rows)[:, None], np.arange(cols)[None, :])
+def geometry(cam: Camera, row_range: tuple[int, int] | None = None) -> Geometry:
+    """The :class:`Geometry` of the camera's pixel frame, or of its rows [r0, r1) (``row_range``)."""
+    r0, r1 = row_range if row_range is not None else (0, cam.shape[0])
+    rows, cols = r1 - r0, cam.shape[1]
+    u, v = picture_positions_mm(cam, np.arange(r0, r1)[:, None], np.arange(cols)[None, :])
     u, v = np.broadcast_to(u, (rows, cols)), np.broadcast_to(v, (rows, cols))
     return Geometry(u, v, np.hypot(u, v))
 
@@ -187,19 +188,23 @@ def _dilate3(mask: np.ndarray) -> np.ndarray:
 
 
 def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,
-               gain: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(sharp linear image x RI x gain (3, H, W) -- zero where the layer is absent, alpha (H, W), fraction of
-    pixels from beyond the input frame) of a layer: ``mask`` (H, W) where the layer is in the input (None:
-    everywhere)."""
+               gain: float, count_rows: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """(sharp linear image x RI x gain (3, h, W) -- zero where the layer is absent, alpha (h, W), fraction of
+    pixels from beyond the input frame) of a layer over the rows of ``geo`` (h of them): ``mask`` (H, W) where
+    the layer is in the input (None: everywhere); the fraction is counted over the rows ``count_rows`` of
+    ``geo`` (default: all)."""
     from scipy.ndimage import map_coordinates
     rows, cols = cam.shape
+    shape = geo.r_mm.shape
     step, scale_tab, ri_tab = radial_tables(cam, opt)
     s = np.interp(geo.r_mm, np.arange(len(scale_tab)) * step, scale_tab)
     ci = geo.u_mm * s / cam.pitch_mm + 0.5 * (cols - 1)
     ri_row = 0.5 * (rows - 1) - geo.v_mm * s / cam.pitch_mm
-    outside = float(np.mean((ci < -0.5) | (ci > cols - 0.5) | (ri_row < -0.5) | (ri_row > rows - 0.5)))
+    a, b = count_rows if count_rows is not None else (0, shape[0])
+    ci_c, ri_c = ci[a:b], ri_row[a:b]
+    outside = float(np.mean((ci_c < -0.5) | (ci_c > cols - 0.5) | (ri_c < -0.5) | (ri_c > rows - 0.5)))
     if mask is None:
-        alpha = np.ones((rows, cols), dtype=np.float32)
+        alpha = np.ones(shape, dtype=np.float32)
     else:  # the layer's mask, sampled nearest
         rn = np.clip(np.floor(ri_row + 0.5), 0, rows - 1).astype(np.intp)
         cn = np.clip(np.floor(ci + 0.5), 0, cols - 1).astype(np.intp)
@@ -207,7 +212,7 @@ def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, 
     sel = np.nonzero(alpha)
     coords = np.stack([ri_row[sel], ci[sel]])
     gain_px = np.interp(geo.r_mm[sel], np.arange(len(ri_tab)) * step, ri_tab) * gain
-    sharp = np.zeros((3, rows, cols), dtype=np.float32)
+    sharp = np.zeros((3,) + shape, dtype=np.float32)
     for k in range(3):
         sharp[k][sel] = map_coordinates(image[..., k], coords, order=1, mode="nearest") * gain_px
     return sharp, alpha, outside
@@ -230,9 +235,12 @@ class Compositor:
 
     Accumulates colour C (K, 3, H, W), coverage Acc (K, H, W) and the variance of Y from the PSFs' rays
     (K, H, W); :meth:`add` takes the next nearer layer, :meth:`result` the coefficients and the variance.
+    ``row0``: the row, in the frame of the blurred layers, of the compositor's first row (a band of rows:
+    what the layers' boxes hold beyond its H rows is left out).
     """
 
-    def __init__(self, n_bands: int, shape: tuple[int, int], y_weights: np.ndarray):
+    def __init__(self, n_bands: int, shape: tuple[int, int], y_weights: np.ndarray, row0: int = 0):
+        self.row0 = int(row0)
         self.c = np.zeros((n_bands, 3) + tuple(shape), dtype=np.float32)
         self.acc = np.zeros((n_bands,) + tuple(shape), dtype=np.float32)
         self.var = np.zeros((n_bands,) + tuple(shape), dtype=np.float32)
@@ -242,6 +250,11 @@ class Compositor:
         """Composite a layer's blurred channels (K, 5, bh, bw) over the box (see
         :func:`lensrt.simulate.convolve.convolve_layer`); ``rays`` (K,) rays landed per PSF."""
         r0, r1, c0, c1 = box
+        lo, hi = max(r0, self.row0), min(r1, self.row0 + self.c.shape[2])
+        if lo >= hi:
+            return
+        blurred, ones = blurred[:, :, lo - r0:hi - r0], ones[:, lo - r0:hi - r0]
+        r0, r1 = lo - self.row0, hi - self.row0
         # divide by the operator's response to a full, uniform layer: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
         inv_u = 1.0 / np.maximum(ones, np.float32(1e-12))

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "tile_bounds", "tile_window", "TilePlan"]
+__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "tile_bounds", "tile_window", "cell_edges", "TilePlan"]
 
 
 def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.ndarray,
@@ -55,17 +55,33 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
 
 @dataclass(frozen=True)
 class TilePlan:
-    """Which node tiles one depth layer needs.
+    """Which node tiles and cells one depth layer needs.
 
-    ``active`` (gr, gc): tiles holding some of the layer (their image part is convolved); ``needed`` (gr, gc):
-    tiles whose response to a full layer of ones is needed -- every tile whose blur reaches where an active
-    tile's blur lands (so the normalisation is exact wherever the layer shows); ``box`` (r0, r1, c0, c1): the
-    image pixels the layer's blur reaches (the outputs are computed over this box only).
+    ``cells`` (gr - 1, gc - 1): cells (between neighbouring nodes) holding some of the layer -- the host path
+    convolves these; ``cells_needed``: cells whose response to a full layer of ones is needed (their blur reaches
+    where an active cell's blur lands, so the normalisation is exact wherever the layer shows). ``active``
+    (gr, gc): node tiles (2 x 2 cells) holding some of the layer, ``needed`` (gr, gc) likewise for the full-layer
+    response -- the device path's. ``box`` (r0, r1, c0, c1): the pixels the layer's blur reaches (the outputs
+    are computed over this box only). ``row_edges``/``col_edges``: the cells' pixel bounds (cell i is
+    [edges[i], edges[i + 1])), clipped to the picture (a cell may be empty).
     """
 
     active: np.ndarray
     needed: np.ndarray
     box: tuple[int, int, int, int]
+    cells: np.ndarray
+    cells_needed: np.ndarray
+    row_edges: np.ndarray
+    col_edges: np.ndarray
+
+
+def cell_edges(nodes: np.ndarray, n_px: int) -> np.ndarray:
+    """Pixel bounds of the cells between neighbouring ``nodes`` (the last cell closes at the last node, as the
+    tents of :func:`lensrt.simulate.psf_grid.hat_weights` do), clipped to [0, n_px]: cell i is
+    [edges[i], edges[i + 1])."""
+    edges = np.asarray(nodes, dtype=int).copy()
+    edges[-1] += 1
+    return np.clip(edges, 0, n_px)
 
 
 def tile_bounds(k: int, nodes: np.ndarray) -> tuple[int, int]:
@@ -82,27 +98,46 @@ def _reach(nodes: np.ndarray, half: int, n_px: int) -> np.ndarray:
     return out
 
 
+def _overlaps(reach: np.ndarray) -> np.ndarray:
+    """(n, n): whether the ranges [lo, hi) of ``reach`` (n, 2) overlap."""
+    return (reach[:, None, 0] < reach[None, :, 1]) & (reach[None, :, 0] < reach[:, None, 1])
+
+
+def _cells_present(present: np.ndarray, er: np.ndarray, ec: np.ndarray) -> np.ndarray:
+    """(len(er) - 1, len(ec) - 1): whether each cell holds a True of ``present``."""
+    out = np.zeros((len(er) - 1, len(ec) - 1), dtype=bool)
+    for i in range(len(er) - 1):
+        if er[i + 1] > er[i]:
+            line = present[er[i]:er[i + 1]].any(axis=0)
+            for j in range(len(ec) - 1):
+                out[i, j] = ec[j + 1] > ec[j] and bool(line[ec[j]:ec[j + 1]].any())
+    return out
+
+
 def tile_plan(alpha: np.ndarray, rows: np.ndarray, cols: np.ndarray, half: int) -> TilePlan:
-    """The :class:`TilePlan` of a layer of coverage ``alpha`` (H, W) blurred by PSFs of half-width ``half``."""
+    """The :class:`TilePlan` of a layer of coverage ``alpha`` (H, W) blurred by PSFs of half-width ``half``
+    (``rows``/``cols``: the node pixels, in ``alpha``'s frame -- they may lie beyond it for a band of rows)."""
     h_img, w_img = alpha.shape
     gr, gc = len(rows), len(cols)
-    present = alpha > 0
-    # per cell (between neighbouring nodes; the last node row/column closes the last cell): any of the layer?
-    by_rows = np.logical_or.reduceat(present, [int(r) for r in rows[:-1]], axis=0)
-    cells = np.logical_or.reduceat(by_rows, [int(c) for c in cols[:-1]], axis=1)
+    er, ec = cell_edges(rows, h_img), cell_edges(cols, w_img)
+    cells = _cells_present(alpha > 0, er, ec)
     active = np.zeros((gr, gc), dtype=bool)
     for i in range(gr):
         for j in range(gc):
             active[i, j] = bool(cells[max(i - 1, 0):min(i, gr - 2) + 1, max(j - 1, 0):min(j, gc - 2) + 1].any())
     rr, rc = _reach(rows, half, h_img), _reach(cols, half, w_img)
-    over_r = (rr[:, None, 0] < rr[None, :, 1]) & (rr[None, :, 0] < rr[:, None, 1])
-    over_c = (rc[:, None, 0] < rc[None, :, 1]) & (rc[None, :, 0] < rc[:, None, 1])
-    needed = np.einsum("ik,jl,kl->ij", over_r.astype(int), over_c.astype(int), active.astype(int)) > 0
-    if not active.any():
-        return TilePlan(active, needed, (0, 0, 0, 0))
-    ai, aj = np.nonzero(active)
-    box = (int(rr[ai, 0].min()), int(rr[ai, 1].max()), int(rc[aj, 0].min()), int(rc[aj, 1].max()))
-    return TilePlan(active, needed, box)
+    needed = np.einsum("ik,jl,kl->ij", _overlaps(rr).astype(int), _overlaps(rc).astype(int), active.astype(int)) > 0
+    # the same for cells: a cell reaches its own pixels +- half
+    cr = np.stack([np.maximum(er[:-1] - half, 0), np.minimum(er[1:] + half, h_img)], axis=1)
+    cc = np.stack([np.maximum(ec[:-1] - half, 0), np.minimum(ec[1:] + half, w_img)], axis=1)
+    nonempty = (er[1:] > er[:-1])[:, None] & (ec[1:] > ec[:-1])[None, :]
+    cells_needed = nonempty & (np.einsum("ik,jl,kl->ij", _overlaps(cr).astype(int), _overlaps(cc).astype(int),
+                                         cells.astype(int)) > 0)
+    if not cells.any():
+        return TilePlan(active, needed, (0, 0, 0, 0), cells, cells_needed, er, ec)
+    ai, aj = np.nonzero(cells)
+    box = (int(cr[ai, 0].min()), int(cr[ai, 1].max()), int(cc[aj, 0].min()), int(cc[aj, 1].max()))
+    return TilePlan(active, needed, box, cells, cells_needed, er, ec)
 
 
 def tile_window(i: int, j: int, rows: np.ndarray, cols: np.ndarray, n: int, box: tuple[int, int, int, int]):
@@ -110,47 +145,132 @@ def tile_window(i: int, j: int, rows: np.ndarray, cols: np.ndarray, n: int, box:
     box: (source slices into the full result, destination slices into the box arrays), or None."""
     r0, r1 = tile_bounds(i, rows)
     c0, c1 = tile_bounds(j, cols)
+    return (r0, r1, c0, c1), _meet(r0, r1, c0, c1, n, box)
+
+
+def _meet(r0: int, r1: int, c0: int, c1: int, n: int, box: tuple[int, int, int, int]):
+    """Where the full convolution of pixels [r0, r1) x [c0, c1) by an n x n kernel meets ``box``: (source
+    slices into the full result, destination slices into the box arrays), or None."""
     half = n // 2
     lo_r, hi_r = max(r0 - half, box[0]), min(r1 + half, box[1])
     lo_c, hi_c = max(c0 - half, box[2]), min(c1 + half, box[3])
     if lo_r >= hi_r or lo_c >= hi_c:
-        return (r0, r1, c0, c1), None
+        return None
     src = (slice(lo_r - r0 + half, hi_r - r0 + half), slice(lo_c - c0 + half, hi_c - c0 + half))
     dst = (slice(lo_r - box[0], hi_r - box[0]), slice(lo_c - box[2], hi_c - box[2]))
-    return (r0, r1, c0, c1), (src, dst)
+    return src, dst
+
+
+class _NodeSpectra:
+    """The PSF spectra of one layer's nodes at one FFT shape, transformed when first asked for (K bands each)
+    and dropped with :meth:`drop_row` once no cell needs them."""
+
+    def __init__(self, psfs: np.ndarray, shape: tuple[int, int]):
+        self.psfs, self.shape, self.cache = psfs, shape, {}
+
+    def __call__(self, i: int, j: int) -> np.ndarray:
+        from scipy import fft
+        if (i, j) not in self.cache:
+            self.cache[(i, j)] = fft.rfft2(self.psfs[:, i, j], s=self.shape, workers=-1)
+        return self.cache[(i, j)]
+
+    def drop_row(self, i: int) -> None:
+        for key in [k for k in self.cache if k[0] <= i]:
+            del self.cache[key]
 
 
 def convolve_layer(shared: np.ndarray, own: np.ndarray, psfs: np.ndarray, wr: np.ndarray, wc: np.ndarray,
                    rows: np.ndarray, cols: np.ndarray, plan: TilePlan) -> tuple[np.ndarray, np.ndarray]:
-    """One layer, all K bands, on the host (NumPy/SciPy FFTs, single precision, both cores).
+    """One layer, all K bands, on the host (SciPy real FFTs, single precision, every core), cell by cell.
 
     ``shared`` (S, H, W) channels blurred by every band's PSF; ``own`` (K, H, W) one channel per band, blurred
-    by that band's PSF only; ``psfs`` (K, gr, gc, n, n). Returns over ``plan.box``: the blurred channels
-    (K, S + 1, bh, bw) -- band k's blur of the S shared channels, then of its own -- and the response to a
-    full layer of ones (K, bh, bw). Each active tile is transformed once for all bands.
+    by that band's PSF only; ``psfs`` (K, gr, gc, n, n); ``wr`` (gr, H), ``wc`` (gc, W) the tents in the
+    arrays' frame. Returns over ``plan.box``: the blurred channels (K, S + 1, bh, bw) -- band k's blur of the S
+    shared channels, then of its own -- and the response to a full layer of ones (K, bh, bw).
+
+    Per cell, its four corner nodes' tent-weighted channels are transformed (4 (S + K) forward FFTs), multiplied
+    by the nodes' PSF spectra (transformed once per node and layer) and *summed in the frequency domain*, so
+    each output channel takes one inverse FFT per cell: a pixel's light is transformed back once, not four times
+    as with one FFT per node tile. The full-layer response is formed the same way from the tents' spectra
+    (separable: the outer product of two 1-D FFTs).
     """
     from scipy import fft
     n_b, n = psfs.shape[0], psfs.shape[-1]
+    er, ec = plan.row_edges, plan.col_edges
     r0b, r1b, c0b, c1b = plan.box
     n_s = shared.shape[0]
     out = np.zeros((n_b, n_s + 1, r1b - r0b, c1b - c0b), dtype=np.float32)
     ones = np.zeros((n_b, r1b - r0b, c1b - c0b), dtype=np.float32)
-    for i, j in zip(*np.nonzero(plan.needed)):
-        (r0, r1, c0, c1), where = tile_window(int(i), int(j), rows, cols, n, plan.box)
-        if where is None:
-            continue
-        (sr, sc), (dr, dc) = where
-        shape = (fft.next_fast_len(r1 - r0 + n - 1, True), fft.next_fast_len(c1 - c0 + n - 1, True))
-        wt = (wr[i, r0:r1, None] * wc[j, c0:c1][None, :]).astype(np.float32)
-        kf = fft.rfft2(psfs[:, i, j].astype(np.float32), s=shape, workers=-1)  # (K, fy, fx) complex64
-        kf_w = kf * fft.rfft2(wt, s=shape, workers=-1)
-        ones[:, dr, dc] += fft.irfft2(kf_w, s=shape, workers=-1)[:, sr, sc]
-        if not plan.active[i, j]:
-            continue
-        x = np.concatenate([shared[:, r0:r1, c0:c1], own[:, r0:r1, c0:c1]]) * wt
-        f_x = fft.rfft2(x, s=shape, workers=-1)  # (S + K, fy, fx)
-        spec = np.empty((n_b, n_s + 1) + f_x.shape[1:], dtype=f_x.dtype)
-        np.multiply(f_x[None, :n_s], kf[:, None], out=spec[:, :n_s])
-        np.multiply(f_x[n_s:], kf, out=spec[:, n_s])
-        out[:, :, dr, dc] += fft.irfft2(spec, s=shape, workers=-1)[:, :, sr, sc]
+    if not plan.cells.any():
+        return out, ones
+    shape = (fft.next_fast_len(int(np.diff(er).max()) + n - 1, True),
+             fft.next_fast_len(int(np.diff(ec).max()) + n - 1, True))
+    spectra = _NodeSpectra(psfs, shape)
+    for ci in range(len(er) - 1):
+        for cj in range(len(ec) - 1):
+            if plan.cells_needed[ci, cj]:
+                _cell(shared, own, spectra, wr, wc, ci, cj, plan, n, out, ones)
+        spectra.drop_row(ci)
     return out, ones
+
+
+def _cell(shared, own, spectra: _NodeSpectra, wr, wc, ci: int, cj: int, plan: TilePlan, n: int,
+          out: np.ndarray, ones: np.ndarray) -> None:
+    """Add cell (ci, cj)'s full-layer response and (if it holds some of the layer) its blur into the box."""
+    r0, r1 = int(plan.row_edges[ci]), int(plan.row_edges[ci + 1])
+    c0, c1 = int(plan.col_edges[cj]), int(plan.col_edges[cj + 1])
+    where = _meet(r0, r1, c0, c1, n, plan.box)
+    if where is None:
+        return
+    (sr, sc), (dr, dc) = where
+    shape = spectra.shape
+    corners = [(ci + a, cj + b) for a in (0, 1) for b in (0, 1)]
+    tents_r = {i: wr[i, r0:r1].astype(np.float32) for i in (ci, ci + 1)}
+    tents_c = {j: wc[j, c0:c1].astype(np.float32) for j in (cj, cj + 1)}
+    # the full-layer response: sum over the corners of (tent spectrum x PSF spectrum), one inverse per band
+    acc = None
+    for i, j in corners:
+        tent = np.fft.fft(tents_r[i], shape[0])[:, None] * np.fft.rfft(tents_c[j], shape[1])[None, :]
+        term = spectra(i, j) * tent.astype(np.complex64)
+        acc = term if acc is None else np.add(acc, term, out=acc)
+    ones[:, dr, dc] += _inverse(acc, shape, sr, sc)
+    if not plan.cells[ci, cj]:
+        return
+    n_s, n_b = shared.shape[0], out.shape[0]
+    spec = _cell_spectra(np.concatenate([shared[:, r0:r1, c0:c1], own[:, r0:r1, c0:c1]]), n_s, n_b, corners,
+                         tents_r, tents_c, spectra)
+    out[:, :, dr, dc] += _inverse(spec, shape, sr, sc)
+
+
+def _cell_spectra(x: np.ndarray, n_s: int, n_b: int, corners, tents_r: dict, tents_c: dict,
+                  spectra: _NodeSpectra) -> np.ndarray:
+    """(K, S + 1, fy, fx): per band, the sum over the cell's corners of (the corner's tent-weighted channels'
+    spectrum x its PSF spectrum) -- the S shared channels and the band's own one. A tent is separable, a(row)
+    b(col), and the row-by-row real FFT comes first, so ``x`` b is transformed along its rows once per corner
+    column, scaled by a, and only then transformed along the columns (zero rows are not transformed)."""
+    from scipy import fft
+    p, q = spectra.shape
+    spec = tmp = None
+    half_spec = {j: fft.rfft(x * tents_c[j][None, None, :], n=q, axis=-1, workers=-1) for j in sorted(tents_c)}
+    for i, j in corners:
+        f_x = fft.fft(half_spec[j] * tents_r[i][None, :, None], n=p, axis=-2, workers=-1)  # (S + K, fy, fx)
+        k_f = spectra(i, j)
+        if spec is None:
+            spec = np.empty((n_b, n_s + 1) + f_x.shape[1:], dtype=f_x.dtype)
+            tmp = np.empty((n_b, n_s) + f_x.shape[1:], dtype=f_x.dtype)
+            np.multiply(f_x[None, :n_s], k_f[:, None], out=spec[:, :n_s])
+            np.multiply(f_x[n_s:], k_f, out=spec[:, n_s])
+        else:
+            np.multiply(f_x[None, :n_s], k_f[:, None], out=tmp)
+            spec[:, :n_s] += tmp
+            np.multiply(f_x[n_s:], k_f, out=tmp[:, 0])
+            spec[:, n_s] += tmp[:, 0]
+    return spec
+
+
+def _inverse(spec: np.ndarray, shape: tuple[int, int], sr: slice, sc: slice) -> np.ndarray:
+    """The inverse real 2-D FFT of ``spec`` (..., fy, fx) at ``shape``, over rows ``sr`` and columns ``sc``
+    only (the columns' transform runs on the rows kept)."""
+    from scipy import fft
+    half = fft.ifft(spec, n=shape[0], axis=-2, workers=-1)[..., sr, :]
+    return fft.irfft(half, n=shape[1], axis=-1, workers=-1)[..., sc]
