@@ -283,7 +283,7 @@ def blur_and_composite(comp: Compositor, sharp: np.ndarray, alpha: np.ndarray, p
                        wr: np.ndarray, wc: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> TilePlan:
     """Blur one layer (all bands, host FFTs) and composite it over what ``comp`` holds; returns its plan."""
     plan = tile_plan(alpha, rows, cols, psf.shape[-1] // 2)
-    if not plan.active.any():
+    if not plan.cells.any():
         return plan
     shared, own = layer_channels(sharp, alpha, comp.yw)
     blurred, ones = convolve_layer(shared, own, psf, wr, wc, rows, cols, plan)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "tile_bounds", "tile_window", "cell_edges", "TilePlan"]
+__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "cell_edges", "meet_box", "TilePlan"]
 
 
 def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.ndarray,
@@ -55,22 +55,19 @@ def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.
 
 @dataclass(frozen=True)
 class TilePlan:
-    """Which node tiles and cells one depth layer needs.
+    """Which cells one depth layer needs.
 
-    ``cells`` (gr - 1, gc - 1): cells (between neighbouring nodes) holding some of the layer -- the host path
-    convolves these; ``cells_needed``: cells whose response to a full layer of ones is needed (their blur reaches
-    where an active cell's blur lands, so the normalisation is exact wherever the layer shows). ``active``
-    (gr, gc): node tiles (2 x 2 cells) holding some of the layer, ``needed`` (gr, gc) likewise for the full-layer
-    response -- the device path's. ``box`` (r0, r1, c0, c1): the pixels the layer's blur reaches (the outputs
-    are computed over this box only). ``row_edges``/``col_edges``: the cells' pixel bounds (cell i is
-    [edges[i], edges[i + 1])), clipped to the picture (a cell may be empty).
+    ``cells`` (gr - 1, gc - 1): cells (between neighbouring nodes) holding some of the layer -- these are
+    convolved; ``cells_needed``: cells whose response to a full layer of ones is needed (their blur reaches
+    where an active cell's blur lands, so the normalisation is exact wherever the layer shows). ``box`` (r0, r1,
+    c0, c1): the pixels the layer's blur reaches (the outputs are computed over this box only).
+    ``row_edges``/``col_edges``: the cells' pixel bounds (cell i is [edges[i], edges[i + 1])), clipped to the
+    picture (a cell may be empty).
     """
 
-    active: np.ndarray
-    needed: np.ndarray
-    box: tuple[int, int, int, int]
     cells: np.ndarray
     cells_needed: np.ndarray
+    box: tuple[int, int, int, int]
     row_edges: np.ndarray
     col_edges: np.ndarray
 
@@ -82,20 +79,6 @@ def cell_edges(nodes: np.ndarray, n_px: int) -> np.ndarray:
     edges = np.asarray(nodes, dtype=int).copy()
     edges[-1] += 1
     return np.clip(edges, 0, n_px)
-
-
-def tile_bounds(k: int, nodes: np.ndarray) -> tuple[int, int]:
-    """Pixel range [start, stop) of node k's tent (the cells either side)."""
-    return int(nodes[max(k - 1, 0)]), int(nodes[min(k + 1, len(nodes) - 1)]) + 1
-
-
-def _reach(nodes: np.ndarray, half: int, n_px: int) -> np.ndarray:
-    """(nodes, 2): the image-pixel range [lo, hi) node k's tile reaches after a blur of half-width ``half``."""
-    out = np.empty((len(nodes), 2), dtype=int)
-    for k in range(len(nodes)):
-        a, b = tile_bounds(k, nodes)
-        out[k] = max(a - half, 0), min(b + half, n_px)
-    return out
 
 
 def _overlaps(reach: np.ndarray) -> np.ndarray:
@@ -118,37 +101,22 @@ def tile_plan(alpha: np.ndarray, rows: np.ndarray, cols: np.ndarray, half: int) 
     """The :class:`TilePlan` of a layer of coverage ``alpha`` (H, W) blurred by PSFs of half-width ``half``
     (``rows``/``cols``: the node pixels, in ``alpha``'s frame -- they may lie beyond it for a band of rows)."""
     h_img, w_img = alpha.shape
-    gr, gc = len(rows), len(cols)
     er, ec = cell_edges(rows, h_img), cell_edges(cols, w_img)
     cells = _cells_present(alpha > 0, er, ec)
-    active = np.zeros((gr, gc), dtype=bool)
-    for i in range(gr):
-        for j in range(gc):
-            active[i, j] = bool(cells[max(i - 1, 0):min(i, gr - 2) + 1, max(j - 1, 0):min(j, gc - 2) + 1].any())
-    rr, rc = _reach(rows, half, h_img), _reach(cols, half, w_img)
-    needed = np.einsum("ik,jl,kl->ij", _overlaps(rr).astype(int), _overlaps(rc).astype(int), active.astype(int)) > 0
-    # the same for cells: a cell reaches its own pixels +- half
+    # a cell reaches its own pixels +- half
     cr = np.stack([np.maximum(er[:-1] - half, 0), np.minimum(er[1:] + half, h_img)], axis=1)
     cc = np.stack([np.maximum(ec[:-1] - half, 0), np.minimum(ec[1:] + half, w_img)], axis=1)
     nonempty = (er[1:] > er[:-1])[:, None] & (ec[1:] > ec[:-1])[None, :]
     cells_needed = nonempty & (np.einsum("ik,jl,kl->ij", _overlaps(cr).astype(int), _overlaps(cc).astype(int),
                                          cells.astype(int)) > 0)
     if not cells.any():
-        return TilePlan(active, needed, (0, 0, 0, 0), cells, cells_needed, er, ec)
+        return TilePlan(cells, cells_needed, (0, 0, 0, 0), er, ec)
     ai, aj = np.nonzero(cells)
     box = (int(cr[ai, 0].min()), int(cr[ai, 1].max()), int(cc[aj, 0].min()), int(cc[aj, 1].max()))
-    return TilePlan(active, needed, box, cells, cells_needed, er, ec)
+    return TilePlan(cells, cells_needed, box, er, ec)
 
 
-def tile_window(i: int, j: int, rows: np.ndarray, cols: np.ndarray, n: int, box: tuple[int, int, int, int]):
-    """Tile (i, j): its pixels (r0, r1, c0, c1), and where its full convolution (offset by -n // 2) meets the
-    box: (source slices into the full result, destination slices into the box arrays), or None."""
-    r0, r1 = tile_bounds(i, rows)
-    c0, c1 = tile_bounds(j, cols)
-    return (r0, r1, c0, c1), _meet(r0, r1, c0, c1, n, box)
-
-
-def _meet(r0: int, r1: int, c0: int, c1: int, n: int, box: tuple[int, int, int, int]):
+def meet_box(r0: int, r1: int, c0: int, c1: int, n: int, box: tuple[int, int, int, int]):
     """Where the full convolution of pixels [r0, r1) x [c0, c1) by an n x n kernel meets ``box``: (source
     slices into the full result, destination slices into the box arrays), or None."""
     half = n // 2
@@ -219,7 +187,7 @@ def _cell(shared, own, spectra: _NodeSpectra, wr, wc, ci: int, cj: int, plan: Ti
     """Add cell (ci, cj)'s full-layer response and (if it holds some of the layer) its blur into the box."""
     r0, r1 = int(plan.row_edges[ci]), int(plan.row_edges[ci + 1])
     c0, c1 = int(plan.col_edges[cj]), int(plan.col_edges[cj + 1])
-    where = _meet(r0, r1, c0, c1, n, plan.box)
+    where = meet_box(r0, r1, c0, c1, n, plan.box)
     if where is None:
         return
     (sr, sc), (dr, dc) = where

@@ -29,7 +29,7 @@ import warp as wp
 
 from ..errors import LensrtError
 from .compose import radial_tables
-from .convolve import tile_plan, tile_window
+from .convolve import meet_box, tile_plan
 
 __all__ = ["simulate_on_device", "fft_rows", "MAX_FFT"]
 
@@ -90,28 +90,48 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
 
 
 @wp.kernel
-def _pack(shared: wp.array3d(dtype=wp.float32), own: wp.array3d(dtype=wp.float32), wr: wp.array(dtype=wp.float32),
-          wc: wp.array(dtype=wp.float32), psf: wp.array3d(dtype=wp.float32), r0: int, c0: int, h: int, w: int,
-          p: int, buf: wp.array2d(dtype=wp.vec2f)):
-    """Slabs of the padded tile (p rows of the buffer each): (r a, g a) w, (b a, a) w, per band (Y_b^2 a, 1) w,
-    then per band its PSF (real)."""
-    s, y, x = wp.tid()
+def _pack_psfs(psf: wp.array3d(dtype=wp.float32), p: int, buf: wp.array2d(dtype=wp.vec2f)):
+    """Slab k (p rows of the buffer): the k-th PSF (real), zero-padded."""
+    k, y, x = wp.tid()
+    n = psf.shape[1]
+    val = wp.vec2f(0.0, 0.0)
+    if y < n and x < n:
+        val = wp.vec2f(psf[k, y, x], 0.0)
+    buf[k * p + y, x] = val
+
+
+@wp.kernel
+def _pack_cell(shared: wp.array3d(dtype=wp.float32), own: wp.array3d(dtype=wp.float32),
+               wc: wp.array2d(dtype=wp.float32), j0: int, r0: int, c0: int, w: int, h: int,
+               buf: wp.array2d(dtype=wp.vec2f)):
+    """Per corner column jj (nodes j0, j0 + 1) and slab s, the cell's h rows weighted by that node's column
+    tent: (r a, g a), (b a, a), per band (Y_b^2 a, 1) -- the last one's blur is the full-layer response."""
+    jj, s, y, x = wp.tid()
     n_b = own.shape[0]
     val = wp.vec2f(0.0, 0.0)
-    if s < 2 + n_b:
-        if y < h and x < w:
-            wt = wr[r0 + y] * wc[c0 + x]
-            if s == 0:
-                val = wp.vec2f(shared[0, r0 + y, c0 + x], shared[1, r0 + y, c0 + x]) * wt
-            elif s == 1:
-                val = wp.vec2f(shared[2, r0 + y, c0 + x], shared[3, r0 + y, c0 + x]) * wt
-            else:
-                val = wp.vec2f(own[s - 2, r0 + y, c0 + x], 1.0) * wt
-    else:
-        n = psf.shape[1]
-        if y < n and x < n:
-            val = wp.vec2f(psf[s - 2 - n_b, y, x], 0.0)
-    buf[s * p + y, x] = val
+    if x < w:
+        wt = wc[j0 + jj, c0 + x]
+        if s == 0:
+            val = wp.vec2f(shared[0, r0 + y, c0 + x], shared[1, r0 + y, c0 + x]) * wt
+        elif s == 1:
+            val = wp.vec2f(shared[2, r0 + y, c0 + x], shared[3, r0 + y, c0 + x]) * wt
+        else:
+            val = wp.vec2f(own[s - 2, r0 + y, c0 + x], 1.0) * wt
+    buf[((jj * (2 + n_b)) + s) * h + y, x] = val
+
+
+@wp.kernel
+def _spread_corners(src: wp.array2d(dtype=wp.vec2f), wr: wp.array2d(dtype=wp.float32), i0: int, r0: int, h: int,
+                    slabs: int, p: int, q: int, dst: wp.array2d(dtype=wp.vec2f)):
+    """Transpose the row-transformed slabs (h, q) of corner column jj into the four corners' slabs (q, p), each
+    scaled by its node row's tent and zero-padded to p: corner c = 2 ii + jj."""
+    c, s, x, y = wp.tid()
+    ii = c // 2
+    jj = c - 2 * ii
+    val = wp.vec2f(0.0, 0.0)
+    if y < h:
+        val = src[(jj * slabs + s) * h + y, x] * wr[i0 + ii, r0 + y]
+    dst[(c * slabs + s) * q + x, y] = val
 
 
 @wp.kernel
@@ -122,17 +142,25 @@ def _transpose(src: wp.array2d(dtype=wp.vec2f), p: int, q: int, dst: wp.array2d(
 
 
 @wp.kernel
-def _multiply(spec: wp.array2d(dtype=wp.vec2f), n_b: int, rows: int, out: wp.array2d(dtype=wp.vec2f)):
-    """Per band b: slabs 0 and 1 and b's own slab times b's PSF spectrum -> out slabs 3b .. 3b + 2."""
+def _multiply_corners(spec: wp.array2d(dtype=wp.vec2f), nodes: wp.array2d(dtype=wp.vec2f),
+                      slot: wp.array(dtype=wp.int32), n_b: int, rows: int, out: wp.array2d(dtype=wp.vec2f)):
+    """Per band b: slabs 0 and 1 and b's own slab of each corner times that corner node's PSF spectrum for b,
+    summed over the four corners -> out slabs 3b .. 3b + 2 (the frequency-domain blend of the cell)."""
     s, y, x = wp.tid()
     b = s // 3
     j = s - 3 * b
     src = j
     if j == 2:
         src = 2 + b
-    a = spec[src * rows + y, x]
-    k = spec[(2 + n_b + b) * rows + y, x]
-    out[s * rows + y, x] = wp.vec2f(a[0] * k[0] - a[1] * k[1], a[0] * k[1] + a[1] * k[0])
+    slabs = 2 + n_b
+    re = float(0.0)
+    im = float(0.0)
+    for c in range(4):
+        a = spec[(c * slabs + src) * rows + y, x]
+        k = nodes[(slot[c] * n_b + b) * rows + y, x]
+        re += a[0] * k[0] - a[1] * k[1]
+        im += a[0] * k[1] + a[1] * k[0]
+    out[s * rows + y, x] = wp.vec2f(re, im)
 
 
 @wp.kernel
@@ -260,32 +288,62 @@ def _block(n: int) -> int:
     return max(1, n // _ELEMENTS_PER_THREAD)
 
 
-def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, rows, cols, device):
-    """(blurred (K, 5, bh, bw), ones (K, bh, bw)) of one layer over ``plan.box`` (device arrays)."""
+def _node_spectra(psf: np.ndarray, nodes: list[tuple[int, int]], p: int, q: int, device):
+    """The PSF spectra (transposed: slab ``slot * K + b`` holds q rows of p) of ``nodes`` [(i, j), ...], every
+    band, zero-padded to p x q: one batch of launches per layer."""
     n_b, n = psf.shape[0], psf.shape[-1]
+    ii, jj = np.array([i for i, _ in nodes]), np.array([j for _, j in nodes])
+    host = np.ascontiguousarray(psf[:, ii, jj].transpose(1, 0, 2, 3).reshape(-1, n, n), dtype=np.float32)
+    slabs = host.shape[0]
+    buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
+    spec = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
+    wp.launch(_pack_psfs, dim=(slabs, p, q), inputs=[wp.array(host, dtype=wp.float32, device=device), p, buf],
+              device=device)
+    _fft2(buf, spec, slabs, p, q, False, device)
+    return spec
+
+
+def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, device):
+    """(blurred (K, 5, bh, bw), ones (K, bh, bw)) of one layer over ``plan.box`` (device arrays), cell by cell:
+    the four corners' tent-weighted, transformed channels times their nodes' PSF spectra, summed, and one
+    inverse transform per cell (the host path's scheme, :func:`lensrt.simulate.convolve.convolve_layer`)."""
+    n_b, n = psf.shape[0], psf.shape[-1]
+    er, ec = plan.row_edges, plan.col_edges
     r0b, r1b, c0b, c1b = plan.box
     blurred = wp.zeros((n_b, 5, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
     ones = wp.zeros((n_b, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
-    for i, j in zip(*np.nonzero(plan.needed)):
-        (r0, r1, c0, c1), where = tile_window(int(i), int(j), rows, cols, n, plan.box)
-        if where is None:
-            continue
-        (sr, sc), (dr, dc) = where
+    h_max, w_max = int(np.diff(er).max()), int(np.diff(ec).max())
+    p, q = _pow2(h_max + n - 1), _pow2(w_max + n - 1)
+    if max(p, q) > MAX_FFT:
+        raise LensrtError(f"a PSF cell needs a {p} x {q} FFT, more than {MAX_FFT} a side on the device",
+                          hint="use a finer --grid (more PSF nodes) for this picture size")
+    cells = []
+    for ci, cj in zip(*np.nonzero(plan.cells_needed)):
+        r0, r1, c0, c1 = int(er[ci]), int(er[ci + 1]), int(ec[cj]), int(ec[cj + 1])
+        where = meet_box(r0, r1, c0, c1, n, plan.box)
+        if where is not None:
+            cells.append((int(ci), int(cj), (r0, r1, c0, c1), where))
+    if not cells:
+        return blurred, ones
+    nodes = sorted({(ci + a, cj + b) for ci, cj, _, _ in cells for a in (0, 1) for b in (0, 1)})
+    slot_of = {node: k for k, node in enumerate(nodes)}
+    slots = wp.array(np.array([slot_of[(ci + a, cj + b)] for ci, cj, _, _ in cells for a in (0, 1) for b in (0, 1)],
+                              dtype=np.int32), dtype=wp.int32, device=device)
+    node_spec = _node_spectra(psf, nodes, p, q, device)
+    slabs = 2 + n_b
+    first = wp.empty((2 * slabs * h_max, q), dtype=wp.vec2f, device=device)
+    spread = wp.empty((4 * slabs * q, p), dtype=wp.vec2f, device=device)
+    prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
+    back = wp.empty((3 * n_b * p, q), dtype=wp.vec2f, device=device)
+    for k, (ci, cj, (r0, r1, c0, c1), ((sr, sc), (dr, dc))) in enumerate(cells):
         h, w = r1 - r0, c1 - c0
-        p, q = _pow2(h + n - 1), _pow2(w + n - 1)
-        if max(p, q) > MAX_FFT:
-            raise LensrtError(f"a PSF tile needs a {p} x {q} FFT, more than {MAX_FFT} a side on the device",
-                              hint="use a finer --grid (more PSF nodes) for this picture size")
-        slabs = 2 + 2 * n_b
-        buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
-        tmp = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
-        k_psf = wp.array(np.ascontiguousarray(psf[:, i, j]), dtype=wp.float32, device=device)
-        wp.launch(_pack, dim=(slabs, p, q), inputs=[shared, own, wr[int(i)], wc[int(j)], k_psf, r0, c0, h, w, p, buf],
+        wp.launch(_pack_cell, dim=(2, slabs, h, q), inputs=[shared, own, wc, cj, r0, c0, w, h, first], device=device)
+        _rows_fft(first, 2 * slabs * h, q, False, device)
+        wp.launch(_spread_corners, dim=(4, slabs, q, p), inputs=[first, wr, ci, r0, h, slabs, p, q, spread],
                   device=device)
-        _fft2(buf, tmp, slabs, p, q, False, device)
-        prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
-        wp.launch(_multiply, dim=(3 * n_b, q, p), inputs=[tmp, n_b, q, prod], device=device)
-        back = wp.empty((3 * n_b * p, q), dtype=wp.vec2f, device=device)
+        _rows_fft(spread, 4 * slabs * q, p, False, device)
+        wp.launch(_multiply_corners, dim=(3 * n_b, q, p), inputs=[spread, node_spec, slots[4 * k:4 * k + 4], n_b, q,
+                                                                  prod], device=device)
         _fft2(back, prod, 3 * n_b, p, q, True, device)
         wp.launch(_accumulate, dim=(n_b, dr.stop - dr.start, dc.stop - dc.start),
                   inputs=[back, p, 1.0 / (p * q), sr.start, sc.start, dr.start, dc.start, blurred, ones],
@@ -329,9 +387,9 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
         psf = grid.psf[li]
         alpha = shared[3].numpy() if mask is not None else np.ones((rows, cols), np.float32)
         plan = tile_plan(alpha, grid.node_rows, grid.node_cols, psf.shape[-1] // 2)
-        if not plan.active.any():
+        if not plan.cells.any():
             continue
-        blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, grid.node_rows, grid.node_cols, dev)
+        blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, dev)
         r0b, r1b, c0b, c1b = plan.box
         wp.launch(_composite, dim=(n_b, r1b - r0b, c1b - c0b), device=dev,
                   inputs=[blurred, ones, r0b, c0b, yw, wp.array(np.asarray(rays[li], np.float32), dtype=wp.float32,

@@ -325,7 +325,7 @@ def test_source_side_interpolation_is_exact_and_seamless():
     shared, own = img * alpha, img[:1] * alpha
     psfs = np.stack([psf, psf[::-1]]).astype(np.float32)
     plan = tile_plan(alpha, rows, cols, n // 2)
-    assert plan.active.sum() < plan.active.size  # some tiles are skipped
+    assert plan.cells.sum() < plan.cells.size  # some cells are skipped
     blurred, ones = convolve_layer(shared, own, psfs, wr, wc, rows, cols, plan)
     r0, r1, c0, c1 = plan.box
     for k, p in enumerate((psf, psf[::-1])):
