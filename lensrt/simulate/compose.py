@@ -81,11 +81,13 @@ def assign_layers(depth_m: np.ndarray, layers_mm: np.ndarray) -> tuple[np.ndarra
 
 @dataclass(frozen=True)
 class Geometry:
-    """Per output pixel, shared by the layers: picture position (u, v) and radius r (mm, float64)."""
+    """Per output pixel, shared by the layers: picture position (u, v) and radius r (mm, float64); ``row0``
+    the frame row of its first row (a band of rows)."""
 
     u_mm: np.ndarray
     v_mm: np.ndarray
     r_mm: np.ndarray
+    row0: int = 0
 
 
 def geometry(cam: Camera, row_range: tuple[int, int] | None = None) -> Geometry:
@@ -94,7 +96,7 @@ def geometry(cam: Camera, row_range: tuple[int, int] | None = None) -> Geometry:
     rows, cols = r1 - r0, cam.shape[1]
     u, v = picture_positions_mm(cam, np.arange(r0, r1)[:, None], np.arange(cols)[None, :])
     u, v = np.broadcast_to(u, (rows, cols)), np.broadcast_to(v, (rows, cols))
-    return Geometry(u, v, np.hypot(u, v))
+    return Geometry(u, v, np.hypot(u, v), int(r0))
 
 
 def radial_tables(cam: Camera, opt: LayerOptics) -> tuple[float, np.ndarray, np.ndarray]:
@@ -187,46 +189,101 @@ def _dilate3(mask: np.ndarray) -> np.ndarray:
     return out
 
 
+def _input_coords(cam: Camera, u: np.ndarray, v: np.ndarray, r: np.ndarray, step: float,
+                  scale_tab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) in the input picture that output positions (u, v) of radius r (mm) sample."""
+    rows, cols = cam.shape
+    s = np.interp(r, np.arange(len(scale_tab)) * step, scale_tab)
+    return 0.5 * (rows - 1) - v * s / cam.pitch_mm, u * s / cam.pitch_mm + 0.5 * (cols - 1)
+
+
+def _shift_px(cam: Camera, step: float, scale_tab: np.ndarray) -> int:
+    """An upper bound (pixels) of the distance between an output pixel and the input position it samples
+    (r |s(r) - 1| over the table, rounded up, + 2 for the interpolation between table samples and the
+    bilinear and nearest neighbours)."""
+    r = np.arange(len(scale_tab)) * step
+    return int(np.ceil(np.max(r * np.abs(scale_tab - 1.0)) / cam.pitch_mm)) + 2
+
+
+def _outside_fraction(cam: Camera, geo: Geometry, step: float, scale_tab: np.ndarray, a: int, b: int,
+                      reach: int) -> float:
+    """Fraction of the pixels of rows a..b of ``geo`` that sample beyond the input frame. Only pixels within
+    ``reach`` (:func:`_shift_px`) of the frame's edge can: the edge rows are looked at whole, the others at
+    their ``reach`` columns either side (the same count as over every pixel)."""
+    rows, cols = cam.shape
+    if b <= a:
+        return 0.0
+    fr = geo.row0 + np.arange(a, b)
+    edge = (fr < reach) | (fr >= rows - reach)
+    cidx = np.arange(cols) if 2 * reach >= cols else np.r_[0:reach, cols - reach:cols]
+    count = 0
+    for ridx, cset in ((a + np.flatnonzero(edge), np.arange(cols)), (a + np.flatnonzero(~edge), cidx)):
+        if len(ridx):
+            rr, cc = _input_coords(cam, geo.u_mm[ridx][:, cset], geo.v_mm[ridx][:, cset], geo.r_mm[ridx][:, cset],
+                                   step, scale_tab)
+            count += int(np.count_nonzero((cc < -0.5) | (cc > cols - 0.5) | (rr < -0.5) | (rr > rows - 0.5)))
+    return count / float((b - a) * cols)
+
+
 def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,
-               gain: float, count_rows: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+               gain: float, count_rows: tuple[int, int] | None = None):
     """(sharp linear image x RI x gain (3, h, W) -- zero where the layer is absent, alpha (h, W), fraction of
-    pixels from beyond the input frame) of a layer over the rows of ``geo`` (h of them): ``mask`` (H, W) where
-    the layer is in the input (None: everywhere); the fraction is counted over the rows ``count_rows`` of
-    ``geo`` (default: all)."""
+    pixels from beyond the input frame, window (r0, r1, c0, c1) outside which both are zero) of a layer over
+    the rows of ``geo`` (h of them): ``mask`` (H, W) where the layer is in the input (None: everywhere); the
+    fraction is counted over the rows ``count_rows`` of ``geo`` (default: all). Only the window -- the mask's
+    bounding box grown by the largest shift of the warp -- is sampled."""
     from scipy.ndimage import map_coordinates
     rows, cols = cam.shape
     shape = geo.r_mm.shape
     step, scale_tab, ri_tab = radial_tables(cam, opt)
-    s = np.interp(geo.r_mm, np.arange(len(scale_tab)) * step, scale_tab)
-    ci = geo.u_mm * s / cam.pitch_mm + 0.5 * (cols - 1)
-    ri_row = 0.5 * (rows - 1) - geo.v_mm * s / cam.pitch_mm
+    reach = _shift_px(cam, step, scale_tab)
     a, b = count_rows if count_rows is not None else (0, shape[0])
-    ci_c, ri_c = ci[a:b], ri_row[a:b]
-    outside = float(np.mean((ci_c < -0.5) | (ci_c > cols - 0.5) | (ri_c < -0.5) | (ri_c > rows - 0.5)))
+    outside = _outside_fraction(cam, geo, step, scale_tab, a, b, reach)
+    sharp = np.zeros((3,) + shape, dtype=np.float32)
+    alpha = np.zeros(shape, dtype=np.float32)
+    win = (0, shape[0], 0, shape[1])
+    if mask is not None:
+        rows_any, cols_any = mask.any(axis=1), mask.any(axis=0)
+        if not rows_any.any():
+            return sharp, alpha, outside, (0, 0, 0, 0)
+        nz_r, nz_c = np.flatnonzero(rows_any), np.flatnonzero(cols_any)
+        win = (max(int(nz_r[0]) - reach - geo.row0, 0), min(int(nz_r[-1]) + 1 + reach - geo.row0, shape[0]),
+               max(int(nz_c[0]) - reach, 0), min(int(nz_c[-1]) + 1 + reach, shape[1]))
+        if win[0] >= win[1]:
+            return sharp, alpha, outside, (0, 0, 0, 0)
+    sub = (slice(win[0], win[1]), slice(win[2], win[3]))
+    ri_row, ci = _input_coords(cam, geo.u_mm[sub], geo.v_mm[sub], geo.r_mm[sub], step, scale_tab)
     if mask is None:
-        alpha = np.ones(shape, dtype=np.float32)
+        alpha[sub] = 1.0
     else:  # the layer's mask, sampled nearest
         rn = np.clip(np.floor(ri_row + 0.5), 0, rows - 1).astype(np.intp)
         cn = np.clip(np.floor(ci + 0.5), 0, cols - 1).astype(np.intp)
-        alpha = mask[rn, cn].astype(np.float32)
-    sel = np.nonzero(alpha)
+        alpha[sub] = mask[rn, cn]
+    sel = np.nonzero(alpha[sub])
     coords = np.stack([ri_row[sel], ci[sel]])
-    gain_px = np.interp(geo.r_mm[sel], np.arange(len(ri_tab)) * step, ri_tab) * gain
-    sharp = np.zeros((3,) + shape, dtype=np.float32)
+    gain_px = np.interp(geo.r_mm[sub][sel], np.arange(len(ri_tab)) * step, ri_tab) * gain
     for k in range(3):
-        sharp[k][sel] = map_coordinates(image[..., k], coords, order=1, mode="nearest") * gain_px
-    return sharp, alpha, outside
+        sharp[k][sub][sel] = map_coordinates(image[..., k], coords, order=1, mode="nearest") * gain_px
+    return sharp, alpha, outside, win
 
 
-def layer_channels(sharp: np.ndarray, alpha: np.ndarray, y_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(shared (4, H, W): colour x alpha and alpha; own (K, H, W): each band's Y^2 alpha), float32.
+def layer_channels(sharp: np.ndarray, alpha: np.ndarray, y_weights: np.ndarray,
+                   win: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(shared (4, H, W): colour x alpha and alpha; own (K, H, W): each band's Y^2 alpha), float32, formed
+    over the window (r0, r1, c0, c1) ``win`` only (zero beyond it, as ``sharp`` and ``alpha`` are).
 
     (``sharp`` is already zero where alpha is: colour x alpha = sharp x alpha.)"""
-    shared = np.concatenate([sharp * alpha, alpha[None]], axis=0, dtype=np.float32)
+    r0, r1, c0, c1 = win if win is not None else (0, alpha.shape[0], 0, alpha.shape[1])
     yw = np.asarray(y_weights, dtype=np.float32)
-    own = np.einsum("kc,chw->khw", yw, shared[:3])
-    np.square(own, out=own)
-    own *= alpha
+    shared = np.zeros((4,) + alpha.shape, dtype=np.float32)
+    own = np.zeros((len(yw),) + alpha.shape, dtype=np.float32)
+    a = alpha[r0:r1, c0:c1]
+    np.multiply(sharp[:, r0:r1, c0:c1], a, out=shared[:3, r0:r1, c0:c1])
+    shared[3, r0:r1, c0:c1] = a
+    o = np.einsum("kc,chw->khw", yw, shared[:3, r0:r1, c0:c1])
+    np.square(o, out=o)
+    o *= a
+    own[:, r0:r1, c0:c1] = o
     return shared, own
 
 
@@ -280,12 +337,14 @@ class Compositor:
 
 
 def blur_and_composite(comp: Compositor, sharp: np.ndarray, alpha: np.ndarray, psf: np.ndarray, rays: np.ndarray,
-                       wr: np.ndarray, wc: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> TilePlan:
-    """Blur one layer (all bands, host FFTs) and composite it over what ``comp`` holds; returns its plan."""
+                       wr: np.ndarray, wc: np.ndarray, rows: np.ndarray, cols: np.ndarray,
+                       win: tuple[int, int, int, int] | None = None) -> TilePlan:
+    """Blur one layer (all bands, host FFTs) and composite it over what ``comp`` holds; returns its plan
+    (``win``: the window outside which ``sharp`` and ``alpha`` are zero, see :func:`warp_layer`)."""
     plan = tile_plan(alpha, rows, cols, psf.shape[-1] // 2)
     if not plan.cells.any():
         return plan
-    shared, own = layer_channels(sharp, alpha, comp.yw)
+    shared, own = layer_channels(sharp, alpha, comp.yw, win)
     blurred, ones = convolve_layer(shared, own, psf, wr, wc, rows, cols, plan)
     comp.add(blurred, ones, plan.box, rays)
     return plan
