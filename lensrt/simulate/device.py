@@ -3,23 +3,27 @@
 The same operator as the host path (:mod:`.convolve`, :mod:`.compose`), step for
 step, with every full-size array on the device: per layer, a warp kernel (the
 real chief-ray mapping through the layer's radial tables, bilinear colour,
-nearest mask, relative illumination) writes the layer's channels; per node tile
-that the layer needs (:func:`lensrt.simulate.convolve.tile_plan`), the tent-
-weighted channels are packed two real signals to one complex one -- (r a, g a),
-(b a, a) and per band (Y_b^2 a, w), w the tent weight, whose blur is the
-full-layer response -- zero-padded to powers of two, transformed by row FFTs
-(``wp.tile_fft``, one row per block), a transpose and row FFTs again, multiplied
-by the band's PSF spectrum, transformed back the same way, and added into the
-layer's box; a compositing kernel applies "over"; a last kernel divides by the
-coverage and forms the coefficients and linear sRGB. Only the picture, the layer
-index and the tables go up, only the results come down.
+nearest mask, relative illumination) writes the layer's channels; the PSF
+spectra of the nodes the layer needs are transformed once (one batch); per cell
+that the layer needs (:func:`lensrt.simulate.convolve.tile_plan`), the cell's
+channels are packed two real signals to one complex one -- (r a, g a), (b a, a)
+and per band (Y_b^2 a, 1), whose blur is the full-layer response -- weighted by
+each corner column's tent and transformed along their rows (``wp.tile_fft``, one
+row per block, zero-padded to powers of two); one kernel transposes them into
+the four corners' slabs, scaled by each corner row's tent (the tents are
+separable); row FFTs again; a kernel multiplies each corner's spectrum by its
+node's PSF spectrum and sums the four (the frequency-domain blend); one inverse
+transform per cell, added into the layer's box. A compositing kernel applies
+"over"; a last kernel divides by the coverage and forms the coefficients and
+linear sRGB. Only the picture, the layer index and the tables go up, only the
+results come down.
 
 Since a real kernel's convolution is linear, the blur of x1 + i x2 is
 h * x1 + i h * x2: one complex FFT carries two real channels.
 
 Single precision (the host path's FFTs are single precision too); results agree
 with the host path to about 1e-5 of the signal (tests/simulate/test_device.py).
-Tile FFT sizes are powers of two up to :data:`MAX_FFT`; a larger tile is one
+Cell FFT sizes are powers of two up to :data:`MAX_FFT`; a larger cell is one
 clear error (use a finer PSF grid).
 """
 from __future__ import annotations
