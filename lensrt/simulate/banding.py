@@ -98,9 +98,6 @@ def blur_host(cam, optics: list, layer_inputs, grid, yw: np.ndarray, rays: np.nd
             blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr[:, s0:s1], wc,
                                grid.node_rows - s0, grid.node_cols, win)
             del sharp, alpha
-        c, v = comp.result()
-        coef[:, r0:r1] = c.transpose(0, 2, 3, 1)
-        rgb[r0:r1] = (m_rgb @ c.reshape(3 * n_b, -1)).reshape(3, r1 - r0, cols).transpose(1, 2, 0)
-        var_y[r0:r1] = v
+        comp.write(coef, rgb, var_y, m_rgb, r0)
     return coef, rgb, var_y, float(outside.max()) / rows
 

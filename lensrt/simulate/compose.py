@@ -39,6 +39,8 @@ from .optics import Camera, LayerOptics, picture_positions_mm
 __all__ = ["layer_depths_mm", "assign_layers", "Geometry", "geometry", "radial_tables", "LayerFill", "warp_layer",
            "layer_channels", "Compositor", "blur_and_composite", "TABLE_SAMPLES"]
 
+#: floats of a layer's blurred channels composited at a time (a few MB: the passes stay in cache)
+_CHUNK_FLOATS = 1 << 19
 #: samples of the per-layer radial tables (real radius -> pinhole radius, relative illumination)
 TABLE_SAMPLES = 4097
 
@@ -305,35 +307,61 @@ class Compositor:
 
     def add(self, blurred: np.ndarray, ones: np.ndarray, box: tuple[int, int, int, int], rays: np.ndarray) -> None:
         """Composite a layer's blurred channels (K, 5, bh, bw) over the box (see
-        :func:`lensrt.simulate.convolve.convolve_layer`); ``rays`` (K,) rays landed per PSF."""
+        :func:`lensrt.simulate.convolve.convolve_layer`); ``rays`` (K,) rays landed per PSF. ``blurred`` and
+        ``ones`` are used as scratch."""
         r0, r1, c0, c1 = box
         lo, hi = max(r0, self.row0), min(r1, self.row0 + self.c.shape[2])
         if lo >= hi:
             return
-        blurred, ones = blurred[:, :, lo - r0:hi - r0], ones[:, lo - r0:hi - r0]
-        r0, r1 = lo - self.row0, hi - self.row0
+        per_ray = np.maximum(np.asarray(rays, dtype=np.float32), 1.0)[:, None, None]
+        # a few rows at a time, in place: the dozen passes below then run over data that stays in cache
+        step = max(1, _CHUNK_FLOATS // (blurred.shape[0] * 5 * max(c1 - c0, 1)))
+        for a0 in range(lo, hi, step):
+            a1 = min(a0 + step, hi)
+            self._add_rows(blurred[:, :, a0 - r0:a1 - r0], ones[:, a0 - r0:a1 - r0],
+                           (a0 - self.row0, a1 - self.row0, c0, c1), per_ray)
+
+    def _add_rows(self, blurred: np.ndarray, ones: np.ndarray, box: tuple[int, int, int, int],
+                  per_ray: np.ndarray) -> None:
+        r0, r1, c0, c1 = box
         # divide by the operator's response to a full, uniform layer: a layer that covers everything then has
         # coverage exactly 1 (the blend of node PSFs need not add up to 1 everywhere; the frame edge loses light)
-        inv_u = 1.0 / np.maximum(ones, np.float32(1e-12))
+        inv_u = np.maximum(ones, np.float32(1e-12), out=ones)
+        np.reciprocal(inv_u, out=inv_u)
         blurred *= inv_u[:, None]
-        b, q = blurred[:, :3], blurred[:, 4]
-        a = np.clip(blurred[:, 3], 0.0, 1.0)
+        b, a, q = blurred[:, :3], blurred[:, 3], blurred[:, 4]
+        np.clip(a, 0.0, 1.0, out=a)
         yb = np.einsum("kchw,kc->khw", b, self.yw)
-        v = np.maximum(q - yb * yb, 0.0) / np.maximum(np.asarray(rays, dtype=np.float32), 1.0)[:, None, None]
-        keep = 1.0 - a
+        np.square(yb, out=yb)
+        v = np.subtract(q, yb, out=q)
+        np.maximum(v, 0.0, out=v)
+        v /= per_ray
+        keep = np.subtract(np.float32(1.0), a, out=yb)
         c, acc, var = self.c[:, :, r0:r1, c0:c1], self.acc[:, r0:r1, c0:c1], self.var[:, r0:r1, c0:c1]
         c *= keep[:, None]
         c += b
-        var *= keep * keep
+        var *= keep
+        var *= keep
         var += v
         acc *= keep
         acc += a
 
-    def result(self) -> tuple[np.ndarray, np.ndarray]:
-        """(coefficients (K, 3, H, W) = C / Acc, variance of Y (H, W) summed over the bands)."""
-        good = self.acc > 1e-6
-        inv = np.where(good, 1.0 / np.where(good, self.acc, 1.0), 0.0).astype(np.float32)
-        return self.c * inv[:, None], (self.var * inv * inv).sum(axis=0)
+    def write(self, coef: np.ndarray, rgb: np.ndarray, var_y: np.ndarray, to_rgb: np.ndarray, row: int) -> None:
+        """Write the result from frame row ``row`` on, a few rows at a time: the coefficients C / Acc into
+        ``coef`` (K, H, W, 3), linear sRGB (``to_rgb`` (3, 3 K) on the coefficients) into ``rgb`` (H, W, 3),
+        the variance of Y summed over the bands into ``var_y`` (H, W)."""
+        n_b, _, h, w = self.c.shape
+        m = np.asarray(to_rgb, dtype=np.float32).reshape(3, 3 * n_b)
+        step = max(1, _CHUNK_FLOATS // (n_b * 5 * max(w, 1)))
+        for a0 in range(0, h, step):
+            a1 = min(a0 + step, h)
+            acc = self.acc[:, a0:a1]
+            good = acc > 1e-6
+            inv = np.where(good, 1.0 / np.where(good, acc, 1.0), 0.0).astype(np.float32)
+            c = self.c[:, :, a0:a1] * inv[:, None]
+            coef[:, row + a0:row + a1] = c.transpose(0, 2, 3, 1)
+            rgb[row + a0:row + a1] = (m @ c.reshape(3 * n_b, -1)).reshape(3, a1 - a0, w).transpose(1, 2, 0)
+            var_y[row + a0:row + a1] = (self.var[:, a0:a1] * inv * inv).sum(axis=0)
 
 
 def blur_and_composite(comp: Compositor, sharp: np.ndarray, alpha: np.ndarray, psf: np.ndarray, rays: np.ndarray,
