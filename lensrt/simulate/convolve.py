@@ -129,6 +129,10 @@ def meet_box(r0: int, r1: int, c0: int, c1: int, n: int, box: tuple[int, int, in
     return src, dst
 
 
+#: complex values of a cell's summed spectra formed at a time (a few MB: the corners' products stay in cache)
+_CHUNK_COMPLEX = 1 << 18
+
+
 class _NodeSpectra:
     """The PSF spectra of one layer's nodes at one FFT shape, transformed when first asked for (K bands each)
     and dropped with :meth:`drop_row` once no cell needs them."""
@@ -218,21 +222,28 @@ def _cell_spectra(x: np.ndarray, n_s: int, n_b: int, corners, tents_r: dict, ten
     column, scaled by a, and only then transformed along the columns (zero rows are not transformed)."""
     from scipy import fft
     p, q = spectra.shape
-    spec = tmp = None
     half_spec = {j: fft.rfft(x * tents_c[j][None, None, :], n=q, axis=-1, workers=-1) for j in sorted(tents_c)}
-    for i, j in corners:
-        f_x = fft.fft(half_spec[j] * tents_r[i][None, :, None], n=p, axis=-2, workers=-1)  # (S + K, fy, fx)
-        k_f = spectra(i, j)
-        if spec is None:
-            spec = np.empty((n_b, n_s + 1) + f_x.shape[1:], dtype=f_x.dtype)
-            tmp = np.empty((n_b, n_s) + f_x.shape[1:], dtype=f_x.dtype)
-            np.multiply(f_x[None, :n_s], k_f[:, None], out=spec[:, :n_s])
-            np.multiply(f_x[n_s:], k_f, out=spec[:, n_s])
-        else:
-            np.multiply(f_x[None, :n_s], k_f[:, None], out=tmp)
-            spec[:, :n_s] += tmp
-            np.multiply(f_x[n_s:], k_f, out=tmp[:, 0])
-            spec[:, n_s] += tmp[:, 0]
+    f_x = [fft.fft(half_spec[j] * tents_r[i][None, :, None], n=p, axis=-2, workers=-1) for i, j in corners]
+    k_f = [spectra(i, j) for i, j in corners]
+    del half_spec
+    fx = f_x[0].shape[-1]
+    spec = np.empty((n_b, n_s + 1, p, fx), dtype=f_x[0].dtype)
+    step = max(1, _CHUNK_COMPLEX // (n_b * (n_s + 1) * fx))
+    tmp = np.empty((n_b, n_s, step, fx), dtype=spec.dtype)
+    # a few frequency rows at a time, so that the four corners' products are summed in cache
+    for y0 in range(0, p, step):
+        y1 = min(y0 + step, p)
+        out, t = spec[:, :, y0:y1], tmp[:, :, :y1 - y0]
+        for c in range(4):
+            x_c, h_c = f_x[c][:, y0:y1], k_f[c][:, y0:y1]
+            if c == 0:
+                np.multiply(x_c[None, :n_s], h_c[:, None], out=out[:, :n_s])
+                np.multiply(x_c[n_s:], h_c, out=out[:, n_s])
+            else:
+                np.multiply(x_c[None, :n_s], h_c[:, None], out=t)
+                out[:, :n_s] += t
+                np.multiply(x_c[n_s:], h_c, out=t[:, 0])
+                out[:, n_s] += t[:, 0]
     return spec
 
 
