@@ -235,6 +235,8 @@ def test_cli_bad_inputs_end_in_one_line(tmp_path, capsys):
         ([str(good), "--sensor", "36x24"], "non-square"),
         ([str(good), "--sensor-preset", "no_such_sensor"], "unknown sensor preset"),
         ([str(good), "--iso", "100"], "need --sensor-preset"),
+        ([str(good), "--max-memory", "lots"], "not a memory size"),
+        ([str(good), "--max-memory", "1K"], "input and outputs alone"),
     ]
     import warp as wp
     wp.init()
