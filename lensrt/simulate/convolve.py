@@ -189,6 +189,7 @@ def convolve_layer(shared: np.ndarray, own: np.ndarray, psfs: np.ndarray, wr: np
 def _cell(shared, own, spectra: _NodeSpectra, wr, wc, ci: int, cj: int, plan: TilePlan, n: int,
           out: np.ndarray, ones: np.ndarray) -> None:
     """Add cell (ci, cj)'s full-layer response and (if it holds some of the layer) its blur into the box."""
+    from scipy import fft
     r0, r1 = int(plan.row_edges[ci]), int(plan.row_edges[ci + 1])
     c0, c1 = int(plan.col_edges[cj]), int(plan.col_edges[cj + 1])
     where = meet_box(r0, r1, c0, c1, n, plan.box)
@@ -200,10 +201,11 @@ def _cell(shared, own, spectra: _NodeSpectra, wr, wc, ci: int, cj: int, plan: Ti
     tents_r = {i: wr[i, r0:r1].astype(np.float32) for i in (ci, ci + 1)}
     tents_c = {j: wc[j, c0:c1].astype(np.float32) for j in (cj, cj + 1)}
     # the full-layer response: sum over the corners of (tent spectrum x PSF spectrum), one inverse per band
+    # (a tent's spectrum is the outer product of its row and column spectra: two broadcast products)
     acc = None
     for i, j in corners:
-        tent = np.fft.fft(tents_r[i], shape[0])[:, None] * np.fft.rfft(tents_c[j], shape[1])[None, :]
-        term = spectra(i, j) * tent.astype(np.complex64)
+        term = spectra(i, j) * fft.fft(wr[i, r0:r1], shape[0]).astype(np.complex64)[:, None]
+        term *= fft.rfft(wc[j, c0:c1], shape[1]).astype(np.complex64)[None, :]
         acc = term if acc is None else np.add(acc, term, out=acc)
     ones[:, dr, dc] += _inverse(acc, shape, sr, sc)
     if not plan.cells[ci, cj]:
@@ -222,10 +224,22 @@ def _cell_spectra(x: np.ndarray, n_s: int, n_b: int, corners, tents_r: dict, ten
     column, scaled by a, and only then transformed along the columns (zero rows are not transformed)."""
     from scipy import fft
     p, q = spectra.shape
-    half_spec = {j: fft.rfft(x * tents_c[j][None, None, :], n=q, axis=-1, workers=-1) for j in sorted(tents_c)}
-    f_x = [fft.fft(half_spec[j] * tents_r[i][None, :, None], n=p, axis=-2, workers=-1) for i, j in corners]
+    n_c, h, w = x.shape
+    # the tent-weighted channels are written straight into zero-padded buffers, transformed in place
+    buf = np.empty((n_c, h, q), dtype=np.float32)
+    buf[:, :, w:] = 0.0
+    half_spec = {}
+    for j in sorted(tents_c):
+        np.multiply(x, tents_c[j][None, None, :], out=buf[:, :, :w])
+        half_spec[j] = fft.rfft(buf, axis=-1, workers=-1)
+    f_x = []
+    for i, j in corners:
+        col = np.empty((n_c, p, half_spec[j].shape[-1]), dtype=half_spec[j].dtype)
+        col[:, h:] = 0.0
+        np.multiply(half_spec[j], tents_r[i][None, :, None], out=col[:, :h])
+        f_x.append(fft.fft(col, axis=-2, workers=-1, overwrite_x=True))
     k_f = [spectra(i, j) for i, j in corners]
-    del half_spec
+    del half_spec, buf
     fx = f_x[0].shape[-1]
     spec = np.empty((n_b, n_s + 1, p, fx), dtype=f_x[0].dtype)
     step = max(1, _CHUNK_COMPLEX // (n_b * (n_s + 1) * fx))
@@ -251,5 +265,5 @@ def _inverse(spec: np.ndarray, shape: tuple[int, int], sr: slice, sc: slice) -> 
     """The inverse real 2-D FFT of ``spec`` (..., fy, fx) at ``shape``, over rows ``sr`` and columns ``sc``
     only (the columns' transform runs on the rows kept)."""
     from scipy import fft
-    half = fft.ifft(spec, n=shape[0], axis=-2, workers=-1)[..., sr, :]
+    half = fft.ifft(spec, n=shape[0], axis=-2, workers=-1, overwrite_x=True)[..., sr, :]
     return fft.irfft(half, n=shape[1], axis=-1, workers=-1)[..., sc]
