@@ -93,11 +93,11 @@ def blur_host(cam, optics: list, layer_inputs, grid, yw: np.ndarray, rays: np.nd
         geo = geometry(cam, (s0, s1))
         comp = Compositor(n_b, (r1 - r0, cols), yw, row0=r0 - s0)
         for li, (opt, (layer_img, mask)) in enumerate(zip(optics, layer_inputs())):
-            sharp, alpha, out, win = warp_layer(cam, geo, opt, layer_img, mask, gains[li], (r0 - s0, r1 - s0))
+            layer, out, win = warp_layer(cam, geo, opt, layer_img, mask, gains[li], (r0 - s0, r1 - s0))
             outside[li] += out * (r1 - r0)
-            blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr[:, s0:s1], wc,
-                               grid.node_rows - s0, grid.node_cols, win)
-            del sharp, alpha
+            blur_and_composite(comp, layer, grid.psf[li], rays[li], wr[:, s0:s1], wc, grid.node_rows - s0,
+                               grid.node_cols, win)
+            del layer
         comp.write(coef, rgb, var_y, m_rgb, r0)
     return coef, rgb, var_y, float(outside.max()) / rows
 

@@ -229,11 +229,12 @@ def _outside_fraction(cam: Camera, geo: Geometry, step: float, scale_tab: np.nda
 
 def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, mask: np.ndarray | None,
                gain: float, count_rows: tuple[int, int] | None = None):
-    """(sharp linear image x RI x gain (3, h, W) -- zero where the layer is absent, alpha (h, W), fraction of
-    pixels from beyond the input frame, window (r0, r1, c0, c1) outside which both are zero) of a layer over
-    the rows of ``geo`` (h of them): ``mask`` (H, W) where the layer is in the input (None: everywhere); the
-    fraction is counted over the rows ``count_rows`` of ``geo`` (default: all). Only the window -- the mask's
-    bounding box grown by the largest shift of the warp -- is sampled."""
+    """(layer (4, h, W): the sharp linear image x RI x gain -- zero where the layer is absent, so it is also
+    colour x alpha -- and alpha (0 or 1); the fraction of pixels from beyond the input frame; the window (r0,
+    r1, c0, c1) outside which the layer is zero) of a layer over the rows of ``geo`` (h of them): ``mask``
+    (H, W) where the layer is in the input (None: everywhere); the fraction is counted over the rows
+    ``count_rows`` of ``geo`` (default: all). Only the window -- the mask's bounding box grown by the largest
+    shift of the warp -- is sampled."""
     from scipy.ndimage import map_coordinates
     rows, cols = cam.shape
     shape = geo.r_mm.shape
@@ -241,18 +242,18 @@ def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, 
     reach = _shift_px(cam, step, scale_tab)
     a, b = count_rows if count_rows is not None else (0, shape[0])
     outside = _outside_fraction(cam, geo, step, scale_tab, a, b, reach)
-    sharp = np.zeros((3,) + shape, dtype=np.float32)
-    alpha = np.zeros(shape, dtype=np.float32)
+    layer = np.zeros((4,) + shape, dtype=np.float32)
+    sharp, alpha = layer[:3], layer[3]
     win = (0, shape[0], 0, shape[1])
     if mask is not None:
         rows_any, cols_any = mask.any(axis=1), mask.any(axis=0)
         if not rows_any.any():
-            return sharp, alpha, outside, (0, 0, 0, 0)
+            return layer, outside, (0, 0, 0, 0)
         nz_r, nz_c = np.flatnonzero(rows_any), np.flatnonzero(cols_any)
         win = (max(int(nz_r[0]) - reach - geo.row0, 0), min(int(nz_r[-1]) + 1 + reach - geo.row0, shape[0]),
                max(int(nz_c[0]) - reach, 0), min(int(nz_c[-1]) + 1 + reach, shape[1]))
         if win[0] >= win[1]:
-            return sharp, alpha, outside, (0, 0, 0, 0)
+            return layer, outside, (0, 0, 0, 0)
     sub = (slice(win[0], win[1]), slice(win[2], win[3]))
     ri_row, ci = _input_coords(cam, geo.u_mm[sub], geo.v_mm[sub], geo.r_mm[sub], step, scale_tab)
     if mask is None:
@@ -266,27 +267,21 @@ def warp_layer(cam: Camera, geo: Geometry, opt: LayerOptics, image: np.ndarray, 
     gain_px = np.interp(geo.r_mm[sub][sel], np.arange(len(ri_tab)) * step, ri_tab) * gain
     for k in range(3):
         sharp[k][sub][sel] = map_coordinates(image[..., k], coords, order=1, mode="nearest") * gain_px
-    return sharp, alpha, outside, win
+    return layer, outside, win
 
 
-def layer_channels(sharp: np.ndarray, alpha: np.ndarray, y_weights: np.ndarray,
-                   win: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(shared (4, H, W): colour x alpha and alpha; own (K, H, W): each band's Y^2 alpha), float32, formed
-    over the window (r0, r1, c0, c1) ``win`` only (zero beyond it, as ``sharp`` and ``alpha`` are).
-
-    (``sharp`` is already zero where alpha is: colour x alpha = sharp x alpha.)"""
-    r0, r1, c0, c1 = win if win is not None else (0, alpha.shape[0], 0, alpha.shape[1])
+def layer_channels(layer: np.ndarray, y_weights: np.ndarray,
+                   win: tuple[int, int, int, int] | None = None) -> np.ndarray:
+    """own (K, H, W): each band's Y^2 alpha of a ``layer`` (4, H, W) of :func:`warp_layer` (colour x alpha,
+    alpha), float32, formed over the window (r0, r1, c0, c1) ``win`` only (zero beyond it, as the layer is)."""
+    r0, r1, c0, c1 = win if win is not None else (0, layer.shape[1], 0, layer.shape[2])
     yw = np.asarray(y_weights, dtype=np.float32)
-    shared = np.zeros((4,) + alpha.shape, dtype=np.float32)
-    own = np.zeros((len(yw),) + alpha.shape, dtype=np.float32)
-    a = alpha[r0:r1, c0:c1]
-    np.multiply(sharp[:, r0:r1, c0:c1], a, out=shared[:3, r0:r1, c0:c1])
-    shared[3, r0:r1, c0:c1] = a
-    o = np.einsum("kc,chw->khw", yw, shared[:3, r0:r1, c0:c1])
+    own = np.zeros((len(yw),) + layer.shape[1:], dtype=np.float32)
+    o = np.einsum("kc,chw->khw", yw, layer[:3, r0:r1, c0:c1])
     np.square(o, out=o)
-    o *= a
+    o *= layer[3, r0:r1, c0:c1]
     own[:, r0:r1, c0:c1] = o
-    return shared, own
+    return own
 
 
 class Compositor:
@@ -364,15 +359,15 @@ class Compositor:
             var_y[row + a0:row + a1] = (self.var[:, a0:a1] * inv * inv).sum(axis=0)
 
 
-def blur_and_composite(comp: Compositor, sharp: np.ndarray, alpha: np.ndarray, psf: np.ndarray, rays: np.ndarray,
+def blur_and_composite(comp: Compositor, layer: np.ndarray, psf: np.ndarray, rays: np.ndarray,
                        wr: np.ndarray, wc: np.ndarray, rows: np.ndarray, cols: np.ndarray,
                        win: tuple[int, int, int, int] | None = None) -> TilePlan:
-    """Blur one layer (all bands, host FFTs) and composite it over what ``comp`` holds; returns its plan
-    (``win``: the window outside which ``sharp`` and ``alpha`` are zero, see :func:`warp_layer`)."""
-    plan = tile_plan(alpha, rows, cols, psf.shape[-1] // 2)
+    """Blur one layer (4, H, W) of :func:`warp_layer` (all bands, host FFTs) and composite it over what
+    ``comp`` holds; returns its plan (``win``: the window outside which the layer is zero)."""
+    plan = tile_plan(layer[3], rows, cols, psf.shape[-1] // 2)
     if not plan.cells.any():
         return plan
-    shared, own = layer_channels(sharp, alpha, comp.yw, win)
-    blurred, ones = convolve_layer(shared, own, psf, wr, wc, rows, cols, plan)
+    own = layer_channels(layer, comp.yw, win)
+    blurred, ones = convolve_layer(layer, own, psf, wr, wc, rows, cols, plan)
     comp.add(blurred, ones, plan.box, rays)
     return plan
