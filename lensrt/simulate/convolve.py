@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "cell_edges", "meet_box", "TilePlan"]
+__all__ = ["convolve_varying", "convolve_layer", "tile_plan", "plan_from_cells", "cell_edges", "meet_box",
+           "TilePlan"]
 
 
 def convolve_varying(image: np.ndarray, psf: np.ndarray, wr: np.ndarray, wc: np.ndarray,
@@ -102,7 +103,14 @@ def tile_plan(alpha: np.ndarray, rows: np.ndarray, cols: np.ndarray, half: int) 
     (``rows``/``cols``: the node pixels, in ``alpha``'s frame -- they may lie beyond it for a band of rows)."""
     h_img, w_img = alpha.shape
     er, ec = cell_edges(rows, h_img), cell_edges(cols, w_img)
-    cells = _cells_present(alpha > 0, er, ec)
+    return plan_from_cells(_cells_present(alpha > 0, er, ec), er, ec, half, alpha.shape)
+
+
+def plan_from_cells(cells: np.ndarray, er: np.ndarray, ec: np.ndarray, half: int,
+                    shape: tuple[int, int]) -> TilePlan:
+    """The :class:`TilePlan` of a layer that shows in ``cells`` (bounds ``er``, ``ec`` of
+    :func:`cell_edges`) of a picture of ``shape``, blurred by PSFs of half-width ``half``."""
+    h_img, w_img = shape
     # a cell reaches its own pixels +- half
     cr = np.stack([np.maximum(er[:-1] - half, 0), np.minimum(er[1:] + half, h_img)], axis=1)
     cc = np.stack([np.maximum(ec[:-1] - half, 0), np.minimum(ec[1:] + half, w_img)], axis=1)

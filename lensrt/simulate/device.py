@@ -33,7 +33,7 @@ import warp as wp
 
 from ..errors import LensrtError
 from .compose import radial_tables
-from .convolve import meet_box, tile_plan
+from .convolve import cell_edges, meet_box, plan_from_cells
 
 __all__ = ["simulate_on_device", "fft_rows", "MAX_FFT"]
 
@@ -45,7 +45,7 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.kernel
-def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.int32), inside: int, has_index: int,
+def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.uint8), inside: int, has_index: int,
                 scale_tab: wp.array(dtype=wp.float64), ri_tab: wp.array(dtype=wp.float64), step: float,
                 pitch: float, gain: float, yw: wp.array2d(dtype=wp.float32), shared: wp.array3d(dtype=wp.float32),
                 own: wp.array3d(dtype=wp.float32), outside: wp.array(dtype=wp.int32)):
@@ -71,7 +71,7 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
     if has_index != 0:
         rn = wp.clamp(int(wp.floor(rr + half)), 0, rows - 1)
         cn = wp.clamp(int(wp.floor(ci + half)), 0, cols - 1)
-        if index[rn, cn] != inside:
+        if int(index[rn, cn]) != inside:
             alpha = float(0.0)
     # bilinear, edge pixels repeated beyond the frame (scipy's map_coordinates, order 1, mode "nearest")
     y = wp.clamp(rr, wp.float64(0.0), wp.float64(rows - 1))
@@ -91,6 +91,18 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
     for b in range(own.shape[0]):
         yb = yw[b, 0] * shared[0, r, c] + yw[b, 1] * shared[1, r, c] + yw[b, 2] * shared[2, r, c]
         own[b, r, c] = yb * yb * alpha
+
+
+@wp.kernel
+def _cell_flags(shared: wp.array3d(dtype=wp.float32), row_cell: wp.array(dtype=wp.int32),
+                col_edges: wp.array(dtype=wp.int32), flags: wp.array2d(dtype=wp.int32)):
+    """flags[cell] = 1 where the layer's alpha (``shared[3]``) is non-zero somewhere in the cell: one thread
+    per picture row and cell column (``row_cell``: each row's cell row)."""
+    r, cj = wp.tid()
+    for c in range(col_edges[cj], col_edges[cj + 1]):
+        if shared[3, r, c] > 0.0:
+            flags[row_cell[r], cj] = 1
+            break
 
 
 @wp.kernel
@@ -376,12 +388,16 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
     outside = wp.zeros(1, dtype=wp.int32, device=dev)
     wr = wp.array(wr_h.astype(np.float32), dtype=wp.float32, device=dev)
     wc = wp.array(wc_h.astype(np.float32), dtype=wp.float32, device=dev)
+    er, ec = cell_edges(grid.node_rows, rows), cell_edges(grid.node_cols, cols)
+    row_cell = wp.array(np.repeat(np.arange(len(er) - 1), np.diff(er)).astype(np.int32), dtype=wp.int32, device=dev)
+    ec_dev = wp.array(ec.astype(np.int32), dtype=wp.int32, device=dev)
+    flags = wp.zeros((len(er) - 1, len(ec) - 1), dtype=wp.int32, device=dev)
     worst = 0
     for li, (opt, (image, mask)) in enumerate(zip(optics, layers)):
         step, scale_tab, ri_tab = radial_tables(cam, opt)
         outside.zero_()
         img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
-        index = wp.array(mask.astype(np.int32) if mask is not None else np.zeros((1, 1), np.int32), dtype=wp.int32,
+        index = wp.array(mask.astype(np.uint8) if mask is not None else np.zeros((1, 1), np.uint8), dtype=wp.uint8,
                          device=dev)
         wp.launch(_warp_layer, dim=(rows, cols), device=dev,
                   inputs=[img, index, 1, int(mask is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
@@ -389,8 +405,13 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
                           shared, own, outside])
         worst = max(worst, int(outside.numpy()[0]))
         psf = grid.psf[li]
-        alpha = shared[3].numpy() if mask is not None else np.ones((rows, cols), np.float32)
-        plan = tile_plan(alpha, grid.node_rows, grid.node_cols, psf.shape[-1] // 2)
+        # which cells the layer shows in, found on the device (only the small flag array comes down)
+        flags.zero_()
+        if mask is None:
+            flags.fill_(1)
+        else:
+            wp.launch(_cell_flags, dim=(rows, len(ec) - 1), inputs=[shared, row_cell, ec_dev, flags], device=dev)
+        plan = plan_from_cells(flags.numpy().astype(bool), er, ec, psf.shape[-1] // 2, (rows, cols))
         if not plan.cells.any():
             continue
         blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, dev)
