@@ -385,25 +385,22 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
     var = wp.zeros((n_b, rows, cols), dtype=wp.float32, device=dev)
     shared = wp.empty((4, rows, cols), dtype=wp.float32, device=dev)
     own = wp.empty((n_b, rows, cols), dtype=wp.float32, device=dev)
-    outside = wp.zeros(1, dtype=wp.int32, device=dev)
+    outside = wp.zeros(len(optics), dtype=wp.int32, device=dev)  # per layer; read once at the end
     wr = wp.array(wr_h.astype(np.float32), dtype=wp.float32, device=dev)
     wc = wp.array(wc_h.astype(np.float32), dtype=wp.float32, device=dev)
     er, ec = cell_edges(grid.node_rows, rows), cell_edges(grid.node_cols, cols)
     row_cell = wp.array(np.repeat(np.arange(len(er) - 1), np.diff(er)).astype(np.int32), dtype=wp.int32, device=dev)
     ec_dev = wp.array(ec.astype(np.int32), dtype=wp.int32, device=dev)
     flags = wp.zeros((len(er) - 1, len(ec) - 1), dtype=wp.int32, device=dev)
-    worst = 0
     for li, (opt, (image, mask)) in enumerate(zip(optics, layers)):
         step, scale_tab, ri_tab = radial_tables(cam, opt)
-        outside.zero_()
         img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
         index = wp.array(mask.astype(np.uint8) if mask is not None else np.zeros((1, 1), np.uint8), dtype=wp.uint8,
                          device=dev)
         wp.launch(_warp_layer, dim=(rows, cols), device=dev,
                   inputs=[img, index, 1, int(mask is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
                           wp.array(ri_tab, dtype=wp.float64, device=dev), step, cam.pitch_mm, float(gains[li]), yw,
-                          shared, own, outside])
-        worst = max(worst, int(outside.numpy()[0]))
+                          shared, own, outside[li:li + 1]])
         psf = grid.psf[li]
         # which cells the layer shows in, found on the device (only the small flag array comes down)
         flags.zero_()
@@ -425,4 +422,5 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
     wp.launch(_finish, dim=(rows, cols), device=dev,
               inputs=[col, acc, var, wp.array(np.asarray(to_rgb, np.float32), dtype=wp.float32, device=dev), coef,
                       rgb, var_y])
+    worst = int(outside.numpy().max()) if len(optics) else 0
     return coef.numpy(), rgb.numpy(), var_y.numpy(), worst / float(rows * cols)
