@@ -17,6 +17,7 @@ Shared files at this level:
 - ``fields``      field points for maps (named fields, sensor positions mapped through the real chief ray)
 - ``raysets``     field points named by object-space value, aimed ray batches, chief and close rays
 - ``pupil_rays``  deterministic ray grids over a field point's real pupil, chief rays for PSF set-up
+- ``parabasal``   first-order data from real rays about the central field's chief ray (decentred lenses)
 """
 from __future__ import annotations
 
@@ -28,4 +29,6 @@ __getattr__, __all__ = lazy_face(__name__, {
     "FieldSpec": "fields",
     "lens_fields": "fields",
     "sensor_grid_fields": "fields",
+    "parabasal_first_order": "parabasal",
+    "ParabasalFirstOrder": "parabasal",
 })

@@ -1,4 +1,4 @@
-"""``--devices``, ``--workers``, ``--scheduler``: one set of options for every command that runs a job.
+"""``--devices``, ``--executor``, ``--workers``, ``--scheduler``: one set of options for every command that runs a job.
 
 A command adds them with :func:`add_parallel_arguments` and runs its job with
 the executor :func:`executor_from_args` builds::
@@ -10,6 +10,9 @@ the executor :func:`executor_from_args` builds::
 
 * no ``--workers``/``--scheduler``: this process, one thread per device of
   ``--devices`` (:class:`~lensrt.parallel.LocalExecutor`);
+* ``--executor process``: one worker process per device of ``--devices``
+  (:class:`~lensrt.parallel.ProcessExecutor`: no interpreter lock shared
+  between devices);
 * ``--workers N``: a Dask LocalCluster of N processes on 127.0.0.1, spread
   over ``--devices``;
 * ``--scheduler ADDRESS``: a running Dask cluster; ``--devices`` is resolved
@@ -32,9 +35,13 @@ def add_parallel_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--devices", default=None, metavar="LIST",
                    help="Warp devices: auto (default: the first GPU, else the CPU), all (every GPU Warp sees), "
                         "cpu, cuda, cuda:N, or a comma-separated list (cpu,cpu = two CPU threads)")
+    g.add_argument("--executor", choices=("thread", "process"), default="thread",
+                   help="how this machine's --devices are driven: thread (default: one host thread per device in "
+                        "this process) or process (one worker process per device: no shared interpreter lock; "
+                        "a crashed process's item re-runs on a new one)")
     g.add_argument("--workers", type=int, default=0, metavar="N",
                    help="run on N local worker processes (a Dask LocalCluster on 127.0.0.1, spread over "
-                        "--devices); 0 (default): in this process, one thread per device")
+                        "--devices); 0 (default): this machine's --devices, driven as --executor says")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on the Dask cluster at ADDRESS (e.g. tcp://host:8786); its workers need lensrt "
                         "installed, and for GPU work `--resources GPU=1`")
@@ -53,6 +60,13 @@ def executor_from_args(args: argparse.Namespace, uses_device: bool = True) -> An
         raise LensrtError(f"--workers {workers} must be 0 (this process) or a positive count")
     if scheduler and workers:
         raise LensrtError("--workers starts a local cluster and --scheduler names a running one: give one of them")
+    kind = getattr(args, "executor", None) or "thread"
+    if kind == "process":
+        if scheduler or workers:
+            raise LensrtError("--executor process starts its own worker processes (one per device of --devices); "
+                              "--workers/--scheduler run on Dask instead: give one of them")
+        from ..parallel.process import ProcessExecutor
+        return ProcessExecutor(devices)
     if scheduler:
         from ..parallel.cluster import DaskExecutor
         return DaskExecutor(scheduler, devices=devices)

@@ -66,9 +66,11 @@ def run(args, scene, lens) -> int:
     from contextlib import nullcontext
     options = options_from_args(args)
     context: Any = nullcontext(None)
-    if getattr(args, "devices", None) or getattr(args, "workers", 0) or getattr(args, "scheduler", None):
+    if getattr(args, "devices", None) or getattr(args, "workers", 0) or getattr(args, "scheduler", None) \
+            or getattr(args, "executor", "thread") == "process":
         if args.device is not None:
-            raise LensrtError("give --device (one device, this process) or --devices/--workers/--scheduler, not both")
+            raise LensrtError("give --device (one device, this process) or --devices/--executor/--workers/--scheduler, "
+                              "not both")
         from ._parallel import executor_from_args
         context = executor_from_args(args, uses_device=True)
     quiet = bool(args.json)

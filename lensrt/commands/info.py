@@ -64,8 +64,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             emit(f"warning [{w['code']}]: {w['text']}")
         return 0
     if d.get("unfolded_axis"):
-        emit("the lens has tilts/decenters: these are the paraxial data of its unfolded axis (exact for tilted flat "
-             "fold mirrors, not for genuinely decentred systems)")
+        emit(_decentred_line(d))
     if lens.has_mirrors:
         emit("mirrors: z is along the unfolded axis; after an odd number of mirrors light travels toward -z "
              "(negative thicknesses, f' = n'/Phi with n' < 0)")
@@ -97,6 +96,22 @@ def cmd_info(args: argparse.Namespace) -> int:
              f"near {format_value(dof['near_from_entrance_pupil_mm'], '.1f')} mm, far {format_value(dof['far_from_entrance_pupil_mm'], '.1f')} mm, "
              f"total {format_value(dof['total_mm'], '.1f')} mm; hyperfocal {format_value(dof['hyperfocal_from_entrance_pupil_mm'], '.1f')} mm")
     return 0
+
+
+def _decentred_line(d: dict) -> str:
+    """What the first-order table means for a lens with tilts/decenters (``first_order_method``)."""
+    method = d["first_order_method"]
+    if d.get("parabasal") is None:
+        return (f"first_order_method = \"{method}\": the lens has tilts/decenters; the real rays about the chief "
+                f"ray failed ({d.get('parabasal_error', '')}), so these are the paraxial data of its unfolded axis "
+                "(exact for tilted flat fold mirrors only)")
+    if method.startswith("paraxial"):
+        return (f"first_order_method = \"{method}\": the lens has tilts/decenters, and real rays about the central "
+                "field's chief ray confirm the focal length of its unfolded axis (rows marked [parabasal]; their "
+                "distances run along the chief ray)")
+    return (f"first_order_method = \"{method}\": the lens is genuinely decentred or tilted; its first-order data "
+            "are the rows marked [parabasal] (real rays about the central field's chief ray, y-z and x-z sections, "
+            "as CODE V); the other rows are the y-nu trace of the unfolded axis, for reference only")
 
 
 def _info_all(args: argparse.Namespace) -> int:

@@ -13,6 +13,9 @@ executor:
 
 * :class:`LocalExecutor` -- one host thread per Warp device of this machine
   (all GPUs, or the CPU), each with its own CUDA stream;
+* :class:`ProcessExecutor` -- one worker process per device of this machine
+  (``spawn``; no interpreter lock shared between devices; a killed process's
+  item re-runs on a new one);
 * :class:`DaskExecutor` -- a Dask distributed cluster: a LocalCluster of worker
   processes on loopback, or a real one at ``tcp://host:8786`` (imported lazily;
   ``pip install 'lensrt[dist]'``).
@@ -52,11 +55,12 @@ from __future__ import annotations
 
 from .context import cache_stats, clear_cache, content_hash
 from .local import LocalExecutor, resolve_devices
+from .process import ProcessExecutor
 from .work import (ItemOutcome, Job, JobResult, ListReduction, OrderedFold, Reduction, WorkItem,
                    item_seed_sequence, make_items)
 
 __all__ = ["WorkItem", "Job", "JobResult", "Reduction", "ListReduction", "OrderedFold", "ItemOutcome",
-           "make_items", "item_seed_sequence", "LocalExecutor", "DaskExecutor", "resolve_devices",
+           "make_items", "item_seed_sequence", "LocalExecutor", "ProcessExecutor", "DaskExecutor", "resolve_devices",
            "content_hash", "cache_stats", "clear_cache", "distributed_available"]
 
 

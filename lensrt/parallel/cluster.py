@@ -45,6 +45,8 @@ __all__ = ["DaskExecutor", "distributed_available", "worker_device"]
 GPU_RESOURCE = "GPU"
 #: contexts (lenses, scenes) an executor keeps on its workers for later jobs
 MAX_SHIPPED_CONTEXTS = 4
+#: seconds a LocalCluster's workers may take to start (each imports lensrt and Warp)
+LOCAL_START_TIMEOUT_S = 120.0
 
 
 def distributed_available() -> bool:
@@ -128,6 +130,7 @@ class DaskExecutor:
         self._own_client = client is None
         self._cluster = None
         self._spec = devices
+        self._shipped: list[str] = []
         if client is not None:
             self.client = client
             self._local_devices: list[str] | None = None
@@ -149,11 +152,17 @@ class DaskExecutor:
                 n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                 dashboard_address=":0", resources={GPU_RESOURCE: 1} if cuda else None)
             self.client = distributed.Client(self._cluster)
+            # every worker registered (with its GPU resource) before the first job asks the scheduler for them
+            try:
+                self.client.wait_for_workers(n, timeout=LOCAL_START_TIMEOUT_S)
+            except TimeoutError:
+                self.close()
+                raise LensrtError(f"the {n} local Dask worker(s) did not start within {LOCAL_START_TIMEOUT_S:g} s",
+                                  hint="see the workers' log lines above; --executor process runs without Dask")
             from ._dask_plugins import DevicePlugin
             self.client.register_plugin(DevicePlugin(self._local_devices), name="lensrt-devices")
         self._gpu_tasks = gpu_tasks
         self._chunk_size = chunk_size
-        self._shipped: list[str] = []
 
     @classmethod
     def local(cls, n_workers: int, devices: str | Sequence[str] | None = None) -> "DaskExecutor":

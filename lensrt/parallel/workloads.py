@@ -3,7 +3,8 @@
 A workload factory has the signature ``factory(size: str, seed: int) -> Job``
 where ``size`` is ``"tiny"`` (seconds on a CPU, for CI and smoke runs),
 ``"small"`` or ``"large"`` (a job that keeps several GPUs busy for seconds),
-or ``"key=value,key=value"`` for explicit parameters the factory documents.
+``"key=value,key=value"`` for explicit parameters the factory documents, or a
+preset followed by such pairs (``"large,groups=36"``).
 
 Factories are registered by ``"module:attribute"`` strings and imported only
 when asked for, so the registry never imports a stage that is not needed (or
@@ -54,14 +55,20 @@ def get_workload(name: str) -> WorkloadFactory:
 
 
 def parse_size(size: str, presets: dict[str, dict]) -> dict:
-    """Parameters for ``size``: a preset name, or ``key=value`` pairs over the ``"tiny"`` preset.
+    """Parameters for ``size``: a preset name, ``key=value`` pairs over the ``"tiny"`` preset, or a
+    preset name followed by pairs over it (``"large,groups=36"``: the large PSF map in 36 work items).
 
     Values are converted to the type of the preset's value (int, float, str).
     """
     if size in presets:
         return dict(presets[size])
-    base = dict(presets.get("tiny", {}))
-    for part in filter(None, (p.strip() for p in size.split(","))):
+    parts = [p.strip() for p in size.split(",") if p.strip()]
+    name = parts[0] if parts and "=" not in parts[0] else None
+    if name is not None and name not in presets:
+        raise LensrtError(f"unknown workload size {name!r}", hint=f"use one of {', '.join(presets)}, "
+                                                                   "optionally followed by ,key=value pairs")
+    base = dict(presets.get(name or "tiny", {}))
+    for part in parts[1:] if name is not None else parts:
         key, eq, value = part.partition("=")
         if not eq or key not in base:
             raise LensrtError(f"bad workload size {part!r}",

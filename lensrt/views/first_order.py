@@ -5,7 +5,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["info_data", "first_order_rows", "format_value", "seidel_rows", "virtual_image_line", "afocal_line"]
+__all__ = ["info_data", "first_order_rows", "format_value", "seidel_rows", "virtual_image_line", "afocal_line",
+           "parabasal_data", "parabasal_rows"]
+
+#: the first-order method of a centred lens (and of one whose unfolded axis the real rays confirm)
+YNU_METHOD = "paraxial ynu"
 
 
 def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: float | None = None,
@@ -28,11 +32,13 @@ def info_data(lens, wavelength_nm: float | None = None, object_distance_mm: floa
         if sensor is not None:
             raise LensrtError("the lens is afocal: it forms no image on a sensor", hint="leave out --sensor")
         return {"lens": lens.name, "path": lens.path, **fo.to_dict(),
+                "first_order_method": YNU_METHOD + (" (unfolded axis)" if fo.unfolded_axis else ""),
                 "field_image_heights_mm": list(fo.field_image_heights_mm), "seidel": None,
                 "warnings": [w.to_dict() for w in lens.warnings]}
     sums = seidel_sums(lens, fo.wavelength_nm, object_distance_mm)
     data: dict[str, Any] = {"lens": lens.name, "path": lens.path}
     data.update(fo.to_dict())
+    data.update(parabasal_data(lens, fo, object_distance_mm))
     # every approximation the reader made (glass substitutions, model glasses, ignored keywords, defaults)
     data["warnings"] = [w.to_dict() for w in lens.warnings]
     data["field_image_heights_mm"] = list(fo.field_image_heights_mm)
@@ -108,6 +114,56 @@ def format_value(v: Any, spec: str = ".4f") -> str:
     return format(v, spec)
 
 
+def parabasal_data(lens, fo, object_distance_mm: float | None = None) -> dict[str, Any]:
+    """``first_order_method`` and, for a lens with tilts or decenters, ``parabasal``: first-order data from
+    real rays about the central field's chief ray (:mod:`lensrt.analysis.parabasal`).
+
+    The method is ``"real-ray parabasal about chief ray"`` when those data differ from the y-nu trace of the
+    unfolded axis (a genuinely decentred or tilted system: more than 1e-6 relative in the EFL of either
+    section, or for a finite object in its magnification); a lens whose unfolded axis they confirm (flat fold
+    mirrors, tilted and decentred as they may be; a lens shifted as a whole) keeps ``"paraxial ynu"``. Back
+    focal distances are not compared: they run from the chief ray's hit on the last surface, which a
+    decentred fold mirror moves along the beam. ``parabasal_error`` says why the real rays could not give them.
+    """
+    from ..analysis.parabasal import FIRST_ORDER_METHOD, parabasal_first_order
+    from ..errors import LensrtError
+    if not fo.unfolded_axis:
+        return {"first_order_method": YNU_METHOD}
+    try:
+        p = parabasal_first_order(lens, fo.wavelength_nm, object_distance_mm)
+    except LensrtError as exc:
+        return {"first_order_method": YNU_METHOD + " (unfolded axis)", "parabasal": None,
+                "parabasal_error": str(exc)}
+    pairs = [(p.efl_y_mm, fo.efl_mm), (p.efl_x_mm, fo.efl_mm)]
+    if fo.object_distance_mm is not None:
+        pairs += [(p.magnification_y, fo.magnification), (p.magnification_x, fo.magnification)]
+    agree = all(abs(a - b) <= 1e-6 * max(abs(b), 1e-9) for a, b in pairs)
+    return {"first_order_method": YNU_METHOD + " (unfolded axis)" if agree else FIRST_ORDER_METHOD,
+            "parabasal": p.to_dict()}
+
+
+def parabasal_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """(quantity, value, unit) rows of the parabasal data in :func:`info_data`'s dict ([] if it has none)."""
+    p = d.get("parabasal")
+    if not p:
+        return []
+    pair = lambda a, b, spec=".4f": f"{format_value(p[a], spec)} / {format_value(p[b], spec)}"  # noqa: E731
+    rows = [("EFL y-z / x-z section", pair("efl_y_mm", "efl_x_mm"), "mm")]
+    if d["object_distance_mm"] is None:
+        rows += [("back focal distance y-z / x-z (along the chief ray)", pair("bfl_y_mm", "bfl_x_mm"), "mm"),
+                 ("f-number y-z / x-z", pair("f_number_y", "f_number_x"), "")]
+    else:
+        rows += [("magnification y-z / x-z", pair("magnification_y", "magnification_x", ".6f"), ""),
+                 ("image distance y-z / x-z (along the chief ray)", pair("image_distance_y_mm", "image_distance_x_mm"),
+                  "mm")]
+    rows += [("entrance / exit pupil distance (along the chief ray)",
+              pair("entrance_pupil_distance_mm", "exit_pupil_distance_mm"), "mm"),
+             ("entrance / exit pupil diameter", pair("entrance_pupil_diameter_mm", "exit_pupil_diameter_mm"), "mm"),
+             ("pupil magnification", format_value(p["pupil_magnification"]), ""),
+             ("x-y coupling of the parabasal matrix", format_value(p["coupling"], ".3g"), "")]
+    return [("first-order method", d["first_order_method"], "")] + [(f"{a} [parabasal]", b, c) for a, b, c in rows]
+
+
 def first_order_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
     """(quantity, value, unit) rows of the first-order table from :func:`info_data`'s dict."""
     rows = [
@@ -134,7 +190,7 @@ def first_order_rows(d: dict[str, Any]) -> list[tuple[str, str, str]]:
         ("Lagrange invariant H", d["lagrange_invariant"], "mm"),
         ("Petzval sum (sum Phi/(n n'))", format_value(d["petzval_sum_per_mm"], ".6g"), "1/mm"),
     ]
-    return [(a, format_value(b) if not isinstance(b, str) else b, c) for a, b, c in rows]
+    return [(a, format_value(b) if not isinstance(b, str) else b, c) for a, b, c in rows] + parabasal_rows(d)
 
 
 def seidel_rows(lens, d: dict[str, Any]) -> list[list]:

@@ -44,6 +44,7 @@ class HistogramSetup:
     coma_mm: float = 0.015
     samples_per_item: int = 20000
     kill_marker: str = ""  # fault test: the first item to see this file missing kills its worker
+    host_loops: int = 0  # pure-Python iterations per item (host work that holds the GIL; changes no number)
 
     def __setstate__(self, state: dict) -> None:
         global UNPICKLED
@@ -78,11 +79,20 @@ def prepare(setup: HistogramSetup, device: str) -> HistogramSetup:
 def run(item: WorkItem, setup: HistogramSetup, device: str) -> np.ndarray:
     """One field point: the (n_bins, n_bins) int64 histogram of ``samples_per_item`` rays."""
     n = setup.n_bins
+    _host_work(setup.host_loops)
     hist = wp.zeros(n * n, dtype=wp.int32, device=device)
     wp.launch(mc_histogram_kernel, dim=setup.samples_per_item,
               inputs=[item.seed, setup.defocus_mm, setup.coma_mm * float(item.params), setup.half_width_mm,
                       n / (2.0 * setup.half_width_mm), n, hist], device=device)
     return hist.numpy().reshape(n, n).astype(np.int64)
+
+
+def _host_work(loops: int) -> int:
+    """Stand-in for an item's host share (set-up, analysis): a pure-Python loop, GIL held throughout."""
+    acc = 0
+    for i in range(loops):
+        acc ^= i
+    return acc
 
 
 def run_killing_once(item: WorkItem, setup: HistogramSetup, device: str) -> np.ndarray:
@@ -113,10 +123,11 @@ def make_job(n_items: int = 6, seed: int = 1234, setup: HistogramSetup | None = 
 
 def workload(size: str, seed: int) -> Job:
     """Benchmark factory (``--workload mc-histogram``): sizes tiny / small / large or key=value."""
-    p = parse_size(size, {"tiny": {"items": 8, "samples": 20000, "bins": 24},
-                          "small": {"items": 32, "samples": 1 << 20, "bins": 64},
-                          "large": {"items": 256, "samples": 1 << 26, "bins": 128}})
-    return make_job(p["items"], seed, HistogramSetup(n_bins=p["bins"], samples_per_item=p["samples"]))
+    p = parse_size(size, {"tiny": {"items": 8, "samples": 20000, "bins": 24, "host_loops": 0},
+                          "small": {"items": 32, "samples": 1 << 20, "bins": 64, "host_loops": 0},
+                          "large": {"items": 256, "samples": 1 << 26, "bins": 128, "host_loops": 0}})
+    return make_job(p["items"], seed, HistogramSetup(n_bins=p["bins"], samples_per_item=p["samples"],
+                                                     host_loops=p["host_loops"]))
 
 
 def worker_stats() -> dict:

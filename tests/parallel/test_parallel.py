@@ -241,3 +241,18 @@ def test_every_gpu_gives_the_one_gpu_result() -> None:
     cpu = LocalExecutor("cpu").run(job)
     moved = np.abs(cpu.value["map"] - one.value["map"]).sum() / cpu.value["map"].sum()
     assert moved < 1e-3
+
+
+def test_workload_sizes_take_a_preset_with_overrides() -> None:
+    from lensrt.parallel.workloads import parse_size
+    presets = {"tiny": {"items": 8, "bins": 24, "lens": "a"}, "large": {"items": 256, "bins": 128, "lens": "a"}}
+    assert parse_size("large", presets) == presets["large"]
+    assert parse_size("large,items=36", presets) == {"items": 36, "bins": 128, "lens": "a"}
+    assert parse_size("items=3, lens=b", presets) == {"items": 3, "bins": 24, "lens": "b"}
+    assert presets["large"]["items"] == 256  # the preset itself is left alone
+    with pytest.raises(LensrtError, match="unknown workload size 'huge'"):
+        parse_size("huge,items=3", presets)
+    with pytest.raises(LensrtError, match="bad workload size 'colour=1'"):
+        parse_size("large,colour=1", presets)
+    with pytest.raises(LensrtError, match="items='many' is not a int"):
+        parse_size("large,items=many", presets)

@@ -116,3 +116,22 @@ def test_workers_option_starts_a_local_cluster(capsys, library_dir) -> None:
     dist = json.loads(capsys.readouterr().out)
     assert dist["rows"] == local["rows"]
     assert "dask local cluster, 2 worker(s)" in dist["run"]["executor"]
+
+
+@pytest.mark.gpu
+def test_one_dask_worker_per_gpu_gives_the_one_gpu_result() -> None:
+    """On a CUDA machine: a LocalCluster of one worker per GPU (GPU=1 resource each) against cuda:0 in
+    this process, bit for bit."""
+    from lensrt.device import cuda_available
+    from lensrt.parallel import resolve_devices
+    if not cuda_available():
+        pytest.skip("no CUDA device")
+    job = W.make_job(12)
+    one = LocalExecutor("cuda:0").run(job)
+    gpus = resolve_devices("all")
+    with DaskExecutor.local(len(gpus), gpus) as ex:
+        ex.client.wait_for_workers(len(gpus), timeout=120)
+        every = ex.run(job)
+    assert np.array_equal(every.value["map"], one.value["map"])
+    assert np.array_equal(every.value["sum_of_unit_psfs"], one.value["sum_of_unit_psfs"])
+    assert set(every.item_devices) <= set(gpus)

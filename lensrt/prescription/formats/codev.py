@@ -36,8 +36,8 @@ warning.
 
 Mirrors (``REFL``), decenters and tilts (``XDE`` .. ``CDE``, ``DAR``, ``REV``,
 ``BEN``) and apertures (``CIR ... OBS/HOL``, ``REX``/``REY``, ``ELX``/``ELY``,
-``ADX``/``ADY``/``ARO``) are read by :mod:`.codev_geometry`. ``RET``,
-diffractive surfaces, special surface types, private catalogs are
+``ADX``/``ADY``/``ARO``) and coordinate returns (``RET Sk``) are read by
+:mod:`.codev_geometry`. Diffractive surfaces, special surface types, private catalogs are
 errors naming the file, the line and the command.
 """
 from __future__ import annotations
@@ -58,7 +58,8 @@ from .codev_glass import PrivateCatalog, fictitious_glass
 from .codev_solves import SOLVE_KINDS, apply_solves
 from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
-from .codev_geometry import GEOMETRY_COMMANDS, geometry_command, image_transform, new_row_geometry, row_geometry
+from .codev_geometry import (GEOMETRY_COMMANDS, apply_coordinate_returns, geometry_command, image_transform,
+                             new_row_geometry, row_geometry)
 
 __all__ = ["read_seq", "loads_seq", "tokenize_seq", "UNSUPPORTED", "IGNORED"]
 
@@ -78,7 +79,7 @@ IGNORED = {
     "THM": "mirror substrate thickness (drawing only)",
 }
 UNSUPPORTED = {
-    "RET": "a coordinate return", "XOD": "an offset decenter", "YOD": "an offset decenter",
+    "XOD": "an offset decenter", "YOD": "an offset decenter",
     "ZOD": "an offset decenter", "REFL": "a mirror", "RMD": "a mirror/TIR mode", "DIF": "a diffractive surface",
     "HOE": "a holographic element", "GRT": "a grating", "HWL": "a diffractive surface", "HOR": "a diffractive surface",
     "HCT": "a diffractive surface", "HCO": "a diffractive surface", "DOE": "a diffractive surface",
@@ -402,6 +403,7 @@ class _Seq:
                     semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=r["conic"], asphere=asph,
                     is_stop=r["stop"], label=r["label"], line=r["line"]))
                 before = surfaces[-1].material
+        surfaces = apply_coordinate_returns(surfaces, body, self.path, zoom=self.zoom.count is not None)
         self.image_transform = image_transform(img, f)
         if defocus:
             self.notes.append(("image_defocus_mm", f"{defocus * f:.12g} (SI thickness, added to the last "
@@ -514,6 +516,11 @@ class _Seq:
         if ref is not None and len(ref[0]) != 1:
             raise self.err(f"REF needs one wavelength number, not {len(ref[0])}", ref[1], "e.g. REF 2")
         primary = int(ref[0][0]) - 1 if ref else len(nm) // 2
+        if ref is None and len(nm) > 1:
+            self.warnings.append(LoadWarning(
+                "assumed_default", f"no REF command: the reference wavelength is the middle one, {nm[primary]:g} nm "
+                "(CODE V's default is not documented in any source lensrt found; rayoptics takes the first)",
+                None, wl_line))
         if not 0 <= primary < len(nm):
             raise self.err(f"REF {primary + 1} is not one of the {len(nm)} wavelengths", ref[1] if ref else None)
         with located(path, wl_line):

@@ -21,29 +21,46 @@ reader and this one do not collide.
   ``ELX``/``ELY`` (ellipse semi-axes), with ``OBS``/``HOL`` likewise;
   ``ADX``/``ADY`` (aperture decenter) and ``ARO`` (rotation, degrees) move them.
   Labels (``L'text'``) are ignored; ``EDG`` apertures are mechanical and ignored.
+* ``RET Sk`` (coordinate return): the surface that carries it, and every later
+  one, lies in the coordinate system of surface k (an earlier ``S`` surface):
+  the frame in which surface k lies, its own decenter included. Its thickness
+  then runs along surface k's z axis. lensrt writes it as the surface's
+  ``transform_before`` (:func:`~lensrt.prescription.frames.transform_between`
+  of the running frame and surface k's, :func:`apply_coordinate_returns`), so
+  ``lens convert`` keeps it as an explicit frame change. Source: OpticStudio's
+  CODE V conversion macro maps ``RET Sk`` to a coordinate break with a
+  coordinate-return solve ("Orientation, XYZ") to surface k
+  (``docs/guide/decentred.md``). ``RET`` with a decenter on the same surface,
+  ``RET`` in a zoom file and ``RET`` on ``SI`` are refused (their meaning is
+  not documented in any source found).
 """
 from __future__ import annotations
 
+import dataclasses
+import re
 from typing import Any
 
 from ...errors import PrescriptionError
 from ...units import deg_to_rad
+from ..frames import frames_of_surfaces, transform_between
 from ..geometry import CoordinateTransform, SurfaceAperture
+from ..model import Surface
 
-__all__ = ["GEOMETRY_COMMANDS", "geometry_command", "row_geometry", "new_row_geometry"]
+__all__ = ["GEOMETRY_COMMANDS", "geometry_command", "row_geometry", "new_row_geometry",
+           "apply_coordinate_returns"]
 
 _DECENTER = {"XDE": "x", "YDE": "y", "ZDE": "z", "ADE": "a", "BDE": "b", "CDE": "c"}
 _TYPES = {"DAR": "dar", "REV": "rev", "BEN": "ben"}
 _SHAPED = {"REX": ("rectangle", "a"), "REY": ("rectangle", "b"), "ELX": ("ellipse", "a"),
            "ELY": ("ellipse", "b")}
 #: the commands read here
-GEOMETRY_COMMANDS = set(_DECENTER) | set(_TYPES) | set(_SHAPED) | {"ADX", "ADY", "ARO"}
+GEOMETRY_COMMANDS = set(_DECENTER) | set(_TYPES) | set(_SHAPED) | {"ADX", "ADY", "ARO", "RET"}
 
 
 def new_row_geometry() -> dict[str, Any]:
     """The geometry entries every surface row starts with."""
     return dict(mirror=False, dec={}, dtype="basic", dec_line=None, cir_obs=[], shaped={}, shaped_obs=False,
-                ap_dx=0.0, ap_dy=0.0, ap_rot=0.0)
+                ap_dx=0.0, ap_dy=0.0, ap_rot=0.0, ret=None)
 
 
 def _value(seq: Any, args: list[str], what: str, line: int) -> float:
@@ -57,6 +74,9 @@ def geometry_command(seq: Any, name: str, args: list[str], line: int) -> bool:
     """Apply one geometry command to the current row of ``seq`` (a CODE V reader); False if not one."""
     if name not in GEOMETRY_COMMANDS:
         return False
+    if name == "RET":
+        coordinate_return(seq, args, line)
+        return True
     row = seq.rows[-1] if seq.rows and seq.rows[-1]["kind"] == "SI" and name in _DECENTER else \
         seq.cur(name, line)
     if name in _DECENTER:
@@ -77,6 +97,48 @@ def geometry_command(seq: Any, name: str, args: list[str], line: int) -> bool:
     else:
         row[{"ADX": "ap_dx", "ADY": "ap_dy", "ARO": "ap_rot"}[name]] = _value(seq, args, name, line)
     return True
+
+
+def coordinate_return(seq: Any, args: list[str], line: int) -> None:
+    """Record ``RET Sk`` on the current surface row of ``seq`` (checked and applied at assembly)."""
+    if seq.rows and seq.rows[-1]["kind"] == "SI":
+        raise seq.err("RET on the image surface", line, "decenter SI with XDE ... CDE instead")
+    row = seq.cur("RET", line)
+    if row["kind"] != "S":
+        raise seq.err("RET on the object surface (SO)", line, "RET goes on an S surface after the one it returns to")
+    number = sum(1 for r in seq.rows if r["kind"] == "S")
+    if len(args) != 1 or not re.fullmatch(r"S\d+", args[0], re.IGNORECASE):
+        raise seq.err(f"cannot read RET {' '.join(args)}".rstrip(), line,
+                      "write 'RET Sk' with k the number of an earlier surface (e.g. RET S2)")
+    k = int(args[0][1:])
+    if not 1 <= k < number:
+        raise seq.err(f"RET {args[0]} on surface {number}: surface {k} is not an earlier S surface", line,
+                      f"RET returns to the coordinate system of one of surfaces 1 .. {number - 1}" if number > 1
+                      else "surface 1 has no earlier surface to return to")
+    row["ret"] = (k, line)
+
+
+def apply_coordinate_returns(surfaces: list[Surface], rows: list[dict[str, Any]], path: str | None,
+                             zoom: bool = False) -> list[Surface]:
+    """The surfaces with each ``RET Sk`` turned into the ``transform_before`` that puts the surface in
+    surface k's frame (``rows`` are the ``S`` rows, one per surface, in order)."""
+    if not any(r["ret"] for r in rows):
+        return surfaces
+    out = list(surfaces)
+    for j, r in enumerate(rows):
+        if r["ret"] is None:
+            continue
+        k, line = r["ret"]
+        if zoom:
+            raise PrescriptionError("RET in a zoom file", path=path, line=line,
+                                    hint="the return would change with the zoom positions; not supported")
+        if r["dec"] or r["dtype"] != "basic":
+            raise PrescriptionError(f"RET S{k} and a decenter on one surface", path=path, line=line,
+                                    hint="put the decenter on the next surface (a plane dummy) after the return")
+        frames = frames_of_surfaces([*out[:j], dataclasses.replace(out[j], transform_before=None)])
+        (o, a), (ok, ak) = frames[j], frames[k - 1]
+        out[j] = dataclasses.replace(out[j], transform_before=transform_between(o, a, ok, ak))
+    return out
 
 
 def _transform(row: dict[str, Any], f: float) -> CoordinateTransform | None:
