@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from ..core.budget import format_bytes
 from ..errors import LensrtError
 from .compose import Compositor, blur_and_composite, geometry, warp_layer
 
@@ -59,9 +60,9 @@ def plan_row_bands(shape: tuple[int, int], bands: int, halo: int, cell_cols: int
         return [(0, h)]
     least = min(MIN_BAND_ROWS, h)
     if need(least) > budget_bytes:
-        raise LensrtError(f"a {w} x {h} picture needs {need(least) / 2**30:.2f} GiB of working memory even in bands "
-                          f"of {least} rows ({fixed / 2**30:.2f} GiB of it for the whole input and outputs), more "
-                          f"than the {budget_bytes / 2**30:.2f} GiB allowed",
+        raise LensrtError(f"a {w} x {h} picture needs {format_bytes(need(least))} of working memory even in bands "
+                          f"of {least} rows ({format_bytes(fixed)} of it for the whole input and outputs), more "
+                          f"than the {format_bytes(budget_bytes)} allowed",
                           hint="give more memory (--max-memory), or use a smaller picture or fewer --bands")
     lo, hi = least, h  # need(lo) fits, need(hi) does not: the tallest band that fits
     while hi - lo > 1:

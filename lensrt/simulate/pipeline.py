@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..colour.rgb import linear_srgb_to_xyz
+from ..core.budget import format_bytes
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from .banding import blur_host, fixed_bytes, plan_row_bands
@@ -160,9 +161,11 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     budget = _budget_bytes(options)
     fixed = fixed_bytes(shape, options.bands)
     if fixed > budget:  # the input and the outputs alone: no band can help
-        raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {fixed / 2**30:.1f} GiB of working memory "
-                          f"for its input and outputs alone, more than the {budget / 2**30:.1f} GiB allowed",
+        raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {format_bytes(fixed)} of working memory "
+                          f"for its input and outputs alone, more than the {format_bytes(budget)} allowed",
                           hint="use a smaller image or fewer --bands, or give more memory (--max-memory)")
+    # bands of the thinnest kind, before any PSF is traced (the exact plan, with the PSFs' halo, comes later)
+    plan_row_bands(shape, options.bands, 0, shape[1] // max(options.grid[1] - 1, 1) + 1, 1, budget)
     if depth_m is not None and depth_m.shape != shape:
         raise LensrtError(f"the depth map is {depth_m.shape[1]} x {depth_m.shape[0]}, the image {shape[1]} x {shape[0]}")
     bands = make_bands(options.bands)
@@ -202,8 +205,8 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     if _use_device(options):
         need, budget = memory_bytes(shape, bands.count, len(optics)), _budget_bytes(options)
         if need > budget:
-            raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {need / 2**30:.1f} GiB of working memory "
-                              f"on the device path, more than the {budget / 2**30:.1f} GiB allowed (it blurs whole "
+            raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {format_bytes(need)} of working memory "
+                              f"on the device path, more than the {format_bytes(budget)} allowed (it blurs whole "
                               f"pictures)", hint="use --device cpu (it blurs in bands of rows), or --max-memory")
         from .device import FFT_STATE, simulate_on_device
         coef, rgb, var_y, outside = simulate_on_device(_layer_inputs(image, idx, grid), cam, optics, gains, grid, yw,

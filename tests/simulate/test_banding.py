@@ -64,9 +64,12 @@ def test_row_bands_cover_the_picture_within_the_budget():
         plan_row_bands(shape, k, halo, cell, n_px, fixed + 1)
 
 
-def test_a_budget_below_the_outputs_is_one_clear_error(tmp_path):
+def test_a_budget_below_the_outputs_or_one_band_is_one_clear_error(tmp_path):
+    """Both before any PSF is traced: the whole input and outputs, then the thinnest band."""
     img, _ = _scene(48, 64)
-    with pytest.raises(LensrtError, match="input and outputs alone"):
-        simulate(img, load_lens("dgauss_50mm_f2"), None,
-                 SimulateOptions(sensor="24x18", rays=1 << 11, ri_rays=1 << 12, cache_dir=str(tmp_path),
-                                 max_memory_bytes=1000))
+    for budget, text in ((1000, "input and outputs alone"), (fixed_bytes((48, 64), 4) + 1000, "even in bands of 16")):
+        with pytest.raises(LensrtError, match=text):
+            simulate(img, load_lens("dgauss_50mm_f2"), None,
+                     SimulateOptions(sensor="24x18", rays=1 << 11, ri_rays=1 << 12, cache_dir=str(tmp_path),
+                                     max_memory_bytes=budget))
+        assert not any(tmp_path.iterdir())  # nothing traced or cached
