@@ -60,8 +60,15 @@ def layer_depths_mm(depth_m: np.ndarray, n_layers: int) -> np.ndarray:
 
 
 def _few_levels(values: np.ndarray, most: int) -> np.ndarray | None:
-    """The distinct values of ``values`` if there are at most ``most`` of them, else None (one pass per level,
-    no sort of the whole map)."""
+    """The distinct values of ``values`` (sorted) if there are at most ``most`` of them, else None. A strided
+    sample gives the candidates (more than ``most`` there: more in the whole too); one search over the map
+    checks that every value is one of them; failing that, one pass per level (no sort of the whole map)."""
+    sample = np.unique(values[::max(1, values.size // 65536)])
+    if len(sample) > most:
+        return None
+    idx = np.minimum(np.searchsorted(sample, values), len(sample) - 1)
+    if np.array_equal(sample[idx], values):
+        return sample
     levels, cur = [], -np.inf
     for _ in range(most + 1):
         nxt = float(np.min(values, where=values > cur, initial=np.inf))

@@ -73,3 +73,23 @@ def test_a_budget_below_the_outputs_or_one_band_is_one_clear_error(tmp_path):
                      SimulateOptions(sensor="24x18", rays=1 << 11, ri_rays=1 << 12, cache_dir=str(tmp_path),
                                      max_memory_bytes=budget))
         assert not any(tmp_path.iterdir())  # nothing traced or cached
+
+
+def test_depth_layers_take_the_map_s_few_distinct_depths_exactly():
+    """A map of at most ``layers`` distinct depths gets exactly those as layers (far first); one more distinct
+    depth -- even a single pixel that a strided sample misses -- gives layers evenly spaced in 1/depth."""
+    from lensrt.simulate.compose import assign_layers, layer_depths_mm
+    rng = np.random.default_rng(7)
+    levels_m = np.array([0.8, 1.3, 2.0, 4.5, 9.0])
+    depth = levels_m[rng.integers(0, 5, (600, 800))]
+    got = layer_depths_mm(depth, 8)
+    np.testing.assert_allclose(got, np.sort(1000.0 * levels_m)[::-1], rtol=1e-12)
+    idx, err = assign_layers(depth, got)
+    assert err < 1e-12
+    np.testing.assert_allclose(got[idx] / 1000.0, depth, rtol=1e-12)
+    depth[123, 322] = 3.0  # a sixth depth, one pixel, off the strided sample's grid (every 7th pixel)
+    assert (123 * 800 + 322) % (depth.size // 65536) != 0
+    assert len(layer_depths_mm(depth, 5)) == 5
+    np.testing.assert_allclose(1000.0 / layer_depths_mm(depth, 5), np.linspace(1 / 9.0, 1 / 0.8, 5))
+    np.testing.assert_allclose(layer_depths_mm(depth, 6), np.sort(1000.0 * np.append(levels_m, 3.0))[::-1],
+                               rtol=1e-12)
