@@ -1,4 +1,4 @@
-"""Spatially varying convolution: bilinear interpolation of node PSFs on the *source* side, FFT tiles.
+"""Spatially varying convolution: bilinear interpolation of node PSFs on the *source* side, FFTs by cell.
 
 The PSF of a source point x' is taken as the bilinear blend of the PSFs of the
 four grid nodes around it, h(x'; .) = sum_n w_n(x') h_n (w_n the tent weights).
@@ -8,19 +8,22 @@ Then the image is
 
 i.e. each node's PSF convolves the image *weighted by that node's tent* (Nagy &
 O'Leary, "Restoring images degraded by spatially variant blur", SIAM J. Sci.
-Comput. 19(4), 1998; Hirsch et al., "Efficient filter flow", CVPR 2010). A tent
-is non-zero only over the two cells either side of its node, so each node
-convolves one overlapping tile (2 x 2 cells) by FFT, and the tiles add. There
+Comput. 19(4), 1998; Hirsch et al., "Efficient filter flow", CVPR 2010). There
 are no seams: the weights are continuous and sum to 1, a point source anywhere
-gets exactly the blended PSF, and light is conserved.
+gets exactly the blended PSF, and light is conserved. (:func:`convolve_varying`
+is the float64 reference: one FFT per node's 2 x 2-cell tile.)
 
-Work per depth layer (:func:`convolve_layer`): only the tiles that hold some of
-the layer are transformed (:func:`tile_plan`), once for all wavelength bands
-(channel-first arrays, single-precision real FFTs on every core); each band's
-PSF spectrum multiplies them. The response to a full layer of ones (the
-normalisation of :mod:`.compose`) is formed for every tile whose blur reaches
-where the layer's does, and the outputs only over that box. The device path
-(:mod:`.device`) runs the same tiles with Warp's tile FFTs.
+Work per depth layer (:func:`convolve_layer`), cell by cell (a cell lies between
+four neighbouring nodes, the only ones whose tents are non-zero over it): the
+cell's channels weighted by each corner's tent are transformed, multiplied by
+that corner's PSF spectrum and the four products summed, so each output channel
+takes one inverse FFT per cell. Only the cells that hold some of the layer are
+transformed (:func:`tile_plan`), once for all wavelength bands (channel-first
+arrays, single-precision real FFTs on every core); the PSF spectra once per node
+and layer. The response to a full layer of ones (the normalisation of
+:mod:`.compose`) is formed for every cell whose blur reaches where the layer's
+does, and the outputs only over that box. The device path (:mod:`.device`) runs
+the same cells with Warp's tile FFTs.
 """
 from __future__ import annotations
 
