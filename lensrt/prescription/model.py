@@ -277,7 +277,7 @@ class Surface:
             return
         if not isinstance(sh, SurfaceShape):
             raise PrescriptionError(f"surface shape {sh!r} is not a SurfaceShape", line=self.line)
-        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike"):
+        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike", "zernike_fringe"):
             raise PrescriptionError(f"even asphere terms on a {sh.kind} surface", line=self.line,
                                     hint="give every polynomial term in the shape's coefficients")
 
@@ -362,7 +362,8 @@ class LoadWarning:
     ``code`` is one of ``glass_other_catalog``, ``glass_alias``, ``glass_substituted``,
     ``glass_model``, ``glass_line_disagrees``, ``glass_private``, ``keyword_ignored``,
     ``keyword_unknown``, ``assumed_default``, ``first_order_y_section`` (a surface that is not rotationally
-    symmetric: paraxial data are its y-section's), ...; ``surface`` the 0-based lens surface
+    symmetric: paraxial data are its y-section's), ``dummy_crossing``, ``glass_uncertain_name``,
+    ``surface_numbering``, ...; ``surface`` the 0-based lens surface
     (``None`` for system data); ``line`` the file line.
     """
 
@@ -400,8 +401,14 @@ class Lens:
     path: str | None = field(default=None, compare=False)
     #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default
     focus: FocusMechanism = UNIT_FOCUS
+    #: curvature (1/mm) of a spherical image surface (a curved sensor, the retina; Zemax image CURV, CODE V SI);
+    #: 0: the usual plane. Real rays end on it; paraxial (y-nu) data do not depend on it
+    image_curvature_per_mm: float = 0.0
 
     def __post_init__(self) -> None:
+        if not math.isfinite(self.image_curvature_per_mm):
+            raise PrescriptionError(f"image surface curvature {self.image_curvature_per_mm!r} is not finite",
+                                    hint="give the image radius in mm, or 0 / inf for a plane")
         if self.image_transform is not None and self.image_transform.is_identity:
             object.__setattr__(self, "image_transform", None)
         if self.aperture_rule not in APERTURE_RULES:

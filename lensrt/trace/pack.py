@@ -1,6 +1,7 @@
 """A :class:`~lensrt.prescription.model.Lens` packed into flat arrays for the Warp kernels.
 
-One row per surface plus one for the image surface (a plane)::
+One row per surface plus one for the image surface (a plane, or a sphere of curvature
+``Lens.image_curvature_per_mm``: kind 1, traced by the general kernel variant only)::
 
     surf[i] = [c, 1 + k, sd^2 (-1: no clip), thickness to the next vertex, kind (0 plane,
                1 conic, 2 even asphere, 3.. a shape: SHAPE_KIND_CODES), number of asphere terms, a_0 .. a_9,
@@ -71,7 +72,8 @@ APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 #: extra columns from S_X = SURF_COLS -- normalisation radius, number of terms, x curvature, 1 + x conic, the
 #: terms (Q^bfs in the P basis, xy and Zernike as monomials in (x, y) / R_n) -- present only when the lens has
 #: such a surface (the row is then wider)
-SHAPE_KIND_CODES = {"odd": 3, "qbfs": 4, "qcon": 5, "biconic": 6, "toroidal": 7, "xy": 8, "zernike": 8}
+SHAPE_KIND_CODES = {"odd": 3, "qbfs": 4, "qcon": 5, "biconic": 6, "toroidal": 7, "xy": 8, "zernike": 8,
+                    "zernike_fringe": 8}
 S_X = SURF_COLS
 X_RN, X_NT, X_CX, X_KXP1, X_TERMS = range(5)
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0
@@ -113,6 +115,9 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
             _pack_shape(s, surf[i])
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
+    if lens.image_curvature_per_mm != 0.0:  # a spherical image surface (pack_geometry marks the lens general)
+        surf[n, S_C] = lens.image_curvature_per_mm
+        surf[n, S_KIND] = 1.0
     pack_geometry(lens, surf)
     media = np.zeros((n + 1, MEDIA_COLS))
     for m, mat in enumerate(lens.media()):
@@ -152,8 +157,9 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
     surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
-    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens and not lens.has_shapes:
-        return  # shaped surfaces and ideal lenses are traced by the general kernel variant only
+    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens and not lens.has_shapes \
+            and lens.image_curvature_per_mm == 0.0:
+        return  # shaped surfaces, ideal lenses and curved images are traced by the general kernel variant only
     from ..prescription.frames import surface_frames, travel_signs
     signs = travel_signs(lens)
     for i, (origin, axes) in enumerate(surface_frames(lens)):
@@ -169,6 +175,8 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
                 surf[i, S_X + X_CX] *= signs[i]
                 surf[i, S_X + X_TERMS:] *= signs[i]
             _pack_apertures(lens, i, surf)
+        else:
+            surf[i, S_C] *= signs[i]  # a curved image surface met in the frame mirrored in z
 
 
 def _pack_apertures(lens: Lens, i: int, surf: np.ndarray) -> None:
