@@ -97,21 +97,40 @@ def test_progressive_runs_on_an_executor_keep_pass_rounds():
     _same_estimates(a, b, rel=0.0)
 
 
-def test_tile_region_sums_add_up_to_the_region_sums():
-    """Any split of the pixels into ranges (row-aligned or not): the tiles' region sums add up to the sums
-    over each region; the span a tile copies covers every region pixel it holds."""
-    from lensrt.render.jobs import tile_region_span, tile_region_sums
+def test_region_sums_from_row_segments_add_up_to_the_region_sums():
+    """Any split of the pixels into ranges (row-aligned or not): the row-segment sums that the device
+    kernel writes for each range give, added range by range, the sums over each region (numpy on the
+    whole image); the hit blocks give the paths through of each range."""
+    from lensrt.device import warp
+    from lensrt.render.jobs import region_cuts, region_sums_from_segments
     from lensrt.render.passes import region_slices
+    from lensrt.render.tile_kernels import block_hits, row_segment_sums
+    wp = warp()
     shape = (23, 17)
-    y = np.random.default_rng(1).random(shape)
-    want = [y[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
-    cuts = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
-    got = np.zeros(len(want))
-    for p0, p1 in zip(cuts[:-1], cuts[1:]):
-        span = tile_region_span(p0, p1, shape)
-        if span is not None:
-            got += tile_region_sums(y.reshape(-1)[span[0]:span[1]], span[0], span[1], shape)
+    rng = np.random.default_rng(1)
+    y = rng.random(shape).astype(np.float32)
+    hits = rng.integers(0, 9, shape[0] * shape[1]).astype(np.int32)
+    want = [y.astype(np.float64)[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
+    cuts = region_cuts(shape, longest=4)
+    assert cuts[0] == 0 and cuts[-1] == shape[1] and np.all(np.diff(cuts) <= 4) and np.all(np.diff(cuts) > 0)
+    xyz = np.zeros((y.size, 3), dtype=np.float32)
+    xyz[:, 1] = y.reshape(-1)
+    got, through = np.zeros(len(want)), 0
+    bounds = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
+    for p0, p1 in zip(bounds[:-1], bounds[1:]):
+        ra, rb = p0 // shape[1], -(-p1 // shape[1])
+        seg = wp.zeros((2, rb - ra, len(cuts) - 1), dtype=wp.float64, device="cpu")
+        wp.launch(row_segment_sums, dim=(rb - ra, len(cuts) - 1), device="cpu",
+                  inputs=[wp.array(xyz[p0:p1], dtype=wp.vec3, device="cpu"), p0, p1, ra, shape[1],
+                          wp.array(cuts, dtype=wp.int32, device="cpu"), 1, seg])
+        got += region_sums_from_segments(seg.numpy()[1], ra, shape, cuts)
+        assert not seg.numpy()[0].any()                       # slot 0 untouched
+        blocks = wp.zeros((1, -(-(p1 - p0) // 3)), dtype=wp.int64, device="cpu")
+        wp.launch(block_hits, dim=blocks.shape[1], device="cpu",
+                  inputs=[wp.array(hits[p0:p1], dtype=wp.int32, device="cpu"), p1 - p0, 3, 0, blocks])
+        through += int(blocks.numpy().sum())
     assert np.allclose(got, want, rtol=1e-13, atol=0)
+    assert through == int(hits.sum())
 
 
 def test_render_job_workload_reduces_in_pass_order():
