@@ -1,0 +1,52 @@
+"""Item results through shared memory (lensrt.parallel.shm): the same bits as a plain pickle, the segment
+gone afterwards, small results left in the message; and large results through the process executor."""
+from __future__ import annotations
+
+import pickle
+from multiprocessing import shared_memory
+
+import numpy as np
+import pytest
+
+from lensrt.parallel import Job, LocalExecutor, ProcessExecutor, WorkItem, make_items
+from lensrt.parallel.shm import Packed, pack, unpack
+
+
+def test_a_large_result_round_trips_through_a_segment_that_is_then_gone() -> None:
+    rng = np.random.default_rng(4)
+    value = {"spec": rng.random(300_000), "xyz": rng.random((1000, 3)).astype(np.float32)[:, 1],  # a strided view
+             "hits": np.arange(7, dtype=np.int64), "note": "tile 3", "n": 12}
+    packed = pack(value)
+    assert isinstance(packed, Packed) and len(pickle.dumps(packed)) < 20_000  # the message is small
+    name = packed[0]
+    back = unpack(packed)
+    assert back.keys() == value.keys() and back["note"] == "tile 3" and back["n"] == 12
+    for k in ("spec", "xyz", "hits"):
+        assert back[k].dtype == value[k].dtype and np.array_equal(back[k], value[k])
+    back["spec"][0] = -1.0                       # the arrays are the parent's own, writable
+    with pytest.raises(FileNotFoundError):
+        shared_memory.SharedMemory(name=name)    # unlinked
+
+
+def test_small_or_unpicklable_results_stay_in_the_message() -> None:
+    small = {"a": np.zeros(10)}
+    assert pack(small) is small and unpack(small) is small
+    odd = [lambda: 1]
+    assert pack(odd, min_bytes=0) is odd
+
+
+def _big(item: WorkItem, context: object, device: str) -> dict:
+    rng = item.rng()
+    return {"index": item.index, "values": rng.random(200_000 + item.index)}
+
+
+def _concat(results: list) -> np.ndarray:
+    return np.concatenate([r["values"] for r in results])
+
+
+def test_large_results_from_two_processes_equal_the_thread_run() -> None:
+    job = Job(make_items(range(6), 9), _big, _concat, uses_device=False, name="big-results")
+    want = LocalExecutor("cpu").run(job).value
+    with ProcessExecutor("cpu,cpu") as ex:
+        got = ex.run(job)
+    assert np.array_equal(got.value, want) and got.duplicates == 0 and got.n_items == 6
