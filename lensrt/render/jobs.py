@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .passes import REGIONS, PassSum, RenderSetup, prepare_setup, region_slices, run_pass_item
+from .passes import REGIONS, PassSum, RenderSetup, moments_stderr, prepare_setup, region_slices, run_pass_item
 from ..core.telemetry import launch
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
@@ -175,7 +175,9 @@ def run_tile_item(item, prep, device: str) -> TileResult:
 class TileReduction:
     """Places :class:`TileResult` s into the image and adds their per-pass counts in tile order; finishes as
     :class:`RenderSums` whose ``pass_sum`` has the per-pass hits and region means (a
-    :class:`lensrt.parallel.Reduction`)."""
+    :class:`lensrt.parallel.Reduction`). Each tile's XYZ mean and standard error are computed as it is
+    placed (element by element: the bits of the whole-image computation), so that the end of the job,
+    which no device overlaps, only wraps the arrays."""
 
     n_pixels: int
     n_bands: int
@@ -185,13 +187,17 @@ class TileReduction:
 
     def start(self) -> dict:
         return {"spec": np.zeros(self.n_pixels * self.n_bands), "xyz1": np.zeros((self.n_pixels, 3)),
-                "xyz2": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
+                "xyz2": np.zeros((self.n_pixels, 3)), "xyz": np.zeros((self.n_pixels, 3)),
+                "stderr": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
                 "region_y": np.zeros((self.passes, len(REGIONS)))}
 
     def add(self, acc: dict, index: int, result: TileResult) -> dict:
         acc["spec"][result.first * self.n_bands:result.end * self.n_bands] = result.spec_sum
         acc["xyz1"][result.first:result.end] = result.xyz1
         acc["xyz2"][result.first:result.end] = result.xyz2
+        acc["xyz"][result.first:result.end] = result.xyz1 / max(self.passes * self.spp_per_pass, 1)
+        acc["stderr"][result.first:result.end] = moments_stderr(result.xyz1, result.xyz2, self.passes,
+                                                                self.spp_per_pass)
         acc["pass_hits"] += result.pass_hits
         acc["region_y"] += result.region_y
         return acc
@@ -203,7 +209,8 @@ class TileReduction:
         ps.hits = sum(ps.pass_hits)
         counts = np.array([(r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in region_slices(self.shape)], dtype=np.float64)
         ps.region_means = (acc["region_y"] / (counts * self.spp_per_pass)).tolist()
-        return RenderSums.of(ps)
+        return RenderSums(ps.spec, acc["xyz"].reshape(self.shape + (3,)), acc["stderr"].reshape(self.shape + (3,)),
+                          ps.passes, ps.samples_per_pixel, ps.hits, ps)
 
 
 def render_tiles_job(setup: RenderSetup, passes: int, tiles: int):
