@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pickle
 from multiprocessing import shared_memory
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -44,9 +45,37 @@ def _concat(results: list) -> np.ndarray:
     return np.concatenate([r["values"] for r in results])
 
 
+def _segments() -> set[str]:
+    """Shared-memory segments of this machine (POSIX: files in /dev/shm; empty where there is none)."""
+    shm = Path("/dev/shm")
+    return {p.name for p in shm.iterdir()} if shm.is_dir() else set()
+
+
 def test_large_results_from_two_processes_equal_the_thread_run() -> None:
     job = Job(make_items(range(6), 9), _big, _concat, uses_device=False, name="big-results")
     want = LocalExecutor("cpu").run(job).value
+    before = _segments()
     with ProcessExecutor("cpu,cpu") as ex:
         got = ex.run(job)
+        assert _segments() <= before              # every segment read and unlinked while the workers live
     assert np.array_equal(got.value, want) and got.duplicates == 0 and got.n_items == 6
+
+
+def test_large_results_from_a_local_dask_cluster_equal_the_thread_run(monkeypatch) -> None:
+    pytest.importorskip("distributed")
+    from lensrt.parallel import DaskExecutor, cluster
+    seen = []
+
+    def spy(obj):
+        seen.append(isinstance(obj, Packed))
+        return unpack(obj)
+
+    monkeypatch.setattr(cluster, "unpack", spy)
+    job = Job(make_items(range(4), 9), _big, _concat, uses_device=False, name="big-results-dask")
+    want = LocalExecutor("cpu").run(job).value
+    with DaskExecutor.local(2, "cpu") as ex:
+        before = _segments()
+        got = ex.run(job)
+        assert _segments() <= before
+    assert np.array_equal(got.value, want) and got.n_items == 4
+    assert seen == [True] * 4                     # every result came as a shared-memory segment
