@@ -46,7 +46,7 @@ from typing import Any, Sequence
 from ..errors import LensrtError
 from .context import content_hash, drop_context, execute_item, store_context, stored_context
 from .local import Progress, device_scope, resolve_devices
-from .shm import pack, unpack
+from .shm import Attached, SegmentPool, pack, unpack
 from .work import Job, JobResult, OrderedFold, finish_result
 
 __all__ = ["ProcessExecutor", "worker_main"]
@@ -77,6 +77,15 @@ def worker_main(conn: Any, device: str) -> None:
     from ..device import warp
     warp()  # Warp initialised quietly before any job module imports it
     conn.send(("ready", os.getpid()))
+    pool = SegmentPool()
+    try:
+        _serve(conn, device, pool)
+    finally:
+        pool.close()
+
+
+def _serve(conn: Any, device: str, pool: SegmentPool) -> None:
+    """The message loop of :func:`worker_main`."""
     unreadable: dict[str, BaseException] = {}  # contexts that did not unpickle here, by hash
     while True:
         try:
@@ -107,7 +116,7 @@ def worker_main(conn: Any, device: str) -> None:
                 raise LensrtError(f"a worker process cannot load the job's context: {unreadable[ctx_hash]!r}",
                                   hint="its classes must come from modules the worker can import")
             with device_scope(dev, own_stream=False):
-                out = ("done", pack(execute_item(run, prepare, stored_context(ctx_hash), ctx_hash, item, dev)))
+                out = ("done", pack(execute_item(run, prepare, stored_context(ctx_hash), ctx_hash, item, dev), pool=pool))
         except BaseException as err:  # noqa: BLE001 - handed to the parent, which re-raises it
             out = ("error", item.index, err)
         try:
@@ -129,6 +138,7 @@ class _Worker:
         child.close()
         self.contexts: list[str] = []  # held by the process, oldest first
         self.items: deque = deque()      # in flight, in the order sent: the first is running
+        self.attached = Attached()       # the parent's mappings of the worker's result segments
 
     def send_item(self, job: Job, ctx_hash: str, blob: bytes, index: int) -> None:
         try:
@@ -158,9 +168,11 @@ class _Worker:
             except (OSError, ValueError):
                 pass
         self.process.join(timeout_s)
-        if self.process.is_alive():
+        killed = self.process.is_alive()
+        if killed:
             self.process.kill()
             self.process.join()
+        self.attached.close(unlink=killed)  # a worker that stops in time unlinks its own segments
         self.conn.close()
 
 
@@ -258,6 +270,7 @@ class ProcessExecutor:
                     if not w.items and todo:
                         if not w.process.is_alive():  # died between items: nothing to re-run
                             w.conn.close()
+                            w.attached.close(unlink=True)
                             w = self._workers[w.slot] = self._start(w.slot)
                         w.send_item(job, ctx_hash, blob, todo.popleft())
             busy = [w for w in self._workers if w.items]
@@ -286,7 +299,7 @@ class ProcessExecutor:
             if msg[0] == "done":
                 if error is None and todo:  # the next item first: the worker runs it while this one unpacks
                     w.send_item(job, ctx_hash, blob, todo.popleft())
-                fold.add(unpack(msg[1]))
+                fold.add(unpack(msg[1], w.attached))
                 return error
             return error or msg[2]
         if w.process.is_alive():
@@ -297,6 +310,7 @@ class ProcessExecutor:
         w.items.clear()
         deaths[index] = deaths.get(index, 0) + 1
         w.conn.close()
+        w.attached.close(unlink=True)  # the dead worker's segments (any it never announced: the resource tracker)
         self._workers[w.slot] = self._start(w.slot)
         if deaths[index] >= self.max_failures:
             return error or LensrtError(

@@ -9,6 +9,14 @@ around them and unlinks the segment (:func:`unpack`). Results below the threshol
 where shared memory is not available, travel in the message itself (``pack`` returns them as they
 are), so the message always says which way it came.
 
+A worker process of :class:`~lensrt.parallel.process.ProcessExecutor` writes into a
+:class:`SegmentPool`: two segments of its own, used in turn and kept from result to result (a new
+segment's pages cost more to fault in than the copy itself), which the parent keeps attached
+(:class:`Attached`). Two are enough: the parent copies a result out before it reads the next one,
+and the worker writes a result only after the parent has read the one before it (it hands out the
+next item then). A Dask task has no such hand-shake (a worker runs its queued tasks without
+waiting), so there every result gets a segment of its own, unlinked by the reader.
+
 A segment is registered with the resource tracker that a ``spawn``-ed worker shares with its parent:
 when a worker dies after writing a segment and before the parent has read it, the tracker unlinks it
 when the parent exits, so nothing is left in ``/dev/shm``.
@@ -20,20 +28,80 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SHM_MIN_BYTES", "Packed", "pack", "unpack"]
+__all__ = ["SHM_MIN_BYTES", "Packed", "SegmentPool", "Attached", "pack", "unpack"]
 
 #: results whose out-of-band buffers add up to less than this travel through the pipe (bytes)
 SHM_MIN_BYTES = 1 << 20
 
 
 class Packed(tuple):
-    """A result in shared memory: (segment name, pickle without its buffers, [(offset, bytes), ...])."""
+    """A result in shared memory: (segment name, pickle without its buffers, [(offset, bytes), ...],
+    whether the reader unlinks the segment)."""
 
     __slots__ = ()
 
 
-def pack(obj: Any, min_bytes: int = SHM_MIN_BYTES) -> Any:
-    """``obj`` itself when its NumPy buffers are small (or shared memory fails), else a :class:`Packed`."""
+class SegmentPool:
+    """The shared-memory segments of one worker process, used in turn and grown when a result needs it."""
+
+    def __init__(self, n: int = 2) -> None:
+        self._segs: list[Any] = [None] * int(n)
+        self._next = 0
+
+    def take(self, size: int) -> Any:
+        """The next segment, at least ``size`` bytes (a larger one replaces it when it is too small)."""
+        from multiprocessing import shared_memory
+        k, self._next = self._next, (self._next + 1) % len(self._segs)
+        seg = self._segs[k]
+        if seg is None or seg.size < size:
+            if seg is not None:
+                seg.close()
+                seg.unlink()
+            seg = self._segs[k] = shared_memory.SharedMemory(create=True, size=max(int(size), 1))
+        return seg
+
+    def close(self) -> None:
+        """Unmap and unlink every segment (at the worker's end)."""
+        for seg in self._segs:
+            if seg is not None:
+                seg.close()
+                seg.unlink()
+        self._segs = [None] * len(self._segs)
+
+
+class Attached:
+    """The parent's mappings of one worker's pooled segments (the most recent ``n`` names)."""
+
+    def __init__(self, n: int = 2) -> None:
+        self.n = int(n)
+        self._segs: dict[str, Any] = {}
+
+    def get(self, name: str) -> Any:
+        from multiprocessing import shared_memory
+        seg = self._segs.pop(name, None)
+        if seg is None:
+            seg = shared_memory.SharedMemory(name=name)
+        self._segs[name] = seg               # most recent last
+        while len(self._segs) > self.n:      # a segment the worker has replaced by a larger one
+            old = self._segs.pop(next(iter(self._segs)))
+            old.close()
+        return seg
+
+    def close(self, unlink: bool = False) -> None:
+        """Unmap (and with ``unlink``, remove: the worker died and cannot) every segment."""
+        for seg in self._segs.values():
+            seg.close()
+            if unlink:
+                try:
+                    seg.unlink()
+                except FileNotFoundError:
+                    pass
+        self._segs = {}
+
+
+def pack(obj: Any, min_bytes: int = SHM_MIN_BYTES, pool: SegmentPool | None = None) -> Any:
+    """``obj`` itself when its NumPy buffers are small (or shared memory fails), else a :class:`Packed`:
+    in the next segment of ``pool``, or in a new segment that the reader unlinks."""
     buffers: list[pickle.PickleBuffer] = []
     try:
         meta = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
@@ -45,7 +113,7 @@ def pack(obj: Any, min_bytes: int = SHM_MIN_BYTES) -> Any:
         return obj
     try:
         from multiprocessing import shared_memory
-        seg = shared_memory.SharedMemory(create=True, size=max(total, 1))
+        seg = pool.take(total) if pool is not None else shared_memory.SharedMemory(create=True, size=max(total, 1))
     except (ImportError, OSError):
         return obj
     spans, off = [], 0
@@ -57,18 +125,21 @@ def pack(obj: Any, min_bytes: int = SHM_MIN_BYTES) -> Any:
             off += r.nbytes
         del view
     finally:
-        seg.close()
-    return Packed((seg.name, meta, spans))
+        if pool is None:
+            seg.close()
+    return Packed((seg.name, meta, spans, pool is None))
 
 
-def unpack(obj: Any) -> Any:
-    """The result that :func:`pack` packed (its arrays in memory of this process; the segment unlinked);
-    anything else as it is."""
+def unpack(obj: Any, attached: Attached | None = None) -> Any:
+    """The result that :func:`pack` packed, its arrays in memory of this process (a one-off segment is
+    unlinked; a pooled one is read through ``attached``); anything else as it is."""
     if not isinstance(obj, Packed):
         return obj
     from multiprocessing import shared_memory
-    name, meta, spans = obj
-    seg = shared_memory.SharedMemory(name=name)
+    name, meta, spans, one_off = obj
+    if not one_off and attached is None:
+        raise ValueError("a result in a worker's pooled segment needs the reader's Attached mappings")
+    seg = shared_memory.SharedMemory(name=name) if one_off else attached.get(name)
     try:
         view = np.frombuffer(seg.buf, dtype=np.uint8)
         own = []
@@ -78,6 +149,7 @@ def unpack(obj: Any) -> Any:
             own.append(b)
         del view
     finally:
-        seg.close()
-        seg.unlink()
+        if one_off:
+            seg.close()
+            seg.unlink()
     return pickle.loads(meta, buffers=own)

@@ -29,6 +29,30 @@ def test_a_large_result_round_trips_through_a_segment_that_is_then_gone() -> Non
         shared_memory.SharedMemory(name=name)    # unlinked
 
 
+def test_a_worker_pool_reuses_its_two_segments_and_grows_one_when_needed() -> None:
+    from lensrt.parallel.shm import Attached, SegmentPool
+    pool, attached = SegmentPool(), Attached()
+    rng = np.random.default_rng(5)
+    names = []
+    try:
+        for n in (200_000, 200_000, 150_000, 400_000, 200_000):
+            value = rng.random(n)
+            packed = pack(value, pool=pool)
+            assert isinstance(packed, Packed) and packed[3] is False      # pooled: the reader does not unlink
+            names.append(packed[0])
+            assert np.array_equal(unpack(packed, attached), value)
+        assert names[2] == names[0] and names[1] != names[0]               # used in turn
+        assert names[3] != names[1] and names[4] == names[2]               # a larger result: a new segment
+        with pytest.raises(ValueError, match="Attached"):
+            unpack(pack(np.zeros(200_000), pool=pool))
+    finally:
+        pool.close()
+        attached.close()
+    for name in set(names):
+        with pytest.raises(FileNotFoundError):
+            shared_memory.SharedMemory(name=name)
+
+
 def test_small_or_unpicklable_results_stay_in_the_message() -> None:
     small = {"a": np.zeros(10)}
     assert pack(small) is small and unpack(small) is small
@@ -46,9 +70,9 @@ def _concat(results: list) -> np.ndarray:
 
 
 def _segments() -> set[str]:
-    """Shared-memory segments of this machine (POSIX: files in /dev/shm; empty where there is none)."""
+    """Python's shared-memory segments on this machine (POSIX: files psm_* in /dev/shm; none elsewhere)."""
     shm = Path("/dev/shm")
-    return {p.name for p in shm.iterdir()} if shm.is_dir() else set()
+    return {p.name for p in shm.glob("psm_*")} if shm.is_dir() else set()
 
 
 def test_large_results_from_two_processes_equal_the_thread_run() -> None:
@@ -57,8 +81,11 @@ def test_large_results_from_two_processes_equal_the_thread_run() -> None:
     before = _segments()
     with ProcessExecutor("cpu,cpu") as ex:
         got = ex.run(job)
-        assert _segments() <= before              # every segment read and unlinked while the workers live
-    assert np.array_equal(got.value, want) and got.duplicates == 0 and got.n_items == 6
+        again = ex.run(job)
+        assert len(_segments() - before) <= 4     # two segments per worker, reused from job to job
+    assert not _segments() - before               # and unlinked when the workers stop
+    assert np.array_equal(got.value, want) and np.array_equal(again.value, want)
+    assert got.duplicates == 0 and got.n_items == 6
 
 
 def test_large_results_from_a_local_dask_cluster_equal_the_thread_run(monkeypatch) -> None:
