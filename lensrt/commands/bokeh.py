@@ -10,7 +10,7 @@ from ._parallel import add_parallel_arguments, executor_from_args, progress_prin
 from ._limits import add_max_memory_argument, add_max_rays_argument, parse_seed
 from ._psf_options import parse_count
 
-__all__ = ["register", "parse_pair", "parse_list"]
+__all__ = ["register", "parse_pair", "parse_list", "add_tilt_shift_arguments"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -61,13 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="iris rotation: a vertex at this angle from +x (deg)")
     a.add_argument("--blade-roundness", type=float, metavar="R",
                    help="blade curvature: 0 straight blades .. 1 a circle")
-    t = p.add_argument_group("tilt-shift (the whole lens moved in front of the fixed sensor; docs/guide/reflex.md)")
-    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
-                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
-                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
-    t.add_argument("--lens-swing-deg", type=float, metavar="S",
-                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
-    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
+    add_tilt_shift_arguments(p, "tilt-shift (the whole lens moved in front of the fixed sensor; docs/guide/reflex.md)")
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--rays", type=parse_count, default=1_000_000, metavar="N", help="rays per source (default 1e6)")
     m.add_argument("--sampler", choices=("sobol", "random", "stratified", "r2"), default="sobol",
@@ -92,6 +86,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_parallel_arguments(p)
     p.add_argument("--device", dest="devices", metavar="DEVICE", help="alias of --devices (cpu, cuda, cuda:N)")
     p.set_defaults(func=cmd_bokeh)
+
+
+def add_tilt_shift_arguments(p: argparse.ArgumentParser, title: str) -> None:
+    """--lens-tilt-deg, --lens-swing-deg, --lens-shift-mm (bokeh and render) in a group named ``title``."""
+    t = p.add_argument_group(title)
+    t.add_argument("--lens-tilt-deg", type=float, metavar="T",
+                   help="tilt the lens by T deg about the sensor's x axis through its stop (T > 0 turns its axis "
+                        "toward +y): the plane of sharp focus tilts by the Scheimpflug condition")
+    t.add_argument("--lens-swing-deg", type=float, metavar="S",
+                   help="swing the lens by S deg about its own y axis (S > 0 turns its axis toward +x)")
+    t.add_argument("--lens-shift-mm", metavar="[X,]Y", help="shift the lens across the sensor by (X, Y) mm")
 
 
 def parse_pair(text: str, what: str, allow_single: bool = False) -> tuple[float, float]:

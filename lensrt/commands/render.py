@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..errors import LensrtError
 from ._common import emit, print_json
@@ -41,10 +42,32 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="render only these sensor pixels (rows R0..R1-1, columns C0..C1-1)")
     p.add_argument("--device", default=None, help="cpu, cuda, cuda:N (default: CUDA when present)")
     p.add_argument("--json", action="store_true", help="one JSON object (with --plan, --list or a render)")
+    from .bokeh import add_tilt_shift_arguments
+    add_tilt_shift_arguments(p, "tilt-shift camera (the whole lens moved in front of the fixed sensor, after "
+                                "focusing; overrides the scene's [camera] lens_tilt_deg, lens_swing_deg, "
+                                "lens_shift_mm; docs/guide/reflex.md)")
     add_max_memory_argument(p)
     from ._parallel import add_parallel_arguments
     add_parallel_arguments(p)
     p.set_defaults(func=cmd_render)
+
+
+def _tilt_shift(args: argparse.Namespace, scene):
+    """``scene`` with --lens-tilt-deg / --lens-swing-deg / --lens-shift-mm put into its camera block."""
+    from dataclasses import replace
+    from .bokeh import parse_pair
+    cam = scene.camera
+    changes = {}
+    for opt, key in (("lens_tilt_deg", "lens_tilt_rad"), ("lens_swing_deg", "lens_swing_rad")):
+        v = getattr(args, opt, None)
+        if v is not None:
+            if not (math.isfinite(v) and abs(v) < 45.0):
+                raise LensrtError(f"--{opt.replace('_', '-')} {v:g} must be a finite angle below 45 deg",
+                                  hint="tilt-shift lenses tilt and swing by a few degrees (about 8 to 15 at most)")
+            changes[key] = math.radians(v)
+    if getattr(args, "lens_shift_mm", None) is not None:
+        changes["lens_shift_mm"] = parse_pair(args.lens_shift_mm, "--lens-shift-mm", True)
+    return replace(scene, camera=replace(cam, **changes)) if changes else scene
 
 
 def _load_lens_or_note(scene, override: str | None):
@@ -70,7 +93,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             for r in rows:
                 emit(f"{r['name']:<{width}}  {r['description']}")
         return 0
-    scene = load_scene(args.scene)
+    scene = _tilt_shift(args, load_scene(args.scene))
     if args.preview:
         return _preview(args, scene)
     from ._render_run import options_from_args
@@ -97,13 +120,16 @@ def _plan(args: argparse.Namespace, checked, lens) -> int:
     if args.json:
         print_json({"scene": scene.name, "plan": plan.to_dict(), "lens_note": None,
                     "camera": {"f_number": cam.f_number, "focus_distance_mm": cam.focus_distance_mm,
-                               "sensor_z_mm": cam.sensor_z_mm},
+                               "sensor_z_mm": cam.sensor_z_mm, "lens_tilt_rad": cam.tilt_rad,
+                               "lens_swing_rad": cam.swing_rad, "lens_shift_mm": list(cam.shift_mm)},
                     "memory": {"estimate_bytes": checked.memory.bytes, "detail": checked.memory.detail}})
         return 0
     emit(scene.summary())
     emit("")
     emit(plan.describe())
-    emit(f"  camera       f/{cam.f_number:.3g}, focus {focus}, sensor at z = {cam.sensor_z_mm:.4f} mm")
+    moved = (f"; lens tilted {math.degrees(cam.tilt_rad):g} deg, swung {math.degrees(cam.swing_rad):g} deg, shifted "
+             f"({cam.shift_mm[0]:g}, {cam.shift_mm[1]:g}) mm" if cam.is_tilt_shift else "")
+    emit(f"  camera       f/{cam.f_number:.3g}, focus {focus}, sensor at z = {cam.sensor_z_mm:.4f} mm{moved}")
     emit(f"  memory       about {format_bytes(checked.memory.bytes)} ({checked.memory.detail})")
     return 0
 

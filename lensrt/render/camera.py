@@ -25,6 +25,13 @@ sensor moves back by the extension. A lens that declares a focus group or floati
 (:mod:`lensrt.prescription.focusing`) is focused at ``focus_distance`` by moving them instead,
 the sensor fixed, to the same best-focus criterion (``Camera.lens`` is the moved lens).
 
+Tilt-shift. ``[camera] lens_tilt_deg / lens_swing_deg / lens_shift_mm`` (or ``lensrt render
+--lens-tilt-deg ...``) move the whole focused lens as a rigid body in front of the fixed sensor,
+as a view camera does: focus first (the sensor stays where the untilted lens focuses), then the
+lens turns about its stop and shifts (:mod:`lensrt.prescription.tilt_shift`, the same motion as
+``lensrt bokeh``). The scene's frame stays the camera's frame (the untilted lens's frame);
+:meth:`Camera.lens_frame` places the moved lens in it.
+
 Aperture. ``[camera] f_number`` scales the stop's clear radius by N_lens / N (paraxially the
 entrance pupil scales with the stop); opening wider than the lens's own f-number is an error.
 """
@@ -167,6 +174,33 @@ class Camera:
     working_f_number: float
     magnification: float
     exit_pupil_z_mm: float
+    tilt_rad: float = 0.0
+    swing_rad: float = 0.0
+    shift_mm: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def is_tilt_shift(self) -> bool:
+        """Whether the lens is tilted, swung or shifted relative to the sensor."""
+        return bool(self.tilt_rad or self.swing_rad or self.shift_mm[0] or self.shift_mm[1])
+
+    def lens_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """(origin, axes) of the moved lens's first-vertex frame in the camera frame (identity when not moved):
+        a lens-frame point p is the camera point ``origin + axes @ p`` (pivot: the stop's vertex)."""
+        from ..prescription.tilt_shift import lens_frame
+        pivot = float(self.lens.vertex_z_mm()[self.lens.stop_index])
+        return lens_frame(self.tilt_rad, self.shift_mm, pivot, self.swing_rad)
+
+    def forward_lens(self) -> Lens:
+        """The lens as the forward tracer sees it in the camera frame: tilted/shifted when asked, else itself."""
+        from ..prescription.tilt_shift import tilt_shift_lens
+        return tilt_shift_lens(self.lens, self.tilt_rad, self.shift_mm, swing_rad=self.swing_rad)
+
+    def sensor_corners_in_lens_frame(self) -> np.ndarray:
+        """The sensor's four corners (4, 3) in the moved lens's frame (the sensor is a rectangle at ``sensor_z_mm``)."""
+        origin, rot = self.lens_frame()
+        hw, hh = 0.5 * self.sensor.width_mm, 0.5 * self.sensor.height_mm
+        corners = np.array([[sx * hw, sy * hh, self.sensor_z_mm] for sx in (-1, 1) for sy in (-1, 1)])
+        return (corners - origin) @ rot          # rot^T (p - origin), row by row
 
     @property
     def rear_vertex_z_mm(self) -> float:
@@ -183,6 +217,8 @@ class Camera:
                 "focus_method": self.focus_method, "stop_radius_mm": self.stop_radius_mm,
                 "f_number": self.f_number, "working_f_number": self.working_f_number,
                 "magnification": self.magnification, "rear_distance_mm": self.rear_distance_mm,
+                "lens_tilt_deg": math.degrees(self.tilt_rad), "lens_swing_deg": math.degrees(self.swing_rad),
+                "lens_shift_mm": list(self.shift_mm),
                 "sensor": {"width_mm": self.sensor.width_mm, "height_mm": self.sensor.height_mm,
                            "pixels": [self.sensor.pixels_x, self.sensor.pixels_y],
                            "pixel_pitch_um": self.sensor.pixel_pitch_um},
@@ -283,5 +319,32 @@ def setup_camera(scene, lens: Lens, focus: str = "best") -> Camera:
     if not sensor_z > float(lens.vertex_z_mm()[lens.n_surfaces - 1]):
         raise LensrtError(f"the focused image plane (z = {sensor_z:.4g} mm) lies inside the lens",
                           hint="focus farther away")
-    return Camera(lens, sensor, float(sensor_z), float(dist), focus, stop_radius, float(n_inf),
-                  float(n_inf * bellows), float(mag), float(xp_z))
+    camera = Camera(lens, sensor, float(sensor_z), float(dist), focus, stop_radius, float(n_inf),
+                    float(n_inf * bellows), float(mag), float(xp_z))
+    if cam.is_tilt_shift:
+        camera = _tilt_shift(camera, cam)
+    return camera
+
+
+def _tilt_shift(camera: Camera, spec) -> Camera:
+    """``camera`` with its focused lens tilted/swung/shifted as the scene's camera block asks (one clear error
+    for a lens that cannot be moved, or a motion that puts the sensor into the lens)."""
+    from dataclasses import replace
+    moved = replace(camera, tilt_rad=float(spec.lens_tilt_rad), swing_rad=float(spec.lens_swing_rad),
+                    shift_mm=(float(spec.lens_shift_mm[0]), float(spec.lens_shift_mm[1])))
+    lens = camera.lens
+    if lens.has_mirrors or not lens.is_centred:
+        raise LensrtError("a tilt-shift camera needs a centred refractive lens: this lens has mirrors, tilts/decenters "
+                          "or surface apertures", path=lens.path,
+                          hint="drop lens_tilt_deg/lens_swing_deg/lens_shift_mm (--lens-tilt-deg ...) for this lens")
+    moved.forward_lens()          # the motion's own checks (finite, below 45 deg)
+    # the sensor must stay behind the moved lens's last surface (its rim included)
+    last = lens.surfaces[-1]
+    sd = last.semi_diameter_mm if last.semi_diameter_mm is not None else 0.0
+    rim_z = camera.rear_vertex_z_mm + max(0.0, float(last.sag(min(sd, last.max_semi_diameter_mm))))
+    z_near = float(moved.sensor_corners_in_lens_frame()[:, 2].min())
+    if not z_near > rim_z:
+        raise LensrtError(f"lens tilt {math.degrees(moved.tilt_rad):g} deg, swing {math.degrees(moved.swing_rad):g} deg "
+                          f"puts a sensor corner {rim_z - z_near:.3g} mm into the lens's rear element",
+                          path=lens.path, hint="tilt or swing less, or use a smaller sensor")
+    return moved

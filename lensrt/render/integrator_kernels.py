@@ -26,11 +26,23 @@ seed on the same device, whatever the launch is split into. Per path:
    (D^2 p(lambda)): E = int L cos(theta) d omega, with d omega = cos^3(theta) dA / D^2 for a
    point dA of the plane at distance D (radiance / n^2 is conserved through an uncoated,
    lossless lens: T = 1).
+
+Tilt-shift (the ``frame`` argument, a compile-time variant as the tracer's lens variants are):
+:class:`CentredSensor` is the plain camera (the code above, nothing else compiled in);
+:class:`TiltedSensor` carries the moved lens's frame in the camera frame. The lens itself stays
+centred in its own frame, so the ray is still traced by the symmetric surface code: the sensor
+point is moved into the lens frame (where the sensor is a tilted plane, the point at depth D'
+from the last vertex), the pupil box is the table's box of its lens-frame radius (the table
+unites every depth the sensor spans), and the ray leaving the front goes back into the camera
+(scene) frame. The estimate becomes E = L (n_i / n_o)^2 cos(theta_s) cos^3(theta_l) A_box /
+(D'^2 p(lambda)): d omega = cos^3(theta_l) dA / D'^2 is measured from the lens axis, the
+cosine factor of the irradiance from the sensor's normal (theta_s).
 """
 # No ``from __future__ import annotations``: Warp reads the annotations as objects.
 
 from functools import lru_cache
 from types import SimpleNamespace
+from typing import Any
 
 import warp as wp
 
@@ -40,7 +52,7 @@ from ..trace.status import OK
 from .scene import kernels as sk
 
 __all__ = ["get_render_kernels", "MODULE", "camera_pass", "pupil_probe", "accumulate", "accumulate_moments",
-           "finalize", "permute", "sensor_ray"]
+           "finalize", "permute", "sensor_ray", "CentredSensor", "TiltedSensor"]
 
 MODULE = __name__
 wp.set_module_options({"enable_backward": False})
@@ -85,6 +97,62 @@ def permute(k: int, n: int, p: wp.uint32) -> int:
         i = permute_round(i, p, w)
     return int((i + p) % wp.uint32(n))
 
+@wp.struct
+class CentredSensor:
+    tag: int
+
+
+@wp.struct
+class TiltedSensor:
+    origin: wp.vec3        # the lens's first vertex in the camera frame (mm)
+    rot: wp.mat33          # columns: the lens's x, y, z axes in camera coordinates
+    sensor_z: float        # the sensor plane z (camera frame, mm)
+    z_last: float          # the lens's last vertex z (lens frame, mm)
+
+
+@wp.func
+def is_tilted(frame: CentredSensor) -> bool:
+    return False
+
+
+@wp.func
+def is_tilted(frame: TiltedSensor) -> bool:  # noqa: F811 -- a Warp overload
+    return True
+
+
+@wp.func
+def sensor_in_lens(frame: CentredSensor, x: float, y: float) -> wp.vec3:
+    return wp.vec3(x, y, 0.0)  # never called: the centred camera traces (x, y) as they are
+
+
+@wp.func
+def sensor_in_lens(frame: TiltedSensor, x: float, y: float) -> wp.vec3:  # noqa: F811 -- a Warp overload
+    # camera-frame sensor point -> lens frame (q = R^T (p - o)) -> reversed frame (z -> z_last - z)
+    q = wp.transpose(frame.rot) * (wp.vec3(x, y, frame.sensor_z) - frame.origin)
+    return wp.vec3(q[0], q[1], frame.z_last - q[2])
+
+
+@wp.func
+def camera_point(frame: CentredSensor, p: wp.vec3) -> wp.vec3:
+    return p
+
+
+@wp.func
+def camera_point(frame: TiltedSensor, p: wp.vec3) -> wp.vec3:  # noqa: F811 -- a Warp overload
+    # lens-frame point -> camera frame: o + R p
+    return frame.origin + frame.rot * p
+
+
+@wp.func
+def camera_dir(frame: CentredSensor, d: wp.vec3) -> wp.vec3:
+    return d
+
+
+@wp.func
+def camera_dir(frame: TiltedSensor, d: wp.vec3) -> wp.vec3:  # noqa: F811 -- a Warp overload
+    return frame.rot * d
+
+
 @wp.func
 def sensor_ray(x: float, y: float, box: wp.vec4, u0: float, u1: float, rear_dist: float) -> wp.vec4:
     # direction (unit, reversed frame: toward +z) from the sensor point to a point of the pupil
@@ -115,7 +183,8 @@ def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.f
                 band0: float, inv_band: float, n_bands: int,
                 cmf: wp.array2d(dtype=float), km: float,
                 spp: int, seed: int, pix_base: int, out_base: int,
-                spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
+                spec: wp.array(dtype=float), xyz: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32),
+                frame: Any):
     # pixel pix of the image (its random numbers), stored at pix - out_base (tiles keep their own arrays)
     pix = wp.tid() + pix_base
     o = pix - out_base
@@ -155,31 +224,53 @@ def camera_pass(surf: wp.array2d(dtype=wp.float32), media: wp.array2d(dtype=wp.f
             pdf = lp[1]
         if pdf <= 0.0:
             continue
-        # 3. pupil box of the radial bin
-        b = wp.min(int(wp.sqrt(x * x + y * y) * inv_dr), n_bins - 1)
+        # 3. pupil box of the radial bin (a tilt-shift camera: of the sensor point in the lens frame)
+        sx = x
+        sy = y
+        sz = sensor_z
+        rd = rear_dist
+        if is_tilted(frame):
+            q = sensor_in_lens(frame, x, y)
+            sx = q[0]
+            sy = q[1]
+            sz = q[2]
+            rd = -q[2]
+        b = wp.min(int(wp.sqrt(sx * sx + sy * sy) * inv_dr), n_bins - 1)
         box = boxes[b]
         area = (box[1] - box[0]) * (box[3] - box[2])
         if area <= 0.0:
             continue
-        d = sensor_ray(x, y, box, u0, u1, rear_dist)
+        d = sensor_ray(sx, sy, box, u0, u1, rd)
         # 4. backward through the lens
         w_um = lam * 1.0e-3
         w2 = w_um * w_um
         status, where, px, py, pz, L, M, N, opl, mc = trace_ray(
-            surf, media, iris, n_surfaces, x, y, sensor_z, d[0], d[1], d[2], w2, table, -1,
+            surf, media, iris, n_surfaces, sx, sy, sz, d[0], d[1], d[2], w2, table, -1,
             n_surfaces, 1, 0.0, 0, rec, 0, SymmetricLens())
         if status != OK:
             continue
         n_ok = n_ok + 1
-        # 5. into the scene (lens frame of the scene: z mirrored back)
-        rad = sk.scene_radiance(scn, wp.vec3(px, py, -pz), wp.normalize(wp.vec3(L, M, -N)), lam, us)
+        # 5. into the scene (lens frame of the scene: z mirrored back; a moved lens's frame into the camera's)
+        pos = wp.vec3(px, py, -pz)
+        dirn = wp.normalize(wp.vec3(L, M, -N))
+        cos_s = float(0.0)
+        if is_tilted(frame):
+            pos = camera_point(frame, pos)
+            dirn = wp.normalize(camera_dir(frame, dirn))
+            # cos of the sensor ray (lens frame, unreversed: toward -z) to the sensor's normal (camera -z)
+            cos_s = -camera_dir(frame, wp.vec3(d[0], d[1], -d[2]))[2]
+        rad = sk.scene_radiance(scn, pos, dirn, lam, us)
         if rad <= 0.0:
             continue
         # 6. irradiance estimate
         n_img = medium_index(media, 0, w2)
         n_obj = medium_index(media, n_surfaces, w2)
         c2 = d[3] * d[3]
-        e = rad * (n_img * n_img) / (n_obj * n_obj) * c2 * c2 * area / (rear_dist * rear_dist * pdf)
+        e = float(0.0)
+        if is_tilted(frame):
+            e = rad * (n_img * n_img) / (n_obj * n_obj) * cos_s * c2 * d[3] * area / (rd * rd * pdf)
+        else:
+            e = rad * (n_img * n_img) / (n_obj * n_obj) * c2 * c2 * area / (rear_dist * rear_dist * pdf)
         k = int(0)
         if n_bands > 1:
             k = wp.clamp(int((lam - band0) * inv_band), 0, n_bands - 1)
@@ -237,11 +328,17 @@ def finalize(src: wp.array(dtype=wp.float64), inv_n: wp.float64, dst: wp.array(d
     dst[i] = float(src[i] * inv_n)
 
 
+#: the camera kernel per sensor variant: False -- the plain camera, True -- a tilt-shift camera
+CAMERA_PASS = {False: wp.overload(camera_pass, {"frame": CentredSensor}),
+               True: wp.overload(camera_pass, {"frame": TiltedSensor})}
+
+
 @lru_cache(maxsize=None)
 def get_render_kernels() -> SimpleNamespace:
     """The render kernels in a namespace (compiled on first launch)."""
     from ..device import warp
     warp()
-    return SimpleNamespace(camera_pass=camera_pass, pupil_probe=pupil_probe, accumulate=accumulate,
+    return SimpleNamespace(camera_pass=CAMERA_PASS[False], camera_pass_tilted=CAMERA_PASS[True],
+                           pupil_probe=pupil_probe, accumulate=accumulate,
                            accumulate_moments=accumulate_moments, finalize=finalize,
                            module=MODULE, trace_ray=trace_ray)

@@ -26,7 +26,7 @@ from .plan import Plan
 from ..colour import cie_xyz_cmfs
 
 __all__ = ["RenderSetup", "Prepared", "PassResult", "PassSum", "pass_seed", "prepare_setup", "render_pass",
-           "run_pass_item", "device_pass", "moments_stderr", "REGIONS"]
+           "run_pass_item", "device_pass", "sensor_frame", "moments_stderr", "REGIONS"]
 
 #: image regions whose mean Y (and its standard error) every render reports: (name, row0, row1, col0, col1)
 #: as fractions of the image (the whole image first); the corners are 10 % x 10 % boxes
@@ -96,6 +96,7 @@ class Prepared:
     table: Any
     rec: Any
     kernels: Any
+    frame: Any = None    # the camera kernel's sensor variant (CentredSensor, or TiltedSensor for a tilt-shift camera)
 
 
 def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
@@ -115,7 +116,24 @@ def prepare_setup(setup: RenderSetup, device: str) -> Prepared:
                     wp.array(setup.wavelength_cdf.astype(np.float32), dtype=float, device=device),
                     wp.array(cie_xyz_cmfs(setup.scene.grid).astype(np.float32), dtype=float, ndim=2, device=device),
                     wp.zeros((1, 1), dtype=float, device=device), wp.zeros((1, 1, 9), dtype=float, device=device),
-                    get_render_kernels())
+                    get_render_kernels(), sensor_frame(cam))
+
+
+def sensor_frame(camera: Camera):
+    """The camera kernel's ``frame`` argument: ``CentredSensor`` for the plain camera, ``TiltedSensor`` (the moved
+    lens's frame in the camera frame) for a tilt-shift camera."""
+    from .integrator_kernels import CentredSensor, TiltedSensor
+    if not camera.is_tilt_shift:
+        return CentredSensor()
+    from ..device import warp
+    wp = warp()
+    origin, rot = camera.lens_frame()
+    f = TiltedSensor()
+    f.origin = wp.vec3(*(float(v) for v in origin))
+    f.rot = wp.mat33(*(float(v) for v in np.asarray(rot, dtype=np.float64).ravel()))
+    f.sensor_z = float(camera.sensor_z_mm)
+    f.z_last = float(camera.rear_vertex_z_mm)
+    return f
 
 
 @dataclass
@@ -158,8 +176,9 @@ def device_pass(prep: Prepared, index: int, out: DevicePass | None = None,
               int(s.pupil_boxes.shape[0]), prep.scene.data, int(plan.spectral), lam_fixed, prep.cdf,
               float(s.band0_nm), float(inv_band), int(s.n_bands), prep.cmf, float(LUMINOUS_EFFICACY_LM_PER_W),
               int(s.spp_per_pass), pass_seed(s.seed, index)]
-    launch_sliced(prep.kernels.camera_pass, n, lambda base: common + [int(base) + p0, p0, out.spec, out.xyz, out.hits],
-                  dev)
+    frame = prep.frame if prep.frame is not None else sensor_frame(cam)
+    kernel = prep.kernels.camera_pass_tilted if cam.is_tilt_shift else prep.kernels.camera_pass
+    launch_sliced(kernel, n, lambda base: common + [int(base) + p0, p0, out.spec, out.xyz, out.hits, frame], dev)
     return out
 
 

@@ -14,7 +14,13 @@ bin's box rotated by phi (the lens is rotationally symmetric). lensrt does the s
   1.5 grid cells (a margin for rays between the grid points);
 * a polygonal iris is replaced by its circumscribed circle for the table (rotating a bin's box
   must keep every passing ray inside it; the render itself traces the real iris);
-* a box of zero area means no ray from that radius gets through (beyond the image circle).
+* a box of zero area means no ray from that radius gets through (beyond the image circle);
+* a tilt-shift camera (the lens moved as a rigid body in front of the sensor,
+  :mod:`lensrt.render.camera`): the table lives in the moved lens's own frame, where the lens is
+  still rotationally symmetric and the sensor is a tilted plane. Radii span the sensor's largest
+  lens-frame radius, and each bin's box unites the rays passing from sensor points at three depths
+  (the nearest and farthest sensor corner and the middle): a box that holds the pupil seen from
+  every depth the sensor spans.
 
 Inside a box the rear point is uniform (pdf 1 / area); rays that then fail carry zero weight, so
 the estimate stays unbiased as long as the box holds the pupil -- which the margins are for --
@@ -30,7 +36,7 @@ import numpy as np
 from ..errors import LensrtError
 from ..core.telemetry import launch
 
-__all__ = ["ExitPupilTable", "exit_pupil_table", "launch_sliced", "circular_iris", "table_wavelengths"]
+__all__ = ["ExitPupilTable", "exit_pupil_table", "launch_sliced", "circular_iris", "table_wavelengths", "sensor_span"]
 
 
 @dataclass(frozen=True)
@@ -97,13 +103,25 @@ def launch_sliced(kernel, n: int, inputs_of, device: str, workers: int | None = 
         list(pool.map(run, range(w)))
 
 
-def _region_half_mm(camera, r_max: float) -> float:
-    """Half side of a square in the last-vertex plane that holds every ray passing the last surface."""
+def _region_half_mm(camera, r_max: float, dist_mm: float) -> float:
+    """Half side of a square in the last-vertex plane that holds every ray passing the last surface, for sensor
+    points at least ``dist_mm`` behind the last vertex."""
     s = camera.lens.surfaces[-1]
-    sd = s.semi_diameter_mm if s.semi_diameter_mm is not None else 2.0 * camera.rear_distance_mm
+    sd = s.semi_diameter_mm if s.semi_diameter_mm is not None else 2.0 * dist_mm
     sag = abs(float(s.sag(min(sd, s.max_semi_diameter_mm))))
-    tan_max = (r_max + sd) / max(camera.rear_distance_mm - sag, 1e-3)
+    tan_max = (r_max + sd) / max(dist_mm - sag, 1e-3)
     return 1.02 * (sd + sag * tan_max) + 1e-3
+
+
+def sensor_span(camera) -> tuple[float, list[float]]:
+    """(largest sensor radius (mm), sensor distances behind the last vertex (mm) whose pupils the table unites), in
+    the lens's frame: the half diagonal and the one distance for a plain camera; for a tilt-shift camera the
+    largest lens-frame corner radius and the nearest, middle and farthest corner depth."""
+    if not camera.is_tilt_shift:
+        return camera.sensor.half_diagonal_mm, [camera.rear_distance_mm]
+    q = camera.sensor_corners_in_lens_frame()
+    d = q[:, 2] - camera.rear_vertex_z_mm
+    return float(np.hypot(q[:, 0], q[:, 1]).max()), [float(d.min()), float(0.5 * (d.min() + d.max())), float(d.max())]
 
 
 def exit_pupil_table(camera, rev_packed, wavelengths_nm, n_bins: int = 48, radii_per_bin: int = 4,
@@ -118,12 +136,11 @@ def exit_pupil_table(camera, rev_packed, wavelengths_nm, n_bins: int = 48, radii
     wp = warp()
     k = get_render_kernels()
     t0 = time.perf_counter()
-    r_max = 1.001 * camera.sensor.half_diagonal_mm
+    r_sensor, dists = sensor_span(camera)
+    r_max = 1.001 * r_sensor
     dr = r_max / n_bins
     lams = np.asarray(sorted(set(float(w) for w in wavelengths_nm)), dtype=np.float64)
-    z_s = camera.rear_vertex_z_mm - camera.sensor_z_mm     # sensor z in the reversed frame
-    dist = camera.rear_distance_mm
-    half = _region_half_mm(camera, r_max)
+    half = _region_half_mm(camera, r_max, min(dists))
     radii = np.array([[dr * (j + f) for f in np.linspace(0.0, 1.0, radii_per_bin)] for j in range(n_bins)])
     table = wp.zeros((1, 1), dtype=float, device=device)
     rec = wp.zeros((1, 1, 9), dtype=float, device=device)
@@ -142,11 +159,15 @@ def exit_pupil_table(camera, rev_packed, wavelengths_nm, n_bins: int = 48, radii
         n_pts = n * n
         total = groups * len(lams) * n_pts
         out = wp.zeros(total, dtype=wp.int32, device=device)
-        inputs = [rev_packed.surf, rev_packed.media, rev_packed.iris, camera.lens.n_surfaces, table, rec,
-                  float(z_s), float(dist), wp.array(radii.ravel().astype(np.float32), dtype=float, device=device),
-                  wp.array(pts_g.astype(np.float32), dtype=wp.vec2, device=device), lam_arr, n_pts, len(lams)]
-        launch_sliced(k.pupil_probe, total, lambda base: inputs + [base, out], device)
-        ok = (out.numpy().reshape(n_bins, radii_per_bin, len(lams), n_pts) == 0).any(axis=(1, 2))
+        radii_dev = wp.array(radii.ravel().astype(np.float32), dtype=float, device=device)
+        pts_dev = wp.array(pts_g.astype(np.float32), dtype=wp.vec2, device=device)
+        ok = None
+        for dist in dists:                 # sensor z in the reversed frame is -dist
+            inputs = [rev_packed.surf, rev_packed.media, rev_packed.iris, camera.lens.n_surfaces, table, rec,
+                      float(-dist), float(dist), radii_dev, pts_dev, lam_arr, n_pts, len(lams)]
+            launch_sliced(k.pupil_probe, total, lambda base: inputs + [base, out], device)
+            got = (out.numpy().reshape(n_bins, radii_per_bin, len(lams), n_pts) == 0).any(axis=(1, 2))
+            ok = got if ok is None else ok | got
         return ok, pts.reshape(n_bins, n_pts, 2), np.array([(b[1] - b[0]) / n for b in boxes])
 
     region = np.tile([-half, half, -half, half], (n_bins, 1)).astype(np.float64)

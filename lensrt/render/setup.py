@@ -189,6 +189,27 @@ def _refuse_shapes(lens) -> None:
                           hint="trace, psf, mtf, spot and bokeh handle it (docs/guide/surface-types.md)")
 
 
+def _refuse_mirrors(lens) -> None:
+    """Camera paths trace the lens backwards from the sensor (reversed_lens): coaxial refracting lenses only."""
+    if lens.has_mirrors:
+        raise LensrtError("render traces camera paths backwards from the sensor through a coaxial refracting lens; "
+                          "this lens has mirrors (the reversed path through its folded frames is not built)",
+                          path=lens.path, hint="a scene of point and sphere lights only renders through it from the "
+                                               "light side (light splat, e.g. its ring bokeh); or use lensrt bokeh")
+
+
+def _check_coverage(cam, table) -> None:
+    """One clear error when the tilted/shifted lens sends no light to the sensor's centre (beyond its image circle)."""
+    origin, rot = cam.lens_frame()
+    q = rot.T @ (np.array([0.0, 0.0, cam.sensor_z_mm]) - origin)
+    b = min(int(math.hypot(q[0], q[1]) * table.inv_dr), table.n_bins - 1)
+    if not table.areas_mm2[b] > 0.0:
+        raise LensrtError(f"the lens tilted {math.degrees(cam.tilt_rad):g} deg, swung {math.degrees(cam.swing_rad):g} "
+                          f"deg and shifted ({cam.shift_mm[0]:g}, {cam.shift_mm[1]:g}) mm does not cover the sensor's "
+                          f"centre: it lies {math.hypot(q[0], q[1]):.3g} mm off the lens axis, beyond its image circle",
+                          path=cam.lens.path, hint="tilt, swing or shift less")
+
+
 def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), device: str | None = None
                    ) -> tuple[RenderSetup, dict]:
     """Plan, camera and exit-pupil table of a camera-path render: the :class:`RenderSetup` and set-up seconds."""
@@ -203,6 +224,7 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
         scene = scale_pixels(scene, options.width)
     lens = load_lens(scene.camera.lens_source) if lens is None else lens
     _refuse_shapes(lens)
+    _refuse_mirrors(lens)
     plan = plan_render(scene, lens)
     # an ExtrapolationWarning where a glass's dispersion formula is extrapolated at the render's wavelengths
     lens.check_wavelengths([plan.grid.min_nm, plan.grid.max_nm] if plan.wavelength_nm is None else [plan.wavelength_nm])
@@ -215,6 +237,8 @@ def prepare_render(scene, lens=None, options: RenderOptions = RenderOptions(), d
     t0 = time.perf_counter()
     rev = pack_lens(reversed_lens(lens, 0.0), "float32", dev, iris=circular_iris(lens), stop_radius_mm=cam.stop_radius_mm)
     table = exit_pupil_table(cam, rev, table_wavelengths(plan), n_bins=options.pupil_bins, device=dev)
+    if cam.is_tilt_shift:
+        _check_coverage(cam, table)
     t["exit_pupil_table"] = time.perf_counter() - t0
     spp = options.samples_per_pixel or scene.render.samples_per_pixel
     spp_pass = options.spp_per_pass or max(1, spp // 8)

@@ -186,7 +186,9 @@ def render_splat(scene, lens, plan, options, progress=None):
     t_start = time.perf_counter()
     dev = resolve_device(options.device)
     cam = setup_camera(scene, lens, options.focus)
-    lens = cam.lens  # a declared focus group / floating groups moved to focus (render.camera)
+    # a declared focus group / floating groups moved to focus (render.camera); a tilt-shift camera's lens moved in
+    # front of the sensor (the stream traces it in the camera frame, onto the plane z = sensor_z_mm)
+    lens = cam.forward_lens()
     sen = cam.sensor
     rows, cols = sen.shape
     n_px = rows * cols

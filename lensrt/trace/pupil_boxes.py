@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Iris, Lens
+from ..prescription.frames import surface_frames
 from .aiming import FieldPoint, aim_frames, pupil_geometry, rays_through_points
 
 __all__ = ["PupilBox", "pupil_box", "pupil_boxes", "box_wavelengths"]
@@ -83,10 +84,12 @@ def _surface1_boxes(lens: Lens, fps: list[FieldPoint], c: np.ndarray, w: np.ndar
         geom = pupil_geometry(lens)
         sd = 4.0 * geom.ep_radius_mm + abs(geom.ep_z_mm)
     sag = float(s1.sag(min(sd, s1.max_semi_diameter_mm)))
+    # surface 1 in its own frame (a lens moved as a whole -- tilt-shift -- carries it in transform_before)
+    o1, a1 = (np.zeros(3), np.eye(3)) if s1.transform_before is None else surface_frames(lens)[0]
     out = np.empty((len(fps), 4))
     inf = np.array([fp.infinite for fp in fps], dtype=bool)
-    if inf.any():  # a collimated beam: the aperture's disc and sag, seen along the beam
-        ca, cb = -(e1[inf] @ c), -(e2[inf] @ c)
+    if inf.any():  # a collimated beam: the aperture's disc and sag, seen along the beam (any tilt: <= sd + |sag|)
+        ca, cb = e1[inf] @ (o1 - c), e2[inf] @ (o1 - c)
         half = sd + abs(sag)
         out[inf] = np.stack([ca - half, ca + half, cb - half, cb + half], axis=1)
     if (~inf).any():  # an object point: the cone through the aperture's rims, projected on the plane
@@ -95,6 +98,8 @@ def _surface1_boxes(lens: Lens, fps: list[FieldPoint], c: np.ndarray, w: np.ndar
         phi = np.linspace(0.0, 2.0 * np.pi, 181)
         rim = np.concatenate([np.stack([sd * np.cos(phi), sd * np.sin(phi), np.full_like(phi, z)], axis=1)
                               for z in (0.0, sag)])
+        if s1.transform_before is not None:
+            rim = o1 + rim @ np.asarray(a1).T
         v = rim[None, :, :] - obj[:, None, :]  # (S, M, 3)
         along = np.einsum("smk,sk->sm", v, wf)
         dist = np.einsum("sk,sk->s", c[None, :] - obj, wf)

@@ -19,6 +19,7 @@ from lensrt.paraxial import first_order
 from lensrt.prescription.frames import surface_frames
 from lensrt.prescription.tilt_shift import lens_frame, tilt_shift_lens
 from lensrt.trace import RayBatch, trace
+from scheimpflug import scheimpflug_slopes
 
 DG = "dgauss_50mm_f2"
 D_LINE_NM = 587.6
@@ -29,19 +30,6 @@ def _sensor_z(lens, object_mm: float) -> float:
     fo = first_order(lens)
     x = -object_mm - fo.front_focal_z_mm
     return float(fo.rear_focal_z_mm - fo.efl_mm ** 2 / x)
-
-
-def scheimpflug_slopes(lens, tilt_rad: float, shift_mm, sensor_z_mm: float, swing_rad: float = 0.0
-                       ) -> tuple[float, np.ndarray]:
-    """(z of the axial object in focus, (dz/dx, dz/dy) of the plane in focus), lens frame, first order."""
-    fo = first_order(lens)
-    origin, rot = lens_frame(tilt_rad, shift_mm, float(lens.vertex_z_mm()[lens.stop_index]), swing_rad)
-    q = rot.T @ (np.array([0.0, 0.0, sensor_z_mm]) - origin)   # a sensor point, lens frame
-    n = rot.T @ np.array([0.0, 0.0, 1.0])                       # the sensor's normal, lens frame
-    z_axis = q[2] + (n[0] * q[0] + n[1] * q[1]) / n[2]          # where the lens axis meets the sensor
-    x_img = z_axis - fo.rear_focal_z_mm
-    m = -x_img / fo.efl_mm                                       # Newton: m = -x'/f'
-    return fo.front_focal_z_mm - fo.efl_mm ** 2 / x_img, np.array([-n[0] / n[2], -n[1] / n[2]]) / m
 
 
 def _spot_rms(tilted, origin, rot, point_mm, sensor_z_mm: float, pupil, z_ep: float) -> float:

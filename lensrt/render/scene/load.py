@@ -37,7 +37,8 @@ _LENS_SUFFIXES = (".toml", ".zmx", ".seq", ".dat", ".len")
 _KEYS = {
     "": {"scene", "camera", "sensor", "spectral", "render", "illumination", "background", "light", "plane", "mesh"},
     "scene": {"name", "description", "units"},
-    "camera": {"lens", "focus_distance", "focus_extension_mm", "f_number", "exposure_s"},
+    "camera": {"lens", "focus_distance", "focus_extension_mm", "f_number", "exposure_s", "lens_tilt_deg",
+               "lens_swing_deg", "lens_shift_mm"},
     "sensor": {"format", "pixels", "preset", "noise", "iso"},
     "spectral": {"mode", "min_nm", "max_nm", "step_nm", "wavelength_nm", "sampling"},
     "render": {"samples_per_pixel", "seed", "time_budget_s", "target_rel_error", "diffraction"},
@@ -201,7 +202,12 @@ def _camera(sec: Section, mm: float) -> CameraSpec:
     if ext is None:
         dist = sec.number("focus_distance", math.inf, positive=True, allow_inf=True) * mm
     fno = sec.number("f_number", None, lo=0.5, hi=1024.0)
-    return CameraSpec(lens, lens_path, dist, ext, fno, sec.number("exposure_s", 0.01, positive=True))
+    # tilt-shift: angles in degrees and the shift in mm whatever the scene's units (the key names say so)
+    tilt = sec.number("lens_tilt_deg", 0.0, lo=-44.9, hi=44.9)
+    swing = sec.number("lens_swing_deg", 0.0, lo=-44.9, hi=44.9)
+    shift = sec.vector("lens_shift_mm", 2, np.zeros(2))
+    return CameraSpec(lens, lens_path, dist, ext, fno, sec.number("exposure_s", 0.01, positive=True),
+                      math.radians(tilt), math.radians(swing), (float(shift[0]), float(shift[1])))
 
 
 def _sensor(sec: Section) -> SensorSpec:

@@ -66,6 +66,11 @@ class CameraSpec:
     alternative: unit focusing, the whole lens moved this far from its
     infinity position (Field Guide p. 12). Exactly one is set.
     ``f_number`` = ``None`` keeps the lens's own aperture.
+    ``lens_tilt_rad``, ``lens_swing_rad``, ``lens_shift_mm``: a tilt-shift camera -- the whole
+    lens tilted about the sensor's x axis through its stop (> 0 turns its axis toward +y), swung
+    about its own y axis (> 0 toward +x) and shifted by (x, y) mm in front of the fixed sensor
+    (:mod:`lensrt.prescription.tilt_shift`; file keys ``lens_tilt_deg``, ``lens_swing_deg``,
+    ``lens_shift_mm``). All zero: the plain camera.
     """
 
     lens: str
@@ -74,6 +79,14 @@ class CameraSpec:
     focus_extension_mm: float | None
     f_number: float | None
     exposure_s: float
+    lens_tilt_rad: float = 0.0
+    lens_swing_rad: float = 0.0
+    lens_shift_mm: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def is_tilt_shift(self) -> bool:
+        """Whether the lens is tilted, swung or shifted relative to the sensor."""
+        return bool(self.lens_tilt_rad or self.lens_swing_rad or any(self.lens_shift_mm))
 
     @property
     def lens_source(self) -> str | Path:
@@ -245,7 +258,9 @@ class Scene:
                  else f"{c.focus_distance_mm / 1000.0:g} m from the first vertex")
         lines = [f"scene {self.name!r}" + (f": {self.description}" if self.description else ""),
                  f"  camera: lens {c.lens}, focus {focus}, "
-                 + (f"f/{c.f_number:g}" if c.f_number else "full aperture") + f", exposure {c.exposure_s:g} s",
+                 + (f"f/{c.f_number:g}" if c.f_number else "full aperture") + f", exposure {c.exposure_s:g} s"
+                 + (f", lens tilt {math.degrees(c.lens_tilt_rad):g} deg, swing {math.degrees(c.lens_swing_rad):g} deg, "
+                    f"shift ({c.lens_shift_mm[0]:g}, {c.lens_shift_mm[1]:g}) mm" if c.is_tilt_shift else ""),
                  f"  sensor: {_format_label(s)}, {s.pixels_x} x {s.pixels_y} px "
                  f"({s.pixel_pitch_um:.3g} um)" + (f", preset {s.preset}" if s.preset else "")]
         for p in self.point_lights:
