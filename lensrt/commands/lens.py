@@ -63,7 +63,9 @@ def cmd_show(args: argparse.Namespace) -> int:
         emit(f"iris: {lens.iris.blades} blades, rotation {math.degrees(lens.iris.rotation_rad):g} deg")
     emit(f"aperture rule: {APERTURE_RULE_TEXT[lens.aperture_rule]}")
     emit(format_table(rows, headers))
-    emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1")
+    curved = "" if lens.image_curvature_per_mm == 0.0 else \
+        f", a sphere of radius {1.0 / lens.image_curvature_per_mm:.4f} mm"
+    emit(f"image surface at z = {lens.image_z_mm:.4f} mm from surface 1{curved}")
     if any(s.semi_diameter_auto for s in lens.surfaces):
         emit(f"* semi-diameter computed ({lens.meta.get('clear_apertures', 'automatic')})")
     for w in lens.warnings:

@@ -400,8 +400,14 @@ class Lens:
     path: str | None = field(default=None, compare=False)
     #: how the lens focuses (:mod:`lensrt.prescription.focusing`); unit focusing by default
     focus: FocusMechanism = UNIT_FOCUS
+    #: curvature (1/mm) of a spherical image surface (a curved sensor, the retina; Zemax image CURV, CODE V SI);
+    #: 0: the usual plane. Real rays end on it; paraxial (y-nu) data do not depend on it
+    image_curvature_per_mm: float = 0.0
 
     def __post_init__(self) -> None:
+        if not math.isfinite(self.image_curvature_per_mm):
+            raise PrescriptionError(f"image surface curvature {self.image_curvature_per_mm!r} is not finite",
+                                    hint="give the image radius in mm, or 0 / inf for a plane")
         if self.image_transform is not None and self.image_transform.is_identity:
             object.__setattr__(self, "image_transform", None)
         if self.aperture_rule not in APERTURE_RULES:

@@ -15,6 +15,7 @@ from ..core.telemetry import measure
 from ..errors import LensrtError
 from ..io.paths import output_dir
 from ..prescription.configurations import MultiConfigLens
+from ..views.plots.figure import deferred_figures
 from .model import Report, ReportContext, Section
 from .options import ReportOptions, prepare_lens
 
@@ -118,6 +119,17 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     return report
 
 
+def _figure_errors(outcomes, sections: list[Section]) -> None:
+    """A figure that a worker process could not draw: an error of the section that made it."""
+    for owner, path, err in outcomes:
+        if err is None:
+            continue
+        for sec in sections:
+            if sec.key == owner:
+                sec.errors.append(f"figure {Path(path).name} could not be drawn: {type(err).__name__}: {err} "
+                                  "(a bug in lensrt; set LENSRT_FIGURE_WORKERS=0 to draw figures in this process)")
+
+
 def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str], stream, quiet: bool) -> Report:
     """Run the sections (each one measured) and gather the report; :func:`build_report` writes it."""
     from ..views.progress import StepProgress
@@ -134,31 +146,36 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
         ctx.cache["configurations"] = family
     steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
     sections = []
-    for key, title, label, spec in SECTIONS:
-        sec = Section(key, title)
-        sections.append(sec)
-        if key in skip:
-            sec.data["skipped"] = True
-            continue
-        ctx.progress = steps.start(label)
-        t_sec = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught, measure() as rec:
-            warnings.simplefilter("always")
-            try:
-                _function(spec)(ctx, sec)
-            except LensrtError as err:
-                sec.errors.append(str(err))
-            except Exception as err:  # noqa: BLE001 - a failing section must not take the report with it
-                sec.errors.append(f"internal error: {type(err).__name__}: {err} (a bug in lensrt; the traceback is "
-                                  "in report.json)")
-                sec.traceback = traceback.format_exc()
-        sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
-                                          if not issubclass(w.category, DeprecationWarning)))
-        sec.seconds = time.perf_counter() - t_sec
-        sec.telemetry = rec.to_dict()
-        note = sec.errors[0][:100] if not sec.ok else \
-            (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
-        steps.finish(sec.ok, note)
+    with deferred_figures() as renderer:
+        for key, title, label, spec in SECTIONS:
+            sec = Section(key, title)
+            sections.append(sec)
+            if key in skip:
+                sec.data["skipped"] = True
+                continue
+            ctx.progress = steps.start(label)
+            if renderer is not None:
+                renderer.owner = key
+            t_sec = time.perf_counter()
+            with warnings.catch_warnings(record=True) as caught, measure() as rec:
+                warnings.simplefilter("always")
+                try:
+                    _function(spec)(ctx, sec)
+                except LensrtError as err:
+                    sec.errors.append(str(err))
+                except Exception as err:  # noqa: BLE001 - a failing section must not take the report with it
+                    sec.errors.append(f"internal error: {type(err).__name__}: {err} (a bug in lensrt; the traceback is "
+                                      "in report.json)")
+                    sec.traceback = traceback.format_exc()
+            sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
+                                              if not issubclass(w.category, DeprecationWarning)))
+            sec.seconds = time.perf_counter() - t_sec
+            sec.telemetry = rec.to_dict()
+            note = sec.errors[0][:100] if not sec.ok else \
+                (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
+            steps.finish(sec.ok, note)
+        if renderer is not None:  # figures drawn by worker processes: their files exist from here on
+            _figure_errors(renderer.wait(), sections)
     env = _environment(options.command_line)
     report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
                     0.0, env, notes, _lens_summary(analysed))

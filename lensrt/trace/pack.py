@@ -1,6 +1,7 @@
 """A :class:`~lensrt.prescription.model.Lens` packed into flat arrays for the Warp kernels.
 
-One row per surface plus one for the image surface (a plane)::
+One row per surface plus one for the image surface (a plane, or a sphere of curvature
+``Lens.image_curvature_per_mm``: kind 1, traced by the general kernel variant only)::
 
     surf[i] = [c, 1 + k, sd^2 (-1: no clip), thickness to the next vertex, kind (0 plane,
                1 conic, 2 even asphere, 3.. a shape: SHAPE_KIND_CODES), number of asphere terms, a_0 .. a_9,
@@ -113,6 +114,9 @@ def pack_arrays(lens: Lens, iris: Iris | None = None,
             _pack_shape(s, surf[i])
     surf[n, S_KP1] = 1.0
     surf[n, S_SD2] = -1.0
+    if lens.image_curvature_per_mm != 0.0:  # a spherical image surface (pack_geometry marks the lens general)
+        surf[n, S_C] = lens.image_curvature_per_mm
+        surf[n, S_KIND] = 1.0
     pack_geometry(lens, surf)
     media = np.zeros((n + 1, MEDIA_COLS))
     for m, mat in enumerate(lens.media()):
@@ -152,8 +156,9 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
     """Fill the geometry columns of ``surf`` (and flip c and the asphere after odd mirrors) in place."""
     surf[:, S_SIGN] = 1.0
     surf[:, S_AXES:S_AXES + 9] = np.eye(3).ravel()
-    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens and not lens.has_shapes:
-        return  # shaped surfaces and ideal lenses are traced by the general kernel variant only
+    if lens.is_centred and not lens.has_mirrors and not lens.has_ideal_lens and not lens.has_shapes \
+            and lens.image_curvature_per_mm == 0.0:
+        return  # shaped surfaces, ideal lenses and curved images are traced by the general kernel variant only
     from ..prescription.frames import surface_frames, travel_signs
     signs = travel_signs(lens)
     for i, (origin, axes) in enumerate(surface_frames(lens)):
@@ -169,6 +174,8 @@ def pack_geometry(lens: Lens, surf: np.ndarray) -> None:
                 surf[i, S_X + X_CX] *= signs[i]
                 surf[i, S_X + X_TERMS:] *= signs[i]
             _pack_apertures(lens, i, surf)
+        else:
+            surf[i, S_C] *= signs[i]  # a curved image surface met in the frame mirrored in z
 
 
 def _pack_apertures(lens: Lens, i: int, surf: np.ndarray) -> None:

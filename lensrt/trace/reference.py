@@ -77,8 +77,8 @@ def trace_reference(lens: Lens, origin_mm: tuple[float, float, float], direction
         if i < n_surf:
             s = lens.surfaces[i]
             c, kp1, asph = s.curvature_per_mm, 1.0 + s.conic, s.asphere
-        else:  # the image surface: a plane
-            c, kp1, asph = 0.0, 1.0, ()
+        else:  # the image surface: a plane or a sphere (Lens.image_curvature_per_mm)
+            c, kp1, asph = lens.image_curvature_per_mm, 1.0, ()
         if i < n_surf and s.shape is not None:  # odd, Q-type, biconic, toroidal (.ray_shapes)
             status, t, normal = intersect_profile(profile_of(s), x, y, z, L, M, N)
         else:

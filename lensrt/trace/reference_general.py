@@ -114,7 +114,7 @@ def trace_general(lens: Lens, origin_mm: tuple[float, float, float], direction: 
     for i in range(end + 1):
         s = lens.surfaces[i] if i < n_surf else None
         sign = signs[i]
-        c = 0.0 if s is None else sign * s.curvature_per_mm
+        c = sign * (lens.image_curvature_per_mm if s is None else s.curvature_per_mm)  # the image: plane or sphere
         kp1 = 1.0 if s is None else 1.0 + s.conic
         asph = () if s is None else tuple(sign * a for a in s.asphere)
         (x, y, z), (L, M, N) = _to_local(frames[i], p, d, sign)

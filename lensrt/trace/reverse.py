@@ -37,6 +37,10 @@ def reversed_lens(lens: Lens, scene_gap_mm: float = 0.0) -> Lens:
                           "or surface apertures yet", path=lens.path,
                           hint="trace such lenses forward (trace, psf, bokeh spots and maps) or with the float64 "
                                "reference tracer")
+    if lens.image_curvature_per_mm != 0.0:
+        raise LensrtError("tracing from the image side (render) does not support a curved image surface yet",
+                          path=lens.path, hint="trace such lenses forward (trace, ray, psf, bokeh) or with the float64 "
+                                               "reference tracer")
     n = lens.n_surfaces
     media = lens.media()
     old = lens.surfaces

@@ -313,8 +313,12 @@ def test_full_sweep(request: pytest.FixtureRequest, tmp_path: Path, capsys: pyte
     for lens in LIBRARY:
         for argv in _good_runs(lens, tmp_path):
             rc, out, err = run(argv, capsys)
-            # the fisheye's own rim field and its corners of a 4/3 sensor let no light through: a clean error
-            if rc != 0 and not (rc == 2 and "no ray passes the lens" in err and lens == "fisheye_10mm_f4"):
+            # the fisheye's own rim field and its corners of a 4/3 sensor let no light through: a clean error; the
+            # phone lens's image circle (r = 3.5 mm) covers neither a 4/3 sensor nor the bokeh map's default one
+            phone_small = lens.startswith("phone_") and ("beyond the lens's coverage" in err
+                                                         or "needs at least one source" in err)
+            if rc != 0 and not (rc == 2 and ("no ray passes the lens" in err and lens == "fisheye_10mm_f4"
+                                             or phone_small)):
                 failures.append((argv, rc, err.strip()[-300:]))
             elif rc == 0 and argv[0] in ("info", "ray", "psf", "mtf"):
                 doc = json.loads(out)

@@ -145,7 +145,7 @@ def test_variable_codes_are_ignored_and_pim_is_solved() -> None:
     (("WL 587.6\n", ""), "no wavelengths"),
     (("  STO", "  STO\n  2.5377"), "not a command"),
     (("SO 0 1e10", "SO 0.01 1e10"), "curved object"),
-    (("SI 0 0", "SI -0.01 0"), "curved image"),
+    (("SI 0 0", "SI 0 0\n  K -1"), "K without a surface"),  # a spherical SI reads (test_curved_image); no conic
     (("S 0.02 5 NBK7_SCHOTT", "S 0.02 5 NBK7_SCHOTT EXTRA"), "unexpected"),
     (("S 0.02 5 NBK7_SCHOTT", "S 0.02 nan NBK7_SCHOTT"), "thickness is 'nan'"),
     (("S 0.02 5 NBK7_SCHOTT", "S 0.02 5 NBK77_SCHOTT"), "no catalog"),

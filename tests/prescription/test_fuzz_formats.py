@@ -37,7 +37,9 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            ROOT / "data" / "shape_types.zmx",
            # zoom and focus (issue 18): MNUM/THIC/APER/YFIE/WAVE/LTTL rows, ZOO/POS, [[configuration]] and [focus]
            ROOT / "data" / "cooke_triplet_mce.zmx", ROOT / "data" / "ag_dblgauss_zoom.seq",
-           ROOT.parent / "lens_prescriptions" / "fujinon_xf_90mm_f2_inner_focus.toml"]
+           ROOT.parent / "lens_prescriptions" / "fujinon_xf_90mm_f2_inner_focus.toml",
+           # CODE V special surfaces (issue 22): SPS ODD / XYP / QBF with SCO and SCC
+           ROOT / "data" / "special_surfaces.seq"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",

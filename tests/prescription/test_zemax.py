@@ -233,7 +233,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
     (("ENPD 10", "ENPD 10\nFNUM 4"), "two system apertures"),
     (("ENPD 10\n", ""), "no system aperture"),
     (("SURF 0\n  DISZ INFINITY", "SURF 0\n  CURV 0.1\n  DISZ INFINITY"), "curved object"),
-    (("SURF 3\n", "SURF 3\n  CURV 0.01\n"), "curved image"),
+    (("SURF 3\n", "SURF 3\n  CURV 0.01\n  CONI -1\n"), "curved image"),  # a sphere reads; a conic does not
     (("SURF 2\n", "SURF 5\n"), "out of order"),
     (("DISZ 5", "DISZ INFINITY"), "INFINITY on a lens surface"),
     (("CURV 0.02", "CURV 0.02\n  PARM 2 1e-5"), "PARM on a STANDARD"),

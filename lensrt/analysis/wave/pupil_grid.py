@@ -30,6 +30,7 @@ moves the PSF toward +x.
 from __future__ import annotations
 
 import math
+import threading
 from typing import Callable, Sequence
 
 import numpy as np
@@ -229,13 +230,42 @@ def defocus_opd_mm(px: np.ndarray, py: np.ndarray, na: float, dz_mm: float,
 class TriLinear:
     """Piecewise-linear interpolation on the Delaunay triangulation of scattered points.
 
-    Built on ``matplotlib.tri`` (C++ point location and plane coefficients):
+    Built on ``matplotlib.tri`` (qhull's triangulation, C++ plane coefficients):
     scipy's ``LinearNDInterpolator`` computes a barycentric transform per
     triangle through LAPACK, which behind a multi-threaded BLAS costs seconds for
     ten thousand triangles. Near-degenerate triangles (area below 1e-6 of the
     median, e.g. from collinear points on the hull of a regular ray grid) are
-    masked. ``interp(values, qx, qy, fill)`` returns ``fill`` outside the hull.
+    masked. Points are located by a bucket grid
+    (:class:`~lensrt.analysis.wave.point_location.BucketLocator`, built once per
+    triangulation) rather than matplotlib's trapezoid map, which took as long to
+    build as the triangulation; the values are matplotlib's ``LinearTriInterpolator``'s
+    (the same plane coefficients and expression). ``interp(values, qx, qy, fill)``
+    returns ``fill`` outside the hull. :meth:`of` reuses the triangulation of points already
+    triangulated (a pupil resampled at a finer grid triangulates the same rays).
     """
+
+    _recent: "dict[bytes, TriLinear]" = {}
+    _lock = threading.Lock()
+    #: triangulations :meth:`of` keeps (the most recent ones)
+    KEEP = 8
+
+    @classmethod
+    def of(cls, x: np.ndarray, y: np.ndarray) -> "TriLinear":
+        """``TriLinear(x, y)``, the same object again for the same points (by content)."""
+        import hashlib
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        y = np.ascontiguousarray(y, dtype=np.float64)
+        key = hashlib.blake2b(x.tobytes() + b"|" + y.tobytes(), digest_size=20).digest()
+        with cls._lock:
+            hit = cls._recent.get(key)
+        if hit is not None:
+            return hit
+        made = cls(x, y)
+        with cls._lock:
+            cls._recent[key] = made
+            while len(cls._recent) > cls.KEEP:
+                cls._recent.pop(next(iter(cls._recent)))
+        return made
 
     def __init__(self, x: np.ndarray, y: np.ndarray) -> None:
         from matplotlib.tri import Triangulation
@@ -248,11 +278,27 @@ class TriLinear:
         area = np.abs((xt[:, 1] - xt[:, 0]) * (yt[:, 2] - yt[:, 0]) - (xt[:, 2] - xt[:, 0]) * (yt[:, 1] - yt[:, 0]))
         tr.set_mask(area <= 1e-6 * np.median(area))
         self.tri = tr
+        self._locator = None
+
+    def find(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
+        """The (unmasked) triangle holding each point of (qx, qy), flattened; -1 outside."""
+        if self._locator is None:
+            from .point_location import BucketLocator
+            self._locator = BucketLocator(self.tri.x, self.tri.y, self.tri.triangles, self.tri.mask)
+        return self._locator.find(qx, qy)
 
     def interp(self, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, fill: float = np.nan) -> np.ndarray:
-        from matplotlib.tri import LinearTriInterpolator
-        v = LinearTriInterpolator(self.tri, np.asarray(values, dtype=np.float64))(qx, qy)
-        return np.ma.filled(v.astype(np.float64), fill)
+        qx = np.asarray(qx, dtype=np.float64)
+        qy = np.asarray(qy, dtype=np.float64)
+        coef = self.tri.calculate_plane_coefficients(np.asarray(values, dtype=np.float64))
+        k = self.find(qx, qy)
+        x, y = np.ravel(qx), np.ravel(qy)
+        out = np.full(x.size, np.nan)
+        ok = k >= 0
+        t = k[ok]
+        out[ok] = coef[t, 0] * x[ok] + coef[t, 1] * y[ok] + coef[t, 2]
+        out[~np.isfinite(out)] = fill
+        return out.reshape(qx.shape)
 
 
 def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, k: int = 16) -> np.ndarray:
@@ -338,7 +384,7 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
                           hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
     pts = np.column_stack([px[ok], py[ok]])
-    tri = TriLinear(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
+    tri = TriLinear.of(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
     if aperture is None:
         frac = TriLinear(px, py).interp(ok.astype(np.float64), gx, gy, fill=0.0)

@@ -267,7 +267,7 @@ def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.wave.propagation.PupilFunction` of a traced wavefront on an n x n pupil grid."""
     from .propagation import PupilFunction
     from .pupil_grid import TriLinear
-    lin = TriLinear(wf.px, wf.py)
+    lin = TriLinear.of(wf.px, wf.py)
     valid = wf.valid.astype(np.float64)
     mask, fine = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
     amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)

@@ -23,7 +23,8 @@ starts a comment, ``&`` continues a line):
   (``DOR``, ``UID``, ...).
 
 A thickness on ``SI`` is a defocus of the image surface from where the last
-thickness puts it; it is added to the last surface's thickness. An object
+thickness puts it; it is added to the last surface's thickness. A radius (curvature)
+on ``SI`` makes the image surface a sphere (``Lens.image_curvature_per_mm``). An object
 thickness of 1e10 or more is infinite (CODE V's rule). Glass names may carry
 a catalog suffix (``NSK16_SCHOTT``) and are looked up as
 :mod:`lensrt.prescription.glass_lookup` says; fictitious glasses (``1.55:55.8``,
@@ -37,8 +38,8 @@ warning.
 Mirrors (``REFL``), decenters and tilts (``XDE`` .. ``CDE``, ``DAR``, ``REV``,
 ``BEN``) and apertures (``CIR ... OBS/HOL``, ``REX``/``REY``, ``ELX``/``ELY``,
 ``ADX``/``ADY``/``ARO``) and coordinate returns (``RET Sk``) are read by
-:mod:`.codev_geometry`. Diffractive surfaces, special surface types, private catalogs are
-errors naming the file, the line and the command.
+:mod:`.codev_geometry`. Diffractive surfaces and the special surface types other than ``SPS ODD``,
+``XYP`` and ``QBF`` (read by :mod:`.codev_shapes`) are errors naming the file, the line and the command.
 """
 from __future__ import annotations
 
@@ -55,6 +56,7 @@ from ..materials import AIR, Material
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths
 from ._common import emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note
 from .codev_glass import PrivateCatalog, fictitious_glass
+from .codev_shapes import special_coefficients, special_shape, special_surface
 from .codev_solves import SOLVE_KINDS, apply_solves
 from .codev_zoom import ZoomReader
 from .keywords import CODEV_NON_OPTICAL, KeywordPolicy
@@ -84,7 +86,7 @@ UNSUPPORTED = {
     "HOE": "a holographic element", "GRT": "a grating", "HWL": "a diffractive surface", "HOR": "a diffractive surface",
     "HCT": "a diffractive surface", "HCO": "a diffractive surface", "DOE": "a diffractive surface",
     "XTO": "a toroidal surface", "YTO": "a toroidal surface", "AAS": "an anamorphic asphere",
-    "CYL": "a cylinder", "SPS": "a special surface", "ZRN": "a Zernike surface", "ZFR": "a Zernike surface",
+    "CYL": "a cylinder", "ZRN": "a Zernike surface", "ZFR": "a Zernike surface",
     "XYP": "an XY polynomial surface", "UDS": "a user-defined surface", "CUX": "a toroidal curvature",
     "RDX": "a toroidal radius", "CIG": "a general aperture",
     "REG": "a general aperture", "ELG": "a general aperture",
@@ -98,7 +100,7 @@ _DIM = {"M": "mm", "MM": "mm", "C": "cm", "CM": "cm", "I": "in", "IN": "in"}
 _FIELD_KEYS = {"AN": "angle", "OB": "object_height", "IM": "paraxial_image_height", "RI": "real_image_height"}
 _KNOWN = set(IGNORED) | set(UNSUPPORTED) | GEOMETRY_COMMANDS | {
     "ZOO", "POS", "RDM", "TIT", "DIM", "EPD", "FNO", "NAO", "REF", "WTW", "WTF", "TEM", "PRE", "STO", "CIR", "ASP", "CON", "SLB",
-    "RDY", "CUY", "THI", "GLA", "CUF", "PIM", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI"}
+    "RDY", "CUY", "THI", "GLA", "CUF", "PIM", "VUX", "VLX", "VUY", "VLY", "XAN", "YAN", "XOB", "YOB", "XIM", "YIM", "XRI", "YRI", "SPS", "SCO", "SCC"}
 
 
 def tokenize_seq(text: str) -> list[tuple[int, list[str]]]:
@@ -299,6 +301,9 @@ class _Seq:
         if name in ("ZOO", "POS"):
             self.zoom.command(name, args, line)
             return True
+        if name in ("SPS", "SCO", "SCC"):
+            self.special(name, args, line)
+            return True
         if name in UNSUPPORTED:
             raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
                            "lensrt models rotationally symmetric, sequential, refractive lenses only")
@@ -327,6 +332,20 @@ class _Seq:
         else:
             value = self.num(args[1], f"{kind} solve value", line)
         row.setdefault("solves", []).append((kind, value, line))
+
+    def special(self, name: str, args: list[str], line: int) -> None:
+        """``SPS type [n]``, ``SCO name value ...`` and ``SCC`` (variable codes, ignored) on the current surface
+        (:mod:`.codev_shapes`)."""
+        row = self.cur(name, line)
+        if row["kind"] != "S":
+            raise self.err(f"{name} on the {'object' if row['kind'] == 'SO' else 'image'} surface", line,
+                           "lensrt's object and image surfaces carry no special surface type")
+        if name == "SPS":
+            if row.get("sps") is not None:
+                raise self.err(f"a second SPS on the surface of line {row['line']}", line, "one special type a surface")
+            row["sps"] = special_surface(args, line, self.path)
+        elif name == "SCO":
+            special_coefficients(row.get("sps"), args, line, self.path)
 
     def fresnel_curvature(self, args: list[str], line: int) -> None:
         """``CUF c``: CODE V writes ``CUF 0`` in every ASP block it saves; 0 (no Fresnel base curvature) is a
@@ -384,9 +403,12 @@ class _Seq:
         if obj["stop"]:
             raise self.err("the object surface (SO) is marked STO", obj["line"])
         defocus = 0.0
+        self.image_curvature = 0.0  # a spherical image surface: the SI radius
         if img is not None:
-            if img["curv"] != 0.0:
-                raise self.err("curved image surface (SI)", img["line"], "lensrt's image surface is a plane")
+            if img["conic"] != 0.0 or img["asph"] or img.get("sps") is not None:
+                raise self.err("aspheric image surface (SI)", img["line"], "lensrt's image surface is a plane or a "
+                               "sphere (the SI radius)")
+            self.image_curvature = img["curv"] / f
             defocus = img["thick"]
         self.assumed_defaults(body)
         surfaces: list[Surface] = []
@@ -397,11 +419,12 @@ class _Seq:
                 asph = tuple(r["asph"].get(i, 0.0) * f ** (-1 - 2 * i) for i in range(0, n + 1)) if n else ()
                 thick = r["thick"] + (defocus if k == len(body) - 1 else 0.0)
                 geometry = row_geometry(r, f, self.path)
+                shape, conic, asph = special_shape(r.get("sps"), r["conic"], asph, f, self.path)
                 surfaces.append(Surface(
                     curvature_per_mm=r["curv"] / f, thickness_mm=thick * f,
                     material=before if r["mirror"] else self.material(r["glass"], r["line"], k), **geometry,
-                    semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=r["conic"], asphere=asph,
-                    is_stop=r["stop"], label=r["label"], line=r["line"]))
+                    semi_diameter_mm=None if r["sd"] is None else r["sd"] * f, conic=conic, asphere=asph,
+                    shape=shape, is_stop=r["stop"], label=r["label"], line=r["line"]))
                 before = surfaces[-1].material
         surfaces = apply_coordinate_returns(surfaces, body, self.path, zoom=self.zoom.count is not None)
         self.image_transform = image_transform(img, f)
@@ -549,7 +572,8 @@ class _Seq:
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=dist, object_material=obj_mat,
                          name=self.title, source=f"CODE V sequence {Path(path).name}" if path else "CODE V sequence",
-                         notes=tuple(self.notes), warnings=found, image_transform=self.image_transform)
+                         notes=tuple(self.notes), warnings=found, image_transform=self.image_transform,
+                         image_curvature_per_mm=self.image_curvature)
 
 
 def _looks_number(tok: str) -> bool:

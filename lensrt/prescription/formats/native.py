@@ -9,6 +9,7 @@ checked, so a typo is an error, never silently ignored. Example::
 
     [system]
     object_distance_mm = inf          # or a number
+    image_radius_mm = -80.0           # optional: a spherical image surface (or image_curvature_per_mm)
     catalogs = ["Schott"]             # search order for bare glass names (optional)
 
     [aperture]
@@ -66,7 +67,8 @@ _KEYS = {
     "": {"format", "version", "lens", "system", "aperture", "iris", "fields", "wavelengths", "surface",
          "focus", "configuration"},
     "lens": {"name", "source", "notes"},
-    "system": {"object_distance_mm", "object_material", "catalogs"} | SYSTEM_KEYS,
+    "system": {"object_distance_mm", "object_material", "catalogs", "image_radius_mm", "image_curvature_per_mm"}
+    | SYSTEM_KEYS,
     "aperture": {"type", "value"},
     "iris": {"blades", "rotation_deg", "roundness", "obstruction_ratio"},
     "fields": {"type", "y", "x", "weights"},
@@ -269,6 +271,7 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
         dist = _number(sys_t.get("object_distance_mm", math.inf), "object_distance_mm")
         obj_mat = _material_spec(sys_t.get("object_material", "air"), catalogs)
         geometry = read_system_geometry(sys_t)
+        geometry["image_curvature_per_mm"] = _image_curvature(sys_t)
     notes = lens_t.get("notes", {})
     if not isinstance(notes, dict):
         raise PrescriptionError("lens.notes must be a table of strings", path=spath, line=sections.get("lens"))
@@ -283,6 +286,16 @@ def loads_native(text: str, path: str | Path | None = None) -> Lens | MultiConfi
         return lens
     with located(spath, None):
         return parse_configurations(lens, doc["configuration"], _section_lines(text, "configuration")[1], catalogs)
+
+
+def _image_curvature(sys_t: dict) -> float:
+    """``image_radius_mm`` (0 or inf: a plane) or ``image_curvature_per_mm`` of ``[system]``; 0 without either."""
+    if "image_radius_mm" in sys_t and "image_curvature_per_mm" in sys_t:
+        raise PrescriptionError("both image_radius_mm and image_curvature_per_mm in [system]", hint="give one")
+    if "image_curvature_per_mm" in sys_t:
+        return _number(sys_t["image_curvature_per_mm"], "image_curvature_per_mm")
+    r = _number(sys_t.get("image_radius_mm", math.inf), "image_radius_mm")
+    return 0.0 if r == 0.0 or math.isinf(r) else 1.0 / r
 
 
 def read_native(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:
@@ -361,6 +374,8 @@ def dumps_native(lens: Lens | MultiConfigLens) -> str:
     out += ["", "[system]", f"object_distance_mm = {_f(lens.object_distance_mm)}"]
     if lens.object_material != AIR:
         out.append(f"object_material = {_material(lens.object_material)}")
+    if lens.image_curvature_per_mm != 0.0:
+        out.append(f"image_curvature_per_mm = {_f(lens.image_curvature_per_mm)}")
     out += write_system_geometry(lens)
     out += ["", "[aperture]", f"type = {_s(lens.aperture.kind)}", f"value = {_f(lens.aperture.value)}"]
     ir = lens.iris

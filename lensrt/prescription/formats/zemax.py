@@ -25,8 +25,9 @@ Display, optimisation and tolerancing data are ignored explicitly
 ignored. Everything that changes the optics but lies outside lensrt's model
 (mirrors, coordinate breaks, tilts/decenters, non-sequential mode, gratings,
 other surface types, unsupported multi-configuration operands, non-circular or decentred apertures,
-curved object/image surfaces, ...) is an error naming the file, the line and
-the construct. A keyword lensrt does not know is ignored with a
+a curved object surface, an aspheric image surface, ...) is an error naming the file,
+the line and the construct; a spherical image surface (``CURV`` on the last SURF) is
+``Lens.image_curvature_per_mm``. A keyword lensrt does not know is ignored with a
 ``keyword_unknown`` warning naming it and its line
 (:mod:`~lensrt.prescription.formats.keywords`). ``FLOA`` floats on the stop's
 semi-diameter, or where the stop has none on the file's other aperture.
@@ -454,9 +455,10 @@ class _Reader:
                            "the image", self.surfs[-1].line if self.surfs else None)
         obj, img, body = self.surfs[0], self.surfs[-1], self.surfs[1:-1]
         for s, what in ((obj, "object"), (img, "image")):
-            if s.curv != 0.0 or s.conic != 0.0 or any(v for v, _ in s.parm.values()):
+            if (s.curv != 0.0 and what == "object") or s.conic != 0.0 or any(v for v, _ in s.parm.values()):
                 raise self.err(f"curved {what} surface (SURF {s.number})", s.line,
-                               f"lensrt's {what} surface is a plane")
+                               "lensrt's object surface is a plane" if what == "object" else
+                               "lensrt's image surface is a plane or a sphere (CURV only, no conic or PARM)")
             if s.stop:
                 raise self.err(f"the {what} surface (SURF {s.number}) is marked STOP", s.line)
         surfaces: list[Surface] = []
@@ -637,7 +639,8 @@ class _Reader:
         return make_lens(path, surfaces=tuple(surfaces), aperture=aperture, fields=fields, wavelengths=wavelengths,
                          object_distance_mm=obj.disz * f, object_material=obj_mat, name=self.name,
                          source=f"Zemax file {Path(path).name}" if path else "Zemax file", notes=tuple(notes),
-                         warnings=found, image_transform=self.image_transform)
+                         warnings=found, image_transform=self.image_transform,
+                         image_curvature_per_mm=self.surfs[-1].curv / MM_PER_UNIT[self.unit])
 
 
 def _norm_name(name: str) -> str:

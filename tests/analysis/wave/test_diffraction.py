@@ -315,3 +315,30 @@ radius_mm = inf
 thickness_mm = 98.0
 material = "air"
 """
+
+
+def test_pupil_mtf_with_spline_coefficients_once_equals_map_coordinates_prefiltering():
+    """pupil_mtf_function filters each OTF once; the values are those of map_coordinates filtering per call
+    (an aberrated two-wavelength pupil, several directions), to the bit."""
+    from scipy.ndimage import map_coordinates
+    from lensrt.analysis.psf.diffraction import pupil_mtf_function, pupil_otf
+    from lensrt.analysis.wave.pupil_grid import pupil_coordinates
+    n = 64
+    mask = circular_aperture(n)
+    gx, gy = pupil_coordinates(n)
+    pupils = [PupilFunction.from_waves(mask, 0.4 * (gx ** 2 + gy ** 2) + 0.2 * gx ** 3, lam, NW)
+              for lam in (LAM, 1.2 * LAM)]
+    weights = [0.7, 0.3]
+    fn = pupil_mtf_function(pupils, weights, 4, (0.0, 0.0))
+    f = np.linspace(0.0, 0.9, 30) / LAM_NW_MM
+    for angle in (0.0, 0.4, 2.0):
+        want = np.zeros(f.size, dtype=np.complex128)
+        for p, w in zip(pupils, np.asarray(weights) / np.sum(weights)):
+            c, cell = pupil_otf(p)
+            m = c.shape[0] // 2
+            coords = np.vstack([f * math.sin(angle) / cell + m, f * math.cos(angle) / cell + m])
+            want += w * (map_coordinates(c.real, coords, order=3, mode="constant")
+                         + 1j * map_coordinates(c.imag, coords, order=3, mode="constant"))
+        got = fn(f, angle)
+        assert np.array_equal(got, np.clip(np.abs(want), 0.0, None))
+        assert got[0] == pytest.approx(1.0) and got[-1] < got[0]
