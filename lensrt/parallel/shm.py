@@ -7,7 +7,9 @@ name and the buffers' places in it (:func:`pack`). The parent copies each buffer
 into memory of its own (one ``memcpy`` per array, outside the interpreter lock), rebuilds the result
 around them and unlinks the segment (:func:`unpack`). Results below the threshold, and results
 where shared memory is not available, travel in the message itself (``pack`` returns them as they
-are), so the message always says which way it came.
+are), so the message always says which way it came. A segment is made only while the
+shared-memory file system keeps room to spare (a container's ``/dev/shm`` is often 64 MB): a write
+that it cannot back would kill the worker rather than raise, so without room the result takes the pipe.
 
 A worker process of :class:`~lensrt.parallel.process.ProcessExecutor` writes into a
 :class:`SegmentPool`: two segments of its own, used in turn and kept from result to result (a new
@@ -23,6 +25,7 @@ when the parent exits, so nothing is left in ``/dev/shm``.
 """
 from __future__ import annotations
 
+import os
 import pickle
 from typing import Any
 
@@ -32,6 +35,24 @@ __all__ = ["SHM_MIN_BYTES", "Packed", "SegmentPool", "Attached", "pack", "unpack
 
 #: results whose out-of-band buffers add up to less than this travel through the pipe (bytes)
 SHM_MIN_BYTES = 1 << 20
+#: where POSIX shared memory lives on Linux (checked for room before a segment is made)
+SHM_DIR = "/dev/shm"
+
+
+#: free room left in the shared-memory file system after a new segment (bytes)
+SHM_HEADROOM_BYTES = 64 << 20
+
+
+def _new_segment(size: int) -> Any:
+    """A new segment of ``size`` bytes; OSError when the shared-memory file system (a container's
+    /dev/shm is often 64 MB) would keep less than :data:`SHM_HEADROOM_BYTES` free: writing into a
+    segment that the file system cannot back kills the process (SIGBUS) instead of raising."""
+    import shutil
+    from multiprocessing import shared_memory
+    size = max(int(size), 1)
+    if os.path.isdir(SHM_DIR) and shutil.disk_usage(SHM_DIR).free < size + SHM_HEADROOM_BYTES:
+        raise OSError(f"{SHM_DIR} has no room for a {size}-byte result segment")
+    return shared_memory.SharedMemory(create=True, size=size)
 
 
 class Packed(tuple):
@@ -49,15 +70,16 @@ class SegmentPool:
         self._next = 0
 
     def take(self, size: int) -> Any:
-        """The next segment, at least ``size`` bytes (a larger one replaces it when it is too small)."""
-        from multiprocessing import shared_memory
+        """The next segment, at least ``size`` bytes (a larger one replaces it when it is too small);
+        OSError when a new one is needed and there is no room for it."""
         k, self._next = self._next, (self._next + 1) % len(self._segs)
         seg = self._segs[k]
         if seg is None or seg.size < size:
             if seg is not None:
+                self._segs[k] = None
                 seg.close()
                 seg.unlink()
-            seg = self._segs[k] = shared_memory.SharedMemory(create=True, size=max(int(size), 1))
+            seg = self._segs[k] = _new_segment(size)
         return seg
 
     def close(self) -> None:
@@ -112,9 +134,8 @@ def pack(obj: Any, min_bytes: int = SHM_MIN_BYTES, pool: SegmentPool | None = No
     if total < min_bytes:
         return obj
     try:
-        from multiprocessing import shared_memory
-        seg = pool.take(total) if pool is not None else shared_memory.SharedMemory(create=True, size=max(total, 1))
-    except (ImportError, OSError):
+        seg = pool.take(total) if pool is not None else _new_segment(total)
+    except (ImportError, OSError):  # no shared memory here, or no room in it: the pipe
         return obj
     spans, off = [], 0
     try:

@@ -53,6 +53,21 @@ def test_a_worker_pool_reuses_its_two_segments_and_grows_one_when_needed() -> No
             shared_memory.SharedMemory(name=name)
 
 
+def test_without_room_in_shared_memory_a_result_stays_in_the_message(monkeypatch) -> None:
+    """A full /dev/shm (a container's is often 64 MB) would kill the worker at its first write: no segment."""
+    import lensrt.parallel.shm as shm
+    from lensrt.parallel.shm import SegmentPool
+    if not Path(shm.SHM_DIR).is_dir():
+        pytest.skip("no /dev/shm to measure")
+    monkeypatch.setattr(shm, "SHM_HEADROOM_BYTES", 1 << 62)
+    value = {"spec": np.ones(300_000)}
+    pool = SegmentPool()
+    try:
+        assert pack(value) is value and pack(value, pool=pool) is value
+    finally:
+        pool.close()
+
+
 def test_small_or_unpicklable_results_stay_in_the_message() -> None:
     small = {"a": np.zeros(10)}
     assert pack(small) is small and unpack(small) is small
