@@ -130,6 +130,7 @@ def test_variable_codes_are_ignored_and_pim_is_solved() -> None:
 
 @pytest.mark.parametrize("edit,needle", [
     (("SI 0 0", "SI 0 0 REFL"), "cannot be mirrors"),
+    (("  STO", "  STO\n  REFL"), "REFL on a line of its own"),  # not the 3-letter REF (reference wavelength)
     (("  STO", "  STO\n  RET S1"), "RET S1 on surface 1: surface 1 is not an earlier S surface"),
     (("  STO", "  STO\n  ADE"), "ADE without a value"),
     (("SI 0 0", "SI 0 0\nDAR"), "DAR without a surface"),

@@ -221,6 +221,10 @@ class _Seq:
         if name == "PRV":
             self.prv = PrivateCatalog(self.path)
             return True
+        if name == "REFL":  # not REF: the 3-letter rule below would read it as the reference wavelength
+            raise self.err("REFL on a line of its own", line,
+                           "CODE V writes a mirror with REFL in the glass position of its surface: "
+                           "'S <radius> <thickness> REFL'")
         if len(name) > 3 and name not in ("TITLE",) and name[:3] in _KNOWN:
             name = name[:3]  # CODE V reads the first three letters: STOP = STO
         if name in ("SO", "S", "SI"):
@@ -306,7 +310,8 @@ class _Seq:
             return True
         if name in UNSUPPORTED:
             raise self.err(f"{name}: {UNSUPPORTED[name]} is not supported", line,
-                           "lensrt models rotationally symmetric, sequential, refractive lenses only")
+                           "docs/how-to/import-zemax-codev-pbrt.md lists what lensrt reads and what it refuses; "
+                           "remove or replace this command, or describe the system another way")
         if name in IGNORED:
             return True
         if not re.match(r"^[A-Z][A-Z0-9]*$", name):

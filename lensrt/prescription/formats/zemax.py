@@ -206,7 +206,8 @@ class _Reader:
             return
         if kw in UNSUPPORTED:
             raise self.err(f"{kw}: {UNSUPPORTED[kw]} is not supported", no,
-                           "lensrt models rotationally symmetric, sequential, refractive lenses only")
+                           "docs/how-to/import-zemax-codev-pbrt.md lists what lensrt reads and what it refuses; "
+                           "remove or replace this construct, or describe the system another way")
         if kw in IGNORED:
             return
         if after_last_surf and not raw[:1].isspace() and len(kw) == 4 and kw.isalnum():
