@@ -9,6 +9,7 @@ Files:
 - ``geometric``   one field point's geometric PSF from the stream kernel
 - ``groups``      many field points' geometric PSFs in one launch
 - ``diffraction`` the diffraction PSF from the real-ray pupil function, and the method choice
+- ``auto``        many field points' ``auto`` PSFs: wavefronts traced together, geometric fields in one launch
 - ``energy``      encircled/ensquared energy, centroid and moments of a sampled PSF
 - ``jackknife``   jackknife standard errors of the PSF statistics, vectorised over batches
 - ``otf``         MTF of a sampled PSF, diffraction limit, detector and OLPF MTFs

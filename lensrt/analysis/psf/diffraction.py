@@ -52,9 +52,9 @@ from .result import PsfResult, diffraction_result
 from .setup import PsfSetup
 from .geometric import FieldGeometry, add_mtf_estimates, prepare_field
 from ..pupil_rays import chief_rays_at_many, field_xy_of
-from ..wave.wavefront import pupil_function_from_wavefront, trace_wavefronts
+from ..wave.wavefront import pupil_function_from_wavefront, trace_wavefronts_many
 
-__all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet", "wavefront_chief_wavelengths"]
+__all__ = ["diffraction_psf_at", "choose_method", "WavefrontSet", "wavefront_sets", "wavefront_chief_wavelengths"]
 
 #: ray-grid interpolation error goal (waves) and pupil phase-step limit (waves per cell)
 _INTERP_GOAL_WAVES = 0.02
@@ -65,20 +65,19 @@ class WavefrontSet:
     """Traced wavefronts of one field point with the ray grid adapted to the interpolation goal."""
 
     def __init__(self, setup: PsfSetup, geom: FieldGeometry, device: str | None = None, chief=None) -> None:
-        spec = setup.spectrum
-        m = int(setup.ray_grid)
-        if chief is None:  # the chief rays do not depend on the grid: traced once (chief_rays_at_many's entry)
-            chief = chief_rays_at_many(setup.lens, [geom.fp], wavefront_chief_wavelengths(setup), setup.plane_z_mm,
-                                       device)[0]
-        if isinstance(chief, LensrtError):
-            raise chief
-        while True:
-            wfs = trace_wavefronts(setup.lens, geom.fp, geom.box, spec.lines_nm, setup.plane_z_mm, m,
-                                   spec.primary_nm, device, chief)
-            err = max(w.interp_error_waves for w in wfs)
-            if err <= _INTERP_GOAL_WAVES or m >= setup.max_ray_grid:
-                break
-            m = min(int(setup.max_ray_grid), int(round(m * 1.5)))
+        got = wavefront_sets(setup, [geom], device, None if chief is None else [chief])[0]
+        if isinstance(got, LensrtError):
+            raise got
+        self._fill(got.wavefronts, got.ray_grid, got.interp_error_waves)
+
+    @classmethod
+    def of(cls, wfs: list, ray_grid: int, interp_error_waves: float) -> WavefrontSet:
+        """The set of wavefronts already traced on a ``ray_grid`` x ``ray_grid`` grid."""
+        self = cls.__new__(cls)
+        self._fill(wfs, ray_grid, interp_error_waves)
+        return self
+
+    def _fill(self, wfs: list, m: int, err: float) -> None:
         self.wavefronts = wfs
         self.ray_grid = m
         self.interp_error_waves = err
@@ -95,6 +94,36 @@ class WavefrontSet:
     def pupils(self, n: int):
         out = [pupil_function_from_wavefront(w, n) for w in self.wavefronts]
         return [p for p, _ in out], [i for _, i in out]
+
+
+def wavefront_sets(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None = None,
+                   chiefs: list | None = None) -> list:
+    """The :class:`WavefrontSet` of each field geometry, the same as one field at a time: each round of the
+    ray-grid adaptation traces the fields still short of the interpolation goal together (two launches a
+    round, :func:`~lensrt.analysis.wave.wavefront.trace_wavefronts_many`). ``chiefs``: the fields'
+    :func:`~lensrt.analysis.pupil_rays.chief_rays_at_many` entries when already found. An entry of the answer
+    is the field's WavefrontSet or the :class:`LensrtError` building it raises."""
+    spec = setup.spectrum
+    if chiefs is None:  # the chief rays do not depend on the grid: traced once for every field
+        chiefs = chief_rays_at_many(setup.lens, [g.fp for g in geoms], wavefront_chief_wavelengths(setup),
+                                    setup.plane_z_mm, device)
+    out: list = [c if isinstance(c, LensrtError) else None for c in chiefs]
+    grid = {k: int(setup.ray_grid) for k in range(len(geoms)) if out[k] is None}
+    while grid:
+        keys = sorted(grid)
+        traced = trace_wavefronts_many(setup.lens, [(geoms[k].fp, geoms[k].box, grid[k], chiefs[k]) for k in keys],
+                                       spec.lines_nm, setup.plane_z_mm, device)
+        for k, wfs in zip(keys, traced):
+            m = grid.pop(k)
+            if isinstance(wfs, LensrtError):
+                out[k] = wfs
+                continue
+            err = max(w.interp_error_waves for w in wfs)
+            if err <= _INTERP_GOAL_WAVES or m >= setup.max_ray_grid:
+                out[k] = WavefrontSet.of(wfs, m, err)
+            else:
+                grid[k] = min(int(setup.max_ray_grid), int(round(m * 1.5)))
+    return out
 
 
 def wavefront_chief_wavelengths(setup: PsfSetup) -> list[float]:

@@ -44,18 +44,21 @@ ANALYSIS_THREADS = 8
 
 
 def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence[int], device: str | None = None,
-                   reason: str = "asked for") -> list[PsfResult]:
+                   reason: str | Sequence[str] = "asked for", geoms: Sequence | None = None) -> list[PsfResult]:
     """Geometric PSFs of ``fields`` with ``seeds`` (one each), as many one-field runs would give them
-    (module docstring)."""
+    (module docstring). ``reason``: the method's reason, one for all or one per field; ``geoms``: the
+    fields' :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometries when already found."""
     from ...device import resolve_device
     from ...trace.stream import Grid, StreamSource, stream
     from .geometric import StreamTotals, finish_geometric, geometric_psf_at, prepare_fields, psf_windows, round_seed
     fields = list(fields)
+    reasons = [reason] * len(fields) if isinstance(reason, str) else list(reason)
     if setup.progressive:
-        return [geometric_psf_at(setup, f, int(s), device, reason=reason) for f, s in zip(fields, seeds)]
+        return [geometric_psf_at(setup, f, int(s), device, None if geoms is None else geoms[k], reason=reasons[k])
+                for k, (f, s) in enumerate(zip(fields, seeds))]
     t0 = time.perf_counter()
     dev = resolve_device(device)
-    geoms = prepare_fields(setup, fields, dev)
+    geoms = prepare_fields(setup, fields, dev) if geoms is None else list(geoms)
     windows = psf_windows(setup, geoms, dev)
     setup_each = (time.perf_counter() - t0) / max(len(fields), 1)
     spectrum = setup.spectrum.trace_spectrum()
@@ -87,7 +90,7 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
                 extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
                          "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
                 results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
-                                              tot, None, setup_each + tot.trace_seconds, reason, extra)
+                                              tot, None, setup_each + tot.trace_seconds, reasons[k], extra)
 
             # the fields' analyses side by side (NumPy releases the GIL in its loops); each field's
             # numbers do not depend on the threads

@@ -88,7 +88,10 @@ def run_psf_group(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence[
     geoms = prepare_fields(setup, list(fields), device)
     chiefs = chief_rays_at_many(setup.lens, [g.fp for g in geoms], wavefront_chief_wavelengths(setup),
                                 setup.plane_z_mm, device)
-    return [psf_at(setup, f, int(s), device, g, c) for f, s, g, c in zip(fields, seeds, geoms, chiefs)]
+    if setup.method != "auto":
+        return [psf_at(setup, f, int(s), device, g, c) for f, s, g, c in zip(fields, seeds, geoms, chiefs)]
+    from .auto import auto_psfs
+    return auto_psfs(setup, list(fields), [int(s) for s in seeds], device, geoms, chiefs)
 
 
 def run_psf_item(item: WorkItem, setup: PsfSetup, device: str) -> PsfResult | list[PsfResult]:

@@ -10,7 +10,7 @@ from ...errors import LensrtError
 from ..fields import FieldSpec
 from ..wave.metrics import WavefrontMetrics, wavefront_metrics
 from ..pupil_rays import chief_rays_at_many
-from .diffraction import WavefrontSet, wavefront_chief_wavelengths
+from .diffraction import WavefrontSet, wavefront_chief_wavelengths, wavefront_sets
 from .geometric import FieldGeometry, prepare_field, prepare_fields
 from .setup import PsfSetup
 
@@ -18,14 +18,17 @@ __all__ = ["wavefront_error", "wavefront_error_table"]
 
 
 def wavefront_error(setup: PsfSetup, f: FieldSpec, *, reference: str = "chief", n_terms: int = 37,
-                    device: str | None = None, geom: FieldGeometry | None = None, chief=None) -> list[WavefrontMetrics]:
+                    device: str | None = None, geom: FieldGeometry | None = None, chief=None,
+                    wset: WavefrontSet | None = None) -> list[WavefrontMetrics]:
     """The wavefront metrics of field ``f`` at each wavelength of the set-up's spectrum (its lines), at the
     set-up's focus plane; the ray grid adapted to the interpolation goal as for diffraction PSFs.
     ``geom``, ``chief``: the field's :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometry and
-    :func:`~lensrt.analysis.pupil_rays.chief_rays_at_many` entry when already found."""
+    :func:`~lensrt.analysis.pupil_rays.chief_rays_at_many` entry, ``wset`` its traced wavefronts, when already
+    found."""
     t0 = time.perf_counter()
-    geom = prepare_field(setup, f, device) if geom is None else geom
-    wset = WavefrontSet(setup, geom, device, chief)
+    if wset is None:
+        geom = prepare_field(setup, f, device) if geom is None else geom
+        wset = WavefrontSet(setup, geom, device, chief)
     out = []
     for wf in wset.wavefronts:
         m = wavefront_metrics(wf, reference=reference, n_terms=n_terms, pupil_samples=int(setup.pupil_samples))
@@ -50,9 +53,15 @@ def wavefront_error_table(setup: PsfSetup, fields: Sequence[FieldSpec], *, refer
                                     setup.plane_z_mm, device)
     except LensrtError:  # some field cannot be traced: each field on its own, to say which
         geoms, chiefs = [None] * len(fields), [None] * len(fields)
-    for f, geom, chief in zip(fields, geoms, chiefs):
+    # every field's wavefront in a few batched rounds (two launches a round of the ray-grid adaptation)
+    known = bool(fields) and geoms[0] is not None
+    wsets = wavefront_sets(setup, geoms, device, chiefs) if known else [None] * len(fields)
+    for f, geom, chief, wset in zip(fields, geoms, chiefs, wsets):
         try:
-            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device, geom=geom, chief=chief)
+            if isinstance(wset, LensrtError):
+                raise wset
+            ms = wavefront_error(setup, f, reference=reference, n_terms=4, device=device, geom=geom, chief=chief,
+                                 wset=wset)
         except LensrtError as err:
             rows.append({"field": f.label, "error": str(err)})
             continue

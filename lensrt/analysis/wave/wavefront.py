@@ -58,7 +58,7 @@ from .pupil_grid import enclosing_na, pupil_coordinates_from_directions, pupil_f
 from ..pupil_rays import PupilRays, pupil_grid_rays
 
 __all__ = ["ReferenceSphere", "RayWavefront", "reference_sphere", "opd_to_sphere_mm", "trace_wavefronts",
-           "pupil_function_from_wavefront"]
+           "trace_wavefronts_many", "pupil_function_from_wavefront"]
 
 
 @dataclass(frozen=True)
@@ -182,17 +182,65 @@ def trace_wavefronts(lens: Lens, fp, box, wavelengths_nm: Sequence[float], plane
     """Trace an m x m ray grid over ``box`` at each wavelength; OPDs to the common reference sphere.
     ``chief``: the :func:`~lensrt.analysis.pupil_rays.chief_ray_at` result at [primary] + wavelengths when
     already traced."""
-    from ..pupil_rays import chief_ray_at, trace_pupil_rays_many
-    wls = [float(v) for v in wavelengths_nm]
+    from ..pupil_rays import chief_ray_at
     prim = float(primary_nm if primary_nm is not None else lens.wavelengths.primary_nm)
-    chief_all = chief_ray_at(lens, fp, [prim] + wls, plane_z_mm, device) if chief is None else chief
+    if chief is None:
+        chief = chief_ray_at(lens, fp, [prim] + [float(v) for v in wavelengths_nm], plane_z_mm, device)
+    got = trace_wavefronts_many(lens, [(fp, box, m, chief)], wavelengths_nm, plane_z_mm, device)[0]
+    if isinstance(got, LensrtError):
+        raise got
+    return got
+
+
+def trace_wavefronts_many(lens: Lens, jobs: Sequence[tuple], wavelengths_nm: Sequence[float], plane_z_mm: float,
+                          device: str | None = None) -> list:
+    """:func:`trace_wavefronts` of several field points, the same wavefronts: every job's ray grid at every
+    wavelength in one clipped and one unclipped trace (two launches in all).
+
+    ``jobs``: (field point, pupil box, m rays a side, chief) each, ``chief`` the
+    :func:`~lensrt.analysis.pupil_rays.chief_ray_at` result at [primary] + wavelengths. An entry of the answer
+    is the job's list of :class:`RayWavefront` (one per wavelength), or the :class:`LensrtError` that
+    :func:`trace_wavefronts` raises for it."""
+    from ...trace import RayBatch, trace
+    wls = [float(v) for v in wavelengths_nm]
+    grids: list = []
+    for fp, box, m, _ in jobs:
+        try:
+            grids.append(pupil_grid_rays(fp, box, m))
+        except LensrtError as err:
+            grids.append(err)
+    traced = [g for g in grids if not isinstance(g, LensrtError)]
+    if not traced:
+        return grids
+    # each job's grid repeated per wavelength (as trace_pupil_rays_many tiles one grid), the jobs one after
+    # the other; every ray is traced on its own, so its result does not depend on the rest of the batch
+    wl = np.asarray(wls, dtype=np.float64)
+    batch = RayBatch(np.concatenate([np.tile(g.origin_mm, (len(wls), 1)) for g in traced]),
+                     np.concatenate([np.tile(g.direction, (len(wls), 1)) for g in traced]),
+                     np.concatenate([np.repeat(wl, len(g.weight)) for g in traced]))
+    both = [trace(lens, batch, "float64", device, clip=clip, plane_z_mm=plane_z_mm) for clip in (True, False)]
+    out, start = [], 0
+    for (fp, box, m, chief), g in zip(jobs, grids):
+        if isinstance(g, LensrtError):
+            out.append(g)
+            continue
+        n = len(g.weight)
+        parts = [[r.part(start + k * n, start + (k + 1) * n) for k in range(len(wls))] for r in both]
+        start += n * len(wls)
+        try:
+            out.append(_wavefronts_of(lens, g, wls, chief, parts[0], parts[1]))
+        except LensrtError as err:
+            out.append(err)
+    return out
+
+
+def _wavefronts_of(lens: Lens, rays: PupilRays, wls: list[float], chief_all, all_clipped: list,
+                   all_free: list) -> list[RayWavefront]:
+    """One field's wavefronts from its traced grid (clipped and unclipped, one RayResult per wavelength)."""
+    m = rays.m
     sphere = reference_sphere(lens, chief_all.position_mm[0], chief_all.direction[0])
     dc = chief_all.direction[0]
-    rays: PupilRays = pupil_grid_rays(fp, box, m)
     traced = []
-    # every wavelength's grid in one trace, clipped and unclipped (two launches)
-    all_clipped = trace_pupil_rays_many(lens, rays, wls, plane_z_mm, device)
-    all_free = trace_pupil_rays_many(lens, rays, wls, plane_z_mm, device, clip=False)
     for k, wl in enumerate(wls):
         n_img = float(lens.indices(wl)[-1])
         clipped, free = all_clipped[k], all_free[k]
