@@ -40,7 +40,7 @@ from ...units import NM_PER_MM
 from ..raysets import (aim_batches, chief_batch, exit_pupil_point_z_mm, field_spec, object_field_point,
                        pupil_grid_rays_many, trace64, trace64_many)
 
-__all__ = ["RayFan", "ray_fan", "fan_jobs", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
+__all__ = ["RayFan", "ray_fan", "fan_jobs", "trace_fans", "SpotDiagram", "spot_diagrams", "opd_to_reference_sphere_mm"]
 
 
 def opd_to_reference_sphere_mm(p: np.ndarray, v: np.ndarray, opl: np.ndarray, chief: int, xp_z_mm: float,
@@ -123,21 +123,20 @@ def _fan_rays(lens: Lens, hy: float, fan: str, wavelengths_nm, pupil, object_val
 def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm: Sequence[float] | None = None,
             pupil: Sequence[float] | None = None, *, aim: str = "real", plane_z_mm: float | None = None,
             clip: bool = True, device: str | None = None, object_value: float | None = None,
-            aimed: list | None = None) -> RayFan:
+            aimed: list | None = None, traced: tuple | None = None) -> RayFan:
     """Transverse-aberration and OPD fan (module docstring) at normalised field ``hy`` along +y.
 
     ``pupil`` default: 41 points in [-1, 1]; ``plane_z_mm`` default: the image surface;
-    ``clip`` applies the clear apertures (False: CODE V's unblocked ssp rays).
+    ``clip`` applies the clear apertures (False: CODE V's unblocked ssp rays). ``aimed``: the rays of
+    :func:`fan_jobs` already aimed; ``traced``: those rays already traced to the plane (:func:`trace_fans`).
     """
     label, fp, wls, px, py, rho, obj = _fan_rays(lens, hy, fan, wavelengths_nm, pupil, object_value)
     z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
     # every ray of the fan aimed at once: the reference chief ray, then per wavelength the fan and its chief ray
     if aimed is None:
         aimed = aim_batches(lens, fan_jobs(lens, hy, fan, wavelengths_nm, pupil, object_value), aim, device)
-    # the fans of every wavelength in one trace; the reference chief ray and each wavelength's chief ray
-    # (traced without apertures: the reference even when vignetted) in another
-    fans = trace64_many(lens, aimed[1::2][:len(wls)], device, clip=clip, plane_z_mm=z)
-    ref, *chiefs = trace64_many(lens, [aimed[0]] + aimed[2::2][:len(wls)], device, plane_z_mm=z)
+    fans, (ref, *chiefs) = trace_fans(lens, [aimed], device, clip=clip, plane_z_mm=z)[0] if traced is None \
+        else traced
     if not ref.ok[0]:
         raise LensrtError(f"the chief ray of field {label} does not reach the image")
     ref_xy = (float(ref.position_mm[0, 0]), float(ref.position_mm[0, 1]))
@@ -160,6 +159,29 @@ def ray_fan(lens: Lens, hy: float = 0.0, fan: str = "tangential", wavelengths_nm
         ey[i] = np.where(good, p[1:, 1] - ref_xy[1], np.nan)
         opd[i] = np.where(good, d[1:], np.nan)
     return RayFan(fan, obj, fp.infinite, label, wls, rho, ex, ey, opd, passed, z, ref_xy, xps, aim)
+
+
+def trace_fans(lens: Lens, aimed: Sequence[list | None], device: str | None = None, *, clip: bool = True,
+               plane_z_mm: float | None = None) -> list[tuple | None]:
+    """Several fans' aimed rays (each a :func:`fan_jobs` list aimed, or None) traced to the plane (default: the
+    image surface): the fans of every wavelength in one trace; the reference chief rays and each wavelength's
+    chief rays (without apertures: the reference even when vignetted) in another -- two launches for all.
+    An entry is (fan results per wavelength, [reference, chief per wavelength]) as :func:`ray_fan` takes it
+    (``traced``), the same as tracing that fan alone."""
+    z = lens.image_z_mm if plane_z_mm is None else float(plane_z_mm)
+    live = [a for a in aimed if a is not None]
+    fans = trace64_many(lens, [b for a in live for b in a[1::2]], device, clip=clip, plane_z_mm=z)
+    chiefs = trace64_many(lens, [b for a in live for b in [a[0]] + a[2::2]], device, plane_z_mm=z)
+    out: list[tuple | None] = []
+    i = j = 0
+    for a in aimed:
+        if a is None:
+            out.append(None)
+            continue
+        n = len(a[1::2])
+        out.append((fans[i:i + n], chiefs[j:j + n + 1]))
+        i, j = i + n, j + n + 1
+    return out
 
 
 @dataclass

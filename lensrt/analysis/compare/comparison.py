@@ -33,14 +33,14 @@ import numpy as np
 from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
-from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams
+from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams, trace_fans
 from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
                     real_focal_lengths)
 from .pupils import RealPupils, pupil_outlines, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
-                       object_field_point, paraxial_chief, trace64)
+                       close_ray_batch, object_field_point, paraxial_chief, trace64, trace64_many)
 from .vignetting import RI_DEFINITION, Vignetting, vignetting
 
 __all__ = ["Comparison", "compare_lens", "lateral_colour", "LateralColour"]
@@ -259,7 +259,10 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     # the chief rays of the curves' field points at every wavelength, aimed in one solve
     curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
     chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
-    dist = {w: distortion_curve(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
+    # every wavelength's chief rays (distortion) and close rays about them (field curvature) in one trace
+    curve_rays = [chiefs[w] for w in wls] + [close_ray_batch(lens, chiefs[w], curve_fps) for w in wls]
+    curves = trace64_many(lens, curve_rays, dev)
+    dist = {w: distortion_curve(lens, hy, w, device=dev, chief=chiefs[w], traced=t) for w, t in zip(wls, curves)}
     try:
         grid = grid_distortion(lens, 11, primary, device=dev)
     except LensrtError as e:
@@ -272,7 +275,8 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     bf = {f"{w:g}": best_focus(lens, [w], [1.0], device=dev) for w in wls}
     bf["polychromatic"] = poly
     chrom = chromatic_focal_shift(lens, best_focus_wavelengths_nm=wls, device=dev)
-    fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
+    fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w], traced=t)
+             for w, t in zip(wls, curves[len(wls):])}
     lat = lateral_colour(lens, fields, wls, device=dev)
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
     # the pupil outlines of the real pupils' fields and of vignetting's exit-pupil illumination in one batched
@@ -294,11 +298,12 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     fan = []
     if fans:
         aimed = _aim_fans(lens, fields, wls, dev)
+        traced = trace_fans(lens, aimed, dev)  # every field's fans in two launches
         for k, f in enumerate(fields):
             try:
-                pair = (ray_fan(lens, f.hy, "tangential", wls, device=dev, aimed=aimed[2 * k]),
+                pair = (ray_fan(lens, f.hy, "tangential", wls, device=dev, aimed=aimed[2 * k], traced=traced[2 * k]),
                         ray_fan(lens, f.hy, "sagittal", wls, pupil=_SAGITTAL_PUPIL, device=dev,
-                                aimed=aimed[2 * k + 1]))
+                                aimed=aimed[2 * k + 1], traced=traced[2 * k + 1]))
             except LensrtError as e:
                 notes.append(f"no ray fan at {f.label}: {e}")
                 continue

@@ -146,7 +146,7 @@ class DistortionCurve:
 
 def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, wavelength_nm: float | None = None,
                      device: str | None = None, object_values: Sequence[float] | None = None,
-                     chief: RayBatch | None = None) -> DistortionCurve:
+                     chief: RayBatch | None = None, traced=None) -> DistortionCurve:
     """Chief-ray heights and distortion (both definitions, module docstring) at field points.
 
     Parameters
@@ -163,6 +163,9 @@ def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None,
         (:func:`lensrt.analysis.raysets.chief_batches`).
     object_values : array, optional
         Object-space field values (rad at infinity, else mm) instead of ``hy``.
+    traced : RayResult, optional
+        ``chief`` already traced to the image surface (:func:`~lensrt.analysis.raysets.trace64`, no apertures),
+        e.g. with other wavelengths' rays in one launch.
     """
     from ...paraxial import first_order
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
@@ -176,7 +179,7 @@ def distortion_curve(lens: Lens, hy: Sequence[float] | np.ndarray | None = None,
         hs = np.full(len(obj), np.nan)
     fps = [object_field_point(lens, float(v)) for v in obj]
     chief = chief_batch(lens, fps, wl, device) if chief is None else chief
-    res = trace64(lens, chief, device)
+    res = trace64(lens, chief, device) if traced is None else traced
     valid = res.ok & chief.aimed
     z_img, z_par = lens.image_z_mm, fo.image_z_mm
     v = res.direction

@@ -340,9 +340,11 @@ class FieldCurvature:
 
 def field_curvature(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, wavelength_nm: float | None = None,
                     device: str | None = None, object_values: Sequence[float] | None = None,
-                    chief: RayBatch | None = None) -> FieldCurvature:
+                    chief: RayBatch | None = None, traced=None) -> FieldCurvature:
     """Sagittal and tangential foci from close rays about the real chief rays (module docstring); ``chief``:
-    those chief rays at this wavelength when the caller aimed them already."""
+    those chief rays at this wavelength when the caller aimed them already; ``traced``: their
+    :func:`~lensrt.analysis.raysets.close_ray_batch` already traced (:func:`~lensrt.analysis.raysets.trace64`,
+    no apertures), e.g. with other wavelengths' rays in one launch."""
     from ...paraxial import first_order, seidel_sums
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     fo = first_order(lens, wl)
@@ -353,8 +355,7 @@ def field_curvature(lens: Lens, hy: Sequence[float] | np.ndarray | None = None, 
         obj = np.asarray(object_values, dtype=np.float64)
     fps = [object_field_point(lens, float(v)) for v in obj]
     chief = chief_batch(lens, fps, wl, device) if chief is None else chief
-    close = close_ray_batch(lens, chief, fps)
-    r = trace64(lens, close, device)
+    r = trace64(lens, close_ray_batch(lens, chief, fps), device) if traced is None else traced
     ok = r.ok.reshape(-1, 3).all(axis=1) & chief.aimed
     p, v = r.position_mm, r.direction
     z_t = meridional_intersection_z(p[0::3], v[0::3], p[1::3], v[1::3])

@@ -1,0 +1,52 @@
+"""compare_lens's batched traces: every field's ray fans in two launches, every wavelength's distortion and
+field-curvature rays in one -- the same bits as each analysis tracing its own rays (the oracle)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lensrt import load_lens
+from lensrt.analysis.compare.aberrations import fan_jobs, ray_fan, trace_fans
+from lensrt.analysis.compare.distortion import distortion_curve
+from lensrt.analysis.compare.focus import field_curvature
+from lensrt.analysis.raysets import aim_batches, chief_batches, close_ray_batch, field_spec, object_field_point, \
+    trace64_many
+from lensrt.core.telemetry import measure
+
+
+@pytest.fixture(scope="module")
+def dg():
+    return load_lens(None)
+
+
+def test_fans_of_every_field_traced_together_equal_each_fan_alone(dg):
+    wls = list(dg.wavelengths.nm)
+    cases = [(hy, fan, pupil) for hy in (0.0, 0.7, 1.0)
+             for fan, pupil in (("tangential", None), ("sagittal", np.linspace(0.0, 1.0, 21)))]
+    aimed = [aim_batches(dg, fan_jobs(dg, hy, fan, wls, pupil), "real", "cpu") for hy, fan, pupil in cases]
+    with measure() as rec:
+        traced = trace_fans(dg, aimed, "cpu")
+    assert rec.launches == 2  # the fans, then the chief rays: six fans of three wavelengths each
+    for (hy, fan, pupil), a, t in zip(cases, aimed, traced):
+        got = ray_fan(dg, hy, fan, wls, pupil, device="cpu", aimed=a, traced=t)
+        want = ray_fan(dg, hy, fan, wls, pupil, device="cpu", aimed=a)
+        for name in ("ex_mm", "ey_mm", "opd_waves", "passed", "exit_pupil_z_mm"):
+            assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=name != "passed"), name
+        assert got.reference_mm == want.reference_mm and np.isfinite(got.ey_mm).any()
+
+
+def test_distortion_and_field_curvature_of_all_wavelengths_in_one_trace(dg):
+    wls = list(dg.wavelengths.nm)
+    hy = np.linspace(0.0, 1.0, 7)
+    fps = [object_field_point(dg, field_spec(dg, h).object_value) for h in hy]
+    chiefs = chief_batches(dg, fps, wls, "cpu")
+    with measure() as rec:
+        curves = trace64_many(dg, list(chiefs) + [close_ray_batch(dg, c, fps) for c in chiefs], "cpu")
+    assert rec.launches == 1
+    for w, c, t_d, t_f in zip(wls, chiefs, curves[:len(wls)], curves[len(wls):]):
+        d, d0 = distortion_curve(dg, hy, w, "cpu", chief=c, traced=t_d), distortion_curve(dg, hy, w, "cpu", chief=c)
+        assert np.array_equal(d.real_height_mm, d0.real_height_mm, equal_nan=True)
+        f, f0 = field_curvature(dg, hy, w, "cpu", chief=c, traced=t_f), field_curvature(dg, hy, w, "cpu", chief=c)
+        for name in ("sagittal_z_mm", "tangential_z_mm"):
+            assert np.array_equal(getattr(f, name), getattr(f0, name), equal_nan=True), name
+        assert np.isfinite(f.tangential_z_mm[1:]).all()
