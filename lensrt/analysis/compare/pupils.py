@@ -40,7 +40,8 @@ from ...prescription.frames import travel_signs
 from ...prescription.model import Iris, Lens
 from ...trace import RayBatch, trace
 from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
-from ..raysets import aim_batch, aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64
+from ..raysets import (aim_batch, aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64,
+                      trace64_many)
 
 __all__ = ["PupilOutline", "pupil_outline", "pupil_outlines", "RealPupils", "real_pupils", "stop_only_lens", "physical_rim_mm",
            "pupil_frame"]
@@ -468,9 +469,11 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
     outs = []
     fps = [object_field_point(lens, spec.object_value) for spec in specs]
     aimed = aim_batches(lens, [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps], "real", device)
+    # the real axial marginal ray (for the real working f-number) aimed, and traced with every field's rays
+    marginal = aim_batch(lens, object_field_point(lens, 0.0), 0.0, 1.0, wl, "real", device)
+    *traced, m = trace64_many(lens, list(aimed) + [marginal], device)
     for k, spec in enumerate(specs):
-        fp, rays = fps[k], aimed[k]
-        r = trace64(lens, rays, device)
+        fp, rays, r = fps[k], aimed[k], traced[k]
         good = r.ok & rays.aimed
         o, d = rays.origin_mm, rays.direction
         p, v = r.position_mm, r.direction
@@ -501,8 +504,6 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
         outs = [o for o in pupil_outlines(lens, [spec.object_value for spec in specs], wl, n_azimuth=n_azimuth,
                                           device=device) if not isinstance(o, LensrtError)]
     # the real working f-number from the real axial marginal ray
-    fp0 = object_field_point(lens, 0.0)
-    m = trace64(lens, aim_batch(lens, fp0, 0.0, 1.0, wl, "real", device), device)
     n_img = float(lens.indices(wl)[-1])
     nw = 1.0 / (2.0 * n_img * abs(float(m.direction[0, 1]))) if m.ok[0] and m.direction[0, 1] != 0 else math.nan
     return RealPupils(wl, par, np.array([s.object_value for s in specs]), [s.label for s in specs], ep_z, xp_z,

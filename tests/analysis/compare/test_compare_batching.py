@@ -50,3 +50,21 @@ def test_distortion_and_field_curvature_of_all_wavelengths_in_one_trace(dg):
         for name in ("sagittal_z_mm", "tangential_z_mm"):
             assert np.array_equal(getattr(f, name), getattr(f0, name), equal_nan=True), name
         assert np.isfinite(f.tangential_z_mm[1:]).all()
+
+
+def test_real_pupils_trace_every_field_and_the_marginal_ray_in_one_launch(dg):
+    """real_pupils of three fields: the same sizes and positions as each field alone, in one trace (the
+    stop-rim rays of every field and the axial marginal ray) after the aiming."""
+    from lensrt.analysis.compare.pupils import real_pupils
+    hy = [0.0, 0.6, 1.0]
+    with measure() as one_field:
+        real_pupils(dg, [0.3], outlines=False, device="cpu")
+    with measure() as rec:
+        both = real_pupils(dg, hy, outlines=False, device="cpu")
+    # one aiming run and one trace whatever the number of fields (was a trace per field and one more)
+    assert rec.launches <= one_field.launches
+    alone = [real_pupils(dg, [h], outlines=False, device="cpu") for h in hy]
+    for k, one in enumerate(alone):
+        for name in ("entrance_pupil_z_mm", "exit_pupil_z_mm", "entrance_tangential_mm", "exit_sagittal_mm"):
+            assert np.array_equal(getattr(both, name)[k:k + 1], getattr(one, name), equal_nan=True), name
+        assert both.real_working_f_number == one.real_working_f_number
