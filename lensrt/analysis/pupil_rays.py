@@ -102,16 +102,18 @@ def chief_ray_at(lens: Lens, fp, wavelengths_nm: Sequence[float], plane_z_mm: fl
 def chief_rays_at_many(lens: Lens, fps, wavelengths_nm: Sequence[float], plane_z_mm: float,
                        device: str | None = None) -> list:
     """:func:`chief_ray_at` of several field points, the same rays: one aiming run and one trace for all.
-    An entry is the field point's RayResult, or the :class:`LensrtError` :func:`chief_ray_at` raises for it."""
+    An entry is the field point's RayResult, or the :class:`LensrtError` :func:`chief_ray_at` raises for it.
+    The rays are aimed by :func:`~lensrt.analysis.raysets.aim_batches` (``aim_many``, each ray's Newton run its
+    own): a chief ray aimed before in this process -- another wavelength set of the same fields -- is reused."""
     from ..trace import RayBatch, trace
-    from ..trace.aiming import aim_many
-    from ..trace.api import kernel_to_stop
+    from .raysets import aim_batches
     fps = list(fps)
     wl = np.asarray(wavelengths_nm, dtype=np.float64)
     w = len(wl)
     wls = np.tile(wl, len(fps))
-    o, d, ok = aim_many(lens, fps, np.repeat(np.arange(len(fps)), w), 0.0, 0.0, wls, "real",
-                        kernel_to_stop(lens, device))
+    aimed = aim_batches(lens, [(fp, 0.0, 0.0, float(x)) for fp in fps for x in wl], "real", device)
+    o, d = np.concatenate([b.origin_mm for b in aimed]), np.concatenate([b.direction for b in aimed])
+    ok = np.concatenate([b.aimed for b in aimed])
     res = trace(lens, RayBatch(o, d, wls), "float64", device, clip=False, plane_z_mm=plane_z_mm)
     out = []
     for k in range(len(fps)):

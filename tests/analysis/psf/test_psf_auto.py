@@ -84,3 +84,22 @@ def test_wavefront_error_table_equals_each_field_alone(auto_case):
         m = wavefront_error(setup, f, n_terms=4, device="cpu")[0]
         assert (row["rms_waves_no_tilt"], row["pv_waves"], row["strehl"]) == (m.rms_waves_no_tilt, m.pv_waves,
                                                                                m.strehl)
+
+
+def test_chief_rays_of_another_wavelength_set_reuse_the_rays_aimed(auto_case):
+    """chief_rays_at_many at [primary] + the lines, then at [primary, primary] (the wavefront-error table's
+    set): the second aims nothing (one trace), and its rays are the first's, bit for bit."""
+    from lensrt.analysis.pupil_rays import chief_ray_at, chief_rays_at_many
+    from lensrt.trace.aiming import field_point
+    setup, fields, _ = auto_case
+    lens, z = setup.lens, setup.plane_z_mm
+    fps = [field_point(lens, f.hx, 0.97 * f.hy) for f in fields]  # points no other test has aimed
+    prim = lens.wavelengths.primary_nm
+    first = chief_rays_at_many(lens, fps, [prim] + list(setup.spectrum.lines_nm), z, "cpu")
+    with measure() as rec:
+        again = chief_rays_at_many(lens, fps, [prim, prim], z, "cpu")
+    assert rec.launches == 1
+    for fp, a, b in zip(fps, first, again):
+        assert np.array_equal(a.position_mm[:1], b.position_mm[:1]) and np.array_equal(a.opl_mm[:1], b.opl_mm[:1])
+        alone = chief_ray_at(lens, fp, [prim], z, "cpu")  # aim_rays, one field point: the same ray to rounding
+        np.testing.assert_allclose(b.position_mm[0], alone.position_mm[0], rtol=0, atol=1e-9)
