@@ -33,7 +33,7 @@ from ...errors import LensrtError
 from ..grid import ImageGrid
 
 __all__ = ["jackknife_se", "moment_jackknife", "mtf_jackknife", "geometric_radius_jackknife",
-           "ee_radii_jackknife"]
+           "ee_radii_jackknife", "mtf_directions", "usable_freqs"]
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -86,21 +86,35 @@ def _otf_sums(hb: np.ndarray, grid: ImageGrid, fx: np.ndarray, fy: np.ndarray) -
     return np.einsum("bfr,fr->bf", a, ey)
 
 
+def usable_freqs(freqs_cpmm: np.ndarray, nyquist_cpmm: float) -> np.ndarray:
+    """The frequencies (cycles/mm) in [0, Nyquist] (to 1e-9), where a grid samples the MTF."""
+    f = np.asarray(freqs_cpmm, dtype=np.float64)
+    return f[(f >= 0) & (f <= nyquist_cpmm * (1 - 1e-9))]
+
+
+def mtf_directions(freqs_cpmm: Sequence[float], angles_rad: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """(fx, fy) cycles/mm of every frequency along every direction, angle by angle (A * F each)."""
+    f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
+    return (np.concatenate([f * math.cos(a) for a in angles_rad]),
+            np.concatenate([f * math.sin(a) for a in angles_rad]))
+
+
 def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], angles_rad: Sequence[float],
-                  binned: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
+                  binned: bool = True, sums=None) -> list[tuple[np.ndarray, np.ndarray]]:
     """MTF along each direction of ``angles_rad`` at ``freqs_cpmm`` from per-batch histograms, with jackknife
     standard errors: one (value (F,), stderr (F,)) per angle -- :func:`lensrt.analysis.psf.otf.mtf_estimate`'s
-    numbers, all angles and left-out batches from one matrix product."""
+    numbers, all angles and left-out batches from one matrix product. ``sums``: the field's
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (its Fourier sums at these frequencies, if it has them)."""
     h = np.asarray(hb, dtype=np.float64)
     f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
     nyq = 0.5 / grid.pitch_mm
-    fx = np.concatenate([f * math.cos(a) for a in angles_rad])
-    fy = np.concatenate([f * math.sin(a) for a in angles_rad])
+    fx, fy = mtf_directions(f, angles_rad)
     if np.max(np.maximum(np.abs(fx), np.abs(fy)), initial=0.0) > nyq * (1 + 1e-9):
         raise LensrtError(f"frequency {f.max():g} cycles/mm is beyond this PSF grid's Nyquist {nyq:g}",
                           hint="sample the PSF on a finer grid or ask for lower frequencies")
-    nb = _otf_sums(h, grid, fx, fy)  # (B, A*F)
-    tb = h.sum(axis=(1, 2))
+    nb = sums.otf.get((fx.tobytes(), fy.tobytes())) if sums is not None else None
+    nb = _otf_sums(h, grid, fx, fy) if nb is None else nb  # (B, A*F)
+    tb = h.sum(axis=(1, 2)) if sums is None else sums.s_b
     tot = tb.sum()
     if not tot > 0:
         raise LensrtError("the PSF holds no light: no MTF")
@@ -114,20 +128,24 @@ def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], 
     return [(full[i * k:(i + 1) * k], se[i * k:(i + 1) * k]) for i in range(len(angles_rad))]
 
 
-def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid) -> tuple[float, float]:
-    """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring)."""
+def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid, sums=None) -> tuple[float, float]:
+    """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring);
+    ``sums``: the field's :class:`~lensrt.analysis.psf.bulk.FieldSums` when already computed."""
     b = hb.shape[0]
     flat = hb.reshape(b, -1)
     gx, gy = (v.ravel() for v in grid.mesh_mm())
-    H = flat.sum(axis=0)
+    H = flat.sum(axis=0) if sums is None else sums.H
     S = H.sum()
     if not S > 0:
         return 0.0, 0.0
-    sb = flat.sum(axis=1)
-    sx_b, sy_b = np.einsum("bp,p->b", flat, gx), np.einsum("bp,p->b", flat, gy)
+    if sums is None:
+        sb = flat.sum(axis=1)
+        sx_b, sy_b = np.einsum("bp,p->b", flat, gx), np.einsum("bp,p->b", flat, gy)
+        lit_n = np.count_nonzero(flat > 0, axis=0)
+    else:
+        sb, sx_b, sy_b, lit_n = sums.s_b, sums.sx_b, sums.sy_b, sums.lit_n
     sx, sy = float(sx_b.sum()), float(sy_b.sum())
     cx, cy = sx / S, sy / S
-    lit_n = np.count_nonzero(flat > 0, axis=0)
     lit = lit_n > 0
     d0 = np.hypot(gx - cx, gy - cy)
     full = float(d0[lit].max())
@@ -191,25 +209,38 @@ def _radius_bisect(rings, H: np.ndarray, target: float, tol: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractions: Sequence[float]
-                       ) -> dict[float, tuple[float, float]]:
+def ee_centres_mm(c: tuple[float, float], grid: ImageGrid) -> list[tuple[float, float]]:
+    """The centres of the encircled-energy rings: the centroid ``c``, then shifted by -+ a quarter pixel in x
+    and in y (the centroid gradient of the energy, :func:`ee_radii_jackknife`)."""
+    d = 0.25 * grid.pitch_mm
+    return [c] + [(c[0] + dx, c[1] + dy) for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d))]
+
+
+def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractions: Sequence[float],
+                       sums=None) -> dict[float, tuple[float, float]]:
     """Encircled-energy radii about the centroid holding ``fractions`` of all landed light (on and off the
     grid) and their linearised jackknife errors, as :func:`lensrt.analysis.psf.result._ee_radius_jackknife`
-    computes them one fraction at a time; fractions the grid cannot hold are left out."""
+    computes them one fraction at a time; fractions the grid cannot hold are left out. ``sums``: the field's
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed."""
     from .energy import Rings
     nb = hb.shape[0]
     flat_b = hb.reshape(nb, -1)
-    tot_b = flat_b.sum(axis=1) + off
-    total = float(tot_b.sum())
-    H = flat_b.sum(axis=0)
-    hs = H.sum()
     gx, gy = (v.ravel() for v in grid.mesh_mm())
-    sx_b, sy_b, s_b = np.einsum("bp,p->b", flat_b, gx), np.einsum("bp,p->b", flat_b, gy), flat_b.sum(axis=1)
+    if sums is None:
+        H, s_b = flat_b.sum(axis=0), flat_b.sum(axis=1)
+        sx_b, sy_b = np.einsum("bp,p->b", flat_b, gx), np.einsum("bp,p->b", flat_b, gy)
+    else:
+        H, s_b, sx_b, sy_b = sums.H, sums.s_b, sums.sx_b, sums.sy_b
+    tot_b = s_b + off
+    total = float(tot_b.sum())
+    hs = H.sum()
     sx, sy = float(_dot(H, gx)), float(_dot(H, gy))
     c = (sx / hs, sy / hs)
     d = 0.25 * grid.pitch_mm
-    rings = Rings(grid, c, 4)
-    shifted = [Rings(grid, (c[0] + dx, c[1] + dy), 4) for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d))]
+    if sums is None or sums.rings is None:
+        rings, *shifted = (Rings(grid, cc, 4) for cc in ee_centres_mm(c, grid))
+    else:
+        rings, *shifted = sums.rings
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
         cx_i = (sx - sx_b) / rest
