@@ -25,13 +25,14 @@ import numpy as np
 
 from ..grid import ImageGrid
 from .energy import Rings
-from .jackknife import ee_centres_mm, mtf_directions, usable_freqs
+from .jackknife import mtf_directions, usable_freqs
 from .otf import tangential_angle_rad
 
 __all__ = ["FieldSums", "field_sums", "mtf_requests", "FIELDS_PER_PASS"]
 
-#: fields per whole-array pass (bounds the temporaries: 8 fields of 32 x 128^2 float64 are 32 MiB)
-FIELDS_PER_PASS = 8
+#: fields per whole-array pass: bounds the temporaries (4 fields of 32 x 128^2 float64 are 16 MiB) and
+#: gives a map's analysis threads runs of fields to share out
+FIELDS_PER_PASS = 4
 
 
 @dataclass(frozen=True)
@@ -48,9 +49,8 @@ class FieldSums:
         Batches that put weight in each bin.
     psf_stderr : array (rows, cols)
         Batch-means standard error of the unit-volume PSF (1/mm^2), as ``geometric_psf`` computes it.
-    rings : tuple of Rings
-        Pixel geometry about the centroid and the four quarter-pixel shifts of
-        :func:`~lensrt.analysis.psf.jackknife.ee_centres_mm` (supersample 4).
+    rings : Rings
+        Pixel geometry about the centroid (supersample 4), the circles of the encircled-energy radii.
     otf : dict
         ``(fx.tobytes(), fy.tobytes())`` -> per-batch Fourier sums (B, K) complex of
         :func:`mtf_requests`' frequency sets.
@@ -62,7 +62,7 @@ class FieldSums:
     sy_b: np.ndarray
     lit_n: np.ndarray
     psf_stderr: np.ndarray
-    rings: tuple
+    rings: Rings
     otf: dict
 
 
@@ -118,14 +118,14 @@ def _chunk_sums(h: np.ndarray, off: np.ndarray, grids: Sequence[ImageGrid], refs
         hs = H[k].sum()
         c = (float(np.einsum("i,i->", H[k], gx)) / hs, float(np.einsum("i,i->", H[k], gy)) / hs) if hs > 0 \
             else g.centre_mm
-        centres.extend(ee_centres_mm(c, g))
-    rings = Rings.many([g for g in grids for _ in range(5)], np.array(centres), 4)
+        centres.append(c)
+    rings = Rings.many(grids, np.array(centres), 4)
     out = []
     for k, g in enumerate(grids):
         otf = {}
         for fx, fy in mtf_requests(g, refs[k], setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm):
             otf[(fx.tobytes(), fy.tobytes())] = _fourier_sums(h[k], g, fx, fy)
-        out.append(FieldSums(H[k], s_b[k], sx_b[k], sy_b[k], lit_n[k], se[k], tuple(rings[5 * k:5 * k + 5]), otf))
+        out.append(FieldSums(H[k], s_b[k], sx_b[k], sy_b[k], lit_n[k], se[k], rings[k], otf))
     return out
 
 

@@ -57,9 +57,12 @@ def second_moments_mm2(psf: np.ndarray, grid: ImageGrid, sheppard: bool = True) 
 class Rings:
     """Pixel geometry about a centre, reused for many radii."""
 
-    def __init__(self, grid: ImageGrid, centre_mm: tuple[float, float], supersample: int) -> None:
-        gx, gy = grid.mesh_mm()
-        self.ax, self.ay = np.abs(gx - centre_mm[0]).ravel(), np.abs(gy - centre_mm[1]).ravel()
+    def __init__(self, grid: ImageGrid, centre_mm: tuple[float, float], supersample: int,
+                 pixels: np.ndarray | None = None) -> None:
+        gx, gy = (v.ravel() for v in grid.mesh_mm())
+        if pixels is not None:  # only these pixels (flat indices): fractions() then has one entry each
+            gx, gy = gx[pixels], gy[pixels]
+        self.ax, self.ay = np.abs(gx - centre_mm[0]), np.abs(gy - centre_mm[1])
         self.h = 0.5 * grid.pitch_mm
         self.dmin = np.hypot(np.maximum(self.ax - self.h, 0.0), np.maximum(self.ay - self.h, 0.0))
         self.dmax = np.hypot(self.ax + self.h, self.ay + self.h)

@@ -51,7 +51,7 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
     (module docstring)."""
     from ...device import resolve_device
     from ...trace.stream import Grid, StreamSource, stream
-    from .bulk import field_sums
+    from .bulk import FIELDS_PER_PASS, field_sums
     from .geometric import StreamTotals, finish_geometric, geometric_psf_at, prepare_fields, psf_windows, round_seed
     fields = list(fields)
     if setup.progressive:
@@ -84,31 +84,34 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
                          batch_histograms=True)
             share = 1.0 / len(part)
             t_an = time.perf_counter()
-            # every field's totals (histograms stacked), then the passes over all histograms at once
             stack = np.zeros((len(part), B, pixels, pixels))
-            tots = []
-            for j in range(len(part)):
-                tots.append(StreamTotals(stack[j], np.zeros((B, 6)), np.zeros(B)))
-                tots[j].add(res, j, share)
-            sums = field_sums(stack, np.stack([t.off_grid for t in tots]), grids,
-                              [geoms[k].reference_mm for k in part], setup)
+            tots = [StreamTotals(stack[j], np.zeros((B, 6)), np.zeros(B)) for j in range(len(part))]
+            extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
+                     "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
 
-            def finish(j: int, k: int, res=res, part=part, grids=grids, tots=tots, sums=sums) -> None:
-                extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
-                         "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
-                results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
-                                              tots[j], None, setup_each + tots[j].trace_seconds, reason, extra,
-                                              sums[j])
+            def analyse(js: range, res=res, part=part, grids=grids, tots=tots, stack=stack, extra=extra) -> None:
+                # a run of fields: their totals (histograms into the stack), the passes over all their
+                # histograms at once (bulk.field_sums), then each field's estimates from those sums
+                for j in js:
+                    tots[j].add(res, j, share)
+                sums = field_sums(stack[js.start:js.stop], np.stack([tots[j].off_grid for j in js]),
+                                  grids[js.start:js.stop], [geoms[part[j]].reference_mm for j in js], setup)
+                for j, sm in zip(js, sums):
+                    k = part[j]
+                    results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
+                                                  tots[j], None, setup_each + tots[j].trace_seconds, reason,
+                                                  dict(extra), sm)
 
-            # the fields' analyses side by side (NumPy releases the GIL in its loops); each field's
-            # numbers do not depend on the threads
-            workers = min(ANALYSIS_THREADS, len(part), os.cpu_count() or 1)
+            # runs of fields analysed side by side (NumPy releases the GIL in its loops); each field's
+            # numbers do not depend on the threads or on the other fields of its run
+            runs = [range(a, min(a + FIELDS_PER_PASS, len(part))) for a in range(0, len(part), FIELDS_PER_PASS)]
+            workers = min(ANALYSIS_THREADS, len(runs), os.cpu_count() or 1)
             if workers > 1:
                 with ThreadPoolExecutor(workers) as pool:
-                    list(pool.map(lambda jk: finish(*jk), enumerate(part)))
+                    list(pool.map(analyse, runs))
             else:
-                for j, k in enumerate(part):
-                    finish(j, k)
+                for js in runs:
+                    analyse(js)
             # wall-clock times of the group (the per-field times above overlap in threads)
             group = {"group_id": f"{int(seeds[part[0]])}:{len(part)}",
                      "group_setup_seconds": setup_each * len(part),

@@ -186,19 +186,25 @@ class _Annulus:
         return self.e_inner + _dot(self.h, f)
 
 
-def _radius_bisect(rings, H: np.ndarray, target: float, tol: float) -> float:
-    """Radius whose pixel-fraction energy sum(H * fractions(r)) reaches ``target`` (bisection, bracketed
-    by the pixels' nearest and farthest points: a pixel is wholly inside r when its farthest point is,
-    and adds nothing while its nearest point is outside)."""
+def _radial_profiles(rings, H: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The lit pixels' farthest and nearest distances from the centre, sorted, each with the cumulative
+    light in that order (the brackets of :func:`_radius_bisect`, shared by every fraction)."""
     lit = np.nonzero(H > 0)[0]
     h = H[lit]
     dmax, dmin = rings.dmax[lit], rings.dmin[lit]
-    order = np.argsort(dmax, kind="stable")
-    k = int(np.searchsorted(np.cumsum(h[order]), target * (1 - 1e-12)))
-    hi = float(dmax[order[min(k, len(order) - 1)]]) + 1e-12
-    order = np.argsort(dmin, kind="stable")
-    k = int(np.searchsorted(np.cumsum(h[order]), target))
-    lo = max(float(dmin[order[min(k, len(order) - 1)]]) - 1e-12, 0.0)
+    o_max, o_min = np.argsort(dmax, kind="stable"), np.argsort(dmin, kind="stable")
+    return dmax[o_max], np.cumsum(h[o_max]), dmin[o_min], np.cumsum(h[o_min])
+
+
+def _radius_bisect(rings, H: np.ndarray, target: float, tol: float, profiles: tuple | None = None) -> float:
+    """Radius whose pixel-fraction energy sum(H * fractions(r)) reaches ``target`` (bisection, bracketed
+    by the pixels' nearest and farthest points: a pixel is wholly inside r when its farthest point is,
+    and adds nothing while its nearest point is outside); ``profiles``: :func:`_radial_profiles`."""
+    dmax, c_max, dmin, c_min = _radial_profiles(rings, H) if profiles is None else profiles
+    k = int(np.searchsorted(c_max, target * (1 - 1e-12)))
+    hi = float(dmax[min(k, len(dmax) - 1)]) + 1e-12
+    k = int(np.searchsorted(c_min, target))
+    lo = max(float(dmin[min(k, len(dmin) - 1)]) - 1e-12, 0.0)
     ann = _Annulus(rings, H, lo, hi)
     if not (ann.energy(lo) < target <= ann.energy(hi)):  # numerical edge: the whole range
         lo, hi = 0.0, float(rings.dmax.max())
@@ -237,10 +243,16 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     sx, sy = float(_dot(H, gx)), float(_dot(H, gy))
     c = (sx / hs, sy / hs)
     d = 0.25 * grid.pitch_mm
-    if sums is None or sums.rings is None:
-        rings, *shifted = (Rings(grid, cc, 4) for cc in ee_centres_mm(c, grid))
+    centres = ee_centres_mm(c, grid)
+    if sums is None:
+        rings, *shifted = (Rings(grid, cc, 4) for cc in centres)
+        H_s = H
     else:
-        rings, *shifted = sums.rings
+        # the shifted rings serve one dot product with H each: on the lit pixels alone (the rest add 0)
+        lit = np.nonzero(H)[0]
+        rings, H_s = sums.rings, H[lit]
+        shifted = [Rings(grid, cc, 4, lit) for cc in centres[1:]]
+    profiles = _radial_profiles(rings, H)
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
         cx_i = (sx - sx_b) / rest
@@ -249,15 +261,15 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     for frac in fractions:
         if hs < frac * total:
             continue
-        full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm)
+        full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm, profiles)
         w = rings.fractions(full)
         lo = max(full - d, 0.0)
         dedr = float(_dot(H, rings.fractions(full + d) - rings.fractions(lo))) / (full + d - lo)
         if not dedr > 0:
             out[frac] = (full, 0.0)
             continue
-        grad = [float(_dot(H, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
-                float(_dot(H, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
+        grad = [float(_dot(H_s, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
+                float(_dot(H_s, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
         e = float(_dot(H, w)) - np.einsum("bp,p->b", flat_b, w) + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
         loo = np.where(rest > 0, full + (frac * (total - tot_b) - e) / dedr, full)
         out[frac] = (full, float(jackknife_se(loo)))

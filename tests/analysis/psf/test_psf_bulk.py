@@ -101,8 +101,8 @@ def test_a_fields_sums_do_not_depend_on_the_rest_of_the_stack(traced):
             assert np.array_equal(getattr(alone, name), getattr(together[k], name)), name
         assert alone.otf.keys() == together[k].otf.keys()
         assert all(np.array_equal(alone.otf[q], together[k].otf[q]) for q in alone.otf)
-        for ra, rt in zip(alone.rings, together[k].rings):
-            assert np.array_equal(ra.dmin, rt.dmin) and np.array_equal(ra.dmax, rt.dmax)
+        assert np.array_equal(alone.rings.dmin, together[k].rings.dmin)
+        assert np.array_equal(alone.rings.dmax, together[k].rings.dmax)
 
 
 def test_bulk_agrees_on_weighted_histograms_to_1e_12(traced):
