@@ -106,11 +106,12 @@ def _chunk_sums(h: np.ndarray, off: np.ndarray, grids: Sequence[ImageGrid], refs
     lit_n = np.count_nonzero(flat > 0, axis=1)
     total = (s_b + off).sum(axis=1)
     area = np.array([g.pixel_area_mm2 for g in grids])
-    # per-pixel standard deviation over the batches: squared deviations summed in one product (no squares
-    # array), scaled to the unit-volume PSF's batch-means error
+    # per-pixel standard deviation over the batches (numpy.std's two passes, its mean being H / B), scaled
+    # to the unit-volume PSF's batch-means error afterwards (the reference scales first: 1e-16 apart)
     dev = flat - (H / nb)[:, None, :]
-    ss = np.einsum("fbp,fbp->fp", dev, dev).reshape(n, *h.shape[2:])
-    se = np.sqrt(ss / (nb - 1)) * (nb / (total * area) / math.sqrt(nb))[:, None, None]
+    np.multiply(dev, dev, out=dev)
+    sd = np.sqrt(dev.sum(axis=1) / (nb - 1)).reshape(n, *h.shape[2:])
+    se = sd * (nb / (total * area) / math.sqrt(nb))[:, None, None]
     # the encircled-energy rings of every field about its centroid (computed as ee_radii_jackknife does)
     centres = []
     for k, g in enumerate(grids):
