@@ -84,23 +84,24 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
                          batch_histograms=True)
             share = 1.0 / len(part)
             t_an = time.perf_counter()
-            stack = np.zeros((len(part), B, pixels, pixels))
-            tots = [StreamTotals(stack[j], np.zeros((B, 6)), np.zeros(B)) for j in range(len(part))]
             extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
                      "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
 
-            def analyse(js: range, res=res, part=part, grids=grids, tots=tots, stack=stack, extra=extra) -> None:
-                # a run of fields: their totals (histograms into the stack), the passes over all their
-                # histograms at once (bulk.field_sums), then each field's estimates from those sums
-                for j in js:
-                    tots[j].add(res, j, share)
-                sums = field_sums(stack[js.start:js.stop], np.stack([tots[j].off_grid for j in js]),
-                                  grids[js.start:js.stop], [geoms[part[j]].reference_mm for j in js], setup)
-                for j, sm in zip(js, sums):
+            def analyse(js: range, res=res, part=part, grids=grids, extra=extra) -> None:
+                # a run of fields: their totals (histograms stacked; a run's stack, not the group's, so
+                # that its memory is reused and stays in cache), the passes over all of them at once
+                # (bulk.field_sums), then each field's estimates from those sums
+                stack = np.zeros((len(js), B, pixels, pixels))
+                tots = [StreamTotals(stack[i], np.zeros((B, 6)), np.zeros(B)) for i in range(len(js))]
+                for i, j in enumerate(js):
+                    tots[i].add(res, j, share)
+                sums = field_sums(stack, np.stack([t.off_grid for t in tots]), grids[js.start:js.stop],
+                                  [geoms[part[j]].reference_mm for j in js], setup)
+                for i, j in enumerate(js):
                     k = part[j]
                     results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
-                                                  tots[j], None, setup_each + tots[j].trace_seconds, reason,
-                                                  dict(extra), sm)
+                                                  tots[i], None, setup_each + tots[i].trace_seconds, reason,
+                                                  dict(extra), sums[i])
 
             # runs of fields analysed side by side (NumPy releases the GIL in its loops); each field's
             # numbers do not depend on the threads or on the other fields of its run
