@@ -8,7 +8,7 @@ on one H100 and < 60 s on a 2-core CPU, excluding a cold PSF cache.
 
     python benchmarks/bench_simulate.py [--pixels 4000x3000] [--layers 8] [--bands 4] [--grid 5x7]
                                         [--device cpu|cuda] [--backend auto|host|warp] [--runs 2]
-                                        [--cache-dir DIR]
+                                        [--cache-dir DIR] [--max-memory SIZE]
 
 ``--device cuda`` runs the blur with Warp tile FFTs on the GPU (and traces the PSFs there); a GPU
 that Warp does not see is one error. ``--device cpu`` runs it with NumPy/SciPy (``--backend warp``:
@@ -50,8 +50,11 @@ def main() -> None:
     ap.add_argument("--backend", default="auto", choices=("auto", "host", "warp"))
     ap.add_argument("--runs", type=int, default=2, help="runs: the first is cold, the rest warm")
     ap.add_argument("--cache-dir", default=None, help="keep the PSF/optics cache here (default: a temporary one)")
+    ap.add_argument("--max-memory", default=None, help="working-memory budget of the host blur (e.g. 2G): "
+                                                       "beyond it, bands of rows")
     args = ap.parse_args()
     from lensrt import load_lens
+    from lensrt.core.budget import parse_memory
     from lensrt.simulate.pipeline import SimulateOptions, simulate
     cols, rows = (int(v) for v in args.pixels.split("x"))
     gr, gc = (int(v) for v in args.grid.split("x"))
@@ -60,7 +63,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cache = args.cache_dir or tmp
         opts = SimulateOptions(sensor=args.sensor, focus_m=2.0, bands=args.bands, layers=args.layers, grid=(gr, gc),
-                               rays=args.rays, cache_dir=cache, device=args.device, backend=args.backend)
+                               rays=args.rays, cache_dir=cache, device=args.device, backend=args.backend,
+                               max_memory_bytes=parse_memory(args.max_memory) if args.max_memory else None)
         runs = []
         for k in range(max(args.runs, 2)):
             t0, c0 = time.perf_counter(), time.process_time()

@@ -149,9 +149,12 @@ def aim_batches(lens: Lens, jobs: Sequence[tuple[FieldPoint, object, object, flo
         parts.append((f, px.ravel(), py.ravel(), float(w)))
     rows = np.concatenate([np.full(len(px), f, dtype=np.intp) for f, px, _, _ in parts])
     wl = np.concatenate([np.full(len(px), w) for _, px, _, w in parts])
-    to_stop = None if aim == "paraxial" else kernel_to_stop(lens, device)
-    o, d, ok = aim_many(lens, fps, rows, np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]),
-                        wl, aim, to_stop)
+    px_all, py_all = np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts])
+    if aim == "real":
+        o, d, ok = _aim_real(lens, fps, rows, px_all, py_all, wl, device)
+    else:
+        to_stop = None if aim == "paraxial" else kernel_to_stop(lens, device)
+        o, d, ok = aim_many(lens, fps, rows, px_all, py_all, wl, aim, to_stop)
     ends = np.cumsum([0] + [len(p[1]) for p in parts])
     return [RayBatch(o[a:b], d[a:b], w, ok[a:b]) for (_, _, _, w), a, b in zip(parts, ends[:-1], ends[1:])]
 
@@ -160,9 +163,38 @@ def chief_batch(lens: Lens, fps: Sequence[FieldPoint], wavelength_nm: float,
                 device: str | None = None) -> RayBatch:
     """Real chief rays (through the centre of the real stop) of several field points."""
     fps = list(fps)
-    o, d, ok = aim_many(lens, fps, np.arange(len(fps)), 0.0, 0.0, float(wavelength_nm), "real",
-                        kernel_to_stop(lens, device))
+    n = len(fps)
+    o, d, ok = _aim_real(lens, fps, np.arange(n), np.zeros(n), np.zeros(n), np.full(n, float(wavelength_nm)), device)
     return RayBatch(o, d, float(wavelength_nm), ok)
+
+
+#: rays already aimed by real-ray aiming on the kernel tracer: per (lens, device), a ray per (field point, px, py,
+#: wavelength) -- the analyses of a comparison aim many of the same rays (the chief rays of their field points
+#: above all). Each ray's Newton run (and continuation in field) is its own, the same bits whatever is aimed
+#: beside it, so a ray found here is the ray aiming gives. At most _AIMED_LENSES lenses and _AIMED_KEPT rays each.
+_AIMED: dict = {}
+_AIMED_LENSES = 8
+_AIMED_KEPT = 1 << 15
+
+
+def _aim_real(lens: Lens, fps: list, rows: np.ndarray, px: np.ndarray, py: np.ndarray, wl: np.ndarray,
+              device: str | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``aim_many(..., "real", kernel_to_stop(lens, device))`` for the rays not aimed yet; the others from the cache."""
+    n = len(rows)
+    known = _AIMED.setdefault((lens, device), {})
+    if len(_AIMED) > _AIMED_LENSES:  # the oldest lens out
+        del _AIMED[next(iter(_AIMED))]
+    keys = [(fps[r], float(a), float(b), float(w)) for r, a, b, w in zip(rows, px, py, wl)]
+    miss = np.array([i for i, k in enumerate(keys) if k not in known], dtype=np.intp)
+    if len(miss):
+        o, d, ok = aim_many(lens, fps, rows[miss], px[miss], py[miss], wl[miss], "real", kernel_to_stop(lens, device))
+        if len(known) + len(miss) > _AIMED_KEPT:
+            known.clear()
+        for j, i in enumerate(miss):
+            known[keys[i]] = (o[j], d[j], bool(ok[j]))
+    got = [known[k] for k in keys]
+    return (np.array([g[0] for g in got]).reshape(n, 3), np.array([g[1] for g in got]).reshape(n, 3),
+            np.array([g[2] for g in got], dtype=bool).reshape(n))
 
 
 def chief_batches(lens: Lens, fps: Sequence[FieldPoint], wavelengths_nm: Sequence[float],

@@ -50,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cache-dir", default=None, help="PSF cache (default $LENSRT_CACHE/simulate or "
                                                      "~/.cache/lensrt/simulate)")
     p.add_argument("--no-cache", action="store_true", help="neither read nor write the PSF cache")
+    p.add_argument("--max-memory", metavar="SIZE", default=None,
+                   help="working memory of the blur (e.g. 4G; default 60%% of the machine's): a larger picture "
+                        "is blurred in bands of rows, the same result")
     p.add_argument("--sensor-preset", default=None, metavar="P", help="expose a sensor preset and develop it")
     p.add_argument("--iso", type=float, default=None, metavar="I")
     p.add_argument("--exposure-s", type=float, default=None, metavar="T",
@@ -85,6 +88,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from ..simulate.inputs import read_depth_m, read_image_linear
     from ..simulate.outputs import write_outputs
     from ..simulate.pipeline import SimulateOptions, simulate
+    from ._limits import memory_limit
     _check(args)
     if args.sensor_preset is not None:
         from ..sensor import get_preset
@@ -95,7 +99,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     lens = load_lens(args.lens)
     opts = SimulateOptions(sensor=args.sensor, focus_m=focus_m, f_number=args.f_number, bands=args.bands,
                            layers=args.layers, grid=args.grid, rays=int(args.rays), seed=args.seed,
-                           cache_dir=args.cache_dir, use_cache=not args.no_cache, device=args.device)
+                           cache_dir=args.cache_dir, use_cache=not args.no_cache, device=args.device,
+                           max_memory_bytes=memory_limit(args))
     sim = simulate(image, lens, depth, opts)
     prefix = args.output or str(Path(args.image).with_suffix("")) + "_sim"
     files = write_outputs(sim, prefix, preset=args.sensor_preset, iso=args.iso, exposure_s=args.exposure_s,

@@ -12,7 +12,10 @@ a ``LocalCluster`` of worker processes on loopback. For each job it
    so a worker started with ``--resources GPU=1`` runs one GPU task at a time;
 3. streams results back with ``as_completed`` and folds them in item-index
    order (:class:`~lensrt.parallel.work.OrderedFold`), so the value does not
-   depend on which worker finished first.
+   depend on which worker finished first. On a ``LocalCluster`` (workers on
+   this machine) a result's large arrays come through shared memory
+   (:mod:`lensrt.parallel.shm`): the task returns the segment's name, not
+   hundreds of MB through the local socket.
 
 Fault handling is Dask's: when a worker process dies, the scheduler reschedules
 the tasks it was running or held results of on the remaining (or restarted)
@@ -37,6 +40,7 @@ from typing import Any, Sequence
 from ..errors import LensrtError
 from .context import assigned_worker_device, content_hash, execute_item, stored_context
 from .local import Progress, device_scope, resolve_devices
+from .shm import pack, unpack
 from .work import ItemOutcome, Job, JobResult, OrderedFold, WorkItem, finish_result
 
 __all__ = ["DaskExecutor", "distributed_available", "worker_device"]
@@ -81,14 +85,17 @@ def worker_device(spec: str | None) -> str:
 
 
 def _run_task(items: tuple[WorkItem, ...], *, run: Any, prepare: Any, context_hash: str,
-              device_spec: str | None, uses_device: bool) -> list[ItemOutcome]:
-    """The Dask task of a chunk of items: fetch the shipped context, pick the device, run each item."""
+              device_spec: str | None, uses_device: bool, shared_memory: bool = False) -> list[Any]:
+    """The Dask task of a chunk of items: fetch the shipped context, pick the device, run each item.
+    ``shared_memory`` (the client is on this machine): large results go through shared memory."""
     context = stored_context(context_hash)
     if not uses_device:
-        return [execute_item(run, prepare, context, context_hash, it, "cpu") for it in items]
-    device = worker_device(device_spec)
-    with device_scope(device, own_stream=False):
-        return [execute_item(run, prepare, context, context_hash, it, device) for it in items]
+        out = [execute_item(run, prepare, context, context_hash, it, "cpu") for it in items]
+    else:
+        device = worker_device(device_spec)
+        with device_scope(device, own_stream=False):
+            out = [execute_item(run, prepare, context, context_hash, it, device) for it in items]
+    return [pack(o) for o in out] if shared_memory else out
 
 
 def _wants_cuda(spec: str | Sequence[str] | None) -> bool:
@@ -221,7 +228,7 @@ class DaskExecutor:
         chunks = [tuple(job.items[i] for i in order[j:j + k]) for j in range(0, len(order), k)]
         futures = self.client.map(
             _run_task, chunks, run=job.run, prepare=job.prepare, context_hash=ctx_hash, device_spec=spec,
-            uses_device=job.uses_device, key=[f"lensrt-{job.name}-{token}-{c[0].index}" for c in chunks],
+            uses_device=job.uses_device, shared_memory=self._cluster is not None, key=[f"lensrt-{job.name}-{token}-{c[0].index}" for c in chunks],
             resources=resources, pure=False)
         pending = {f.key: f for f in futures}
         del futures
@@ -234,7 +241,7 @@ class DaskExecutor:
                 # worker dies later, and the fold ignores any second delivery of an index anyway
                 pending.pop(fut.key, None)
                 for outcome in outcomes:
-                    fold.add(outcome)
+                    fold.add(unpack(outcome))
                 if progress:
                     progress(fold.received, n)
         except RuntimeError as err:

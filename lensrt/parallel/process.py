@@ -5,8 +5,13 @@
 them for its whole life (so each process prepares a context once and reuses it
 job after job) and hands a job's items out one at a time from one queue in the
 parent: a worker that finishes gets the next item, so a fast device takes more
-of them and the tail is one item long. Results come back as host data through
-the worker's pipe and are folded in item-index order
+of them and the tail is one item long (no item is queued behind a running one,
+where a long item would hold it hostage); the parent hands a worker its next
+item as soon as the result's message is in, before it unpacks and folds it.
+Results come back as host data -- large arrays through shared memory
+(:mod:`lensrt.parallel.shm`: one copy in, one copy out, instead of a pickle
+through the pipe), small ones through the worker's pipe -- and are folded in
+item-index order
 (:class:`~lensrt.parallel.work.OrderedFold`), so the value is bit-identical to
 the one-thread :class:`~lensrt.parallel.local.LocalExecutor` run.
 
@@ -15,7 +20,7 @@ item (set-up, analysis, NumPy) runs under the one interpreter lock, so with
 several GPUs the host work of all of them is serial. Here each device has an
 interpreter of its own. The price: each worker starts Python, lensrt and Warp
 (seconds, once per executor), the context is pickled once per worker, and
-results are pickled through a pipe.
+each result is copied twice (into shared memory and out of it).
 
 Faults: when a worker process dies (killed, out of memory, a driver fault), the
 item it was running goes back to the front of the queue and a new process is
@@ -41,6 +46,7 @@ from typing import Any, Sequence
 from ..errors import LensrtError
 from .context import content_hash, drop_context, execute_item, store_context, stored_context
 from .local import Progress, device_scope, resolve_devices
+from .shm import Attached, SegmentPool, pack, unpack
 from .work import Job, JobResult, OrderedFold, finish_result
 
 __all__ = ["ProcessExecutor", "worker_main"]
@@ -71,6 +77,15 @@ def worker_main(conn: Any, device: str) -> None:
     from ..device import warp
     warp()  # Warp initialised quietly before any job module imports it
     conn.send(("ready", os.getpid()))
+    pool = SegmentPool()
+    try:
+        _serve(conn, device, pool)
+    finally:
+        pool.close()
+
+
+def _serve(conn: Any, device: str, pool: SegmentPool) -> None:
+    """The message loop of :func:`worker_main`."""
     unreadable: dict[str, BaseException] = {}  # contexts that did not unpickle here, by hash
     while True:
         try:
@@ -101,7 +116,7 @@ def worker_main(conn: Any, device: str) -> None:
                 raise LensrtError(f"a worker process cannot load the job's context: {unreadable[ctx_hash]!r}",
                                   hint="its classes must come from modules the worker can import")
             with device_scope(dev, own_stream=False):
-                out = ("done", execute_item(run, prepare, stored_context(ctx_hash), ctx_hash, item, dev))
+                out = ("done", pack(execute_item(run, prepare, stored_context(ctx_hash), ctx_hash, item, dev), pool=pool))
         except BaseException as err:  # noqa: BLE001 - handed to the parent, which re-raises it
             out = ("error", item.index, err)
         try:
@@ -122,7 +137,8 @@ class _Worker:
         self.process.start()
         child.close()
         self.contexts: list[str] = []  # held by the process, oldest first
-        self.item: int | None = None
+        self.items: deque = deque()      # in flight, in the order sent: the first is running
+        self.attached = Attached()       # the parent's mappings of the worker's result segments
 
     def send_item(self, job: Job, ctx_hash: str, blob: bytes, index: int) -> None:
         try:
@@ -132,7 +148,7 @@ class _Worker:
             raise LensrtError(f"job {job.name!r} cannot be sent to a worker process: {err}",
                               hint="run and prepare must be module-level functions of an importable module, "
                                    "the items' params picklable") from None
-        self.item = index  # in flight from now: if the process is dead, its sentinel says so and it re-runs
+        self.items.append(index)  # in flight from now: if the process is dead, its sentinel says so and it re-runs
         try:
             if ctx_hash in self.contexts:
                 self.contexts.remove(ctx_hash)
@@ -152,9 +168,11 @@ class _Worker:
             except (OSError, ValueError):
                 pass
         self.process.join(timeout_s)
-        if self.process.is_alive():
+        killed = self.process.is_alive()
+        if killed:
             self.process.kill()
             self.process.join()
+        self.attached.close(unlink=killed)  # a worker that stops in time unlinks its own segments
         self.conn.close()
 
 
@@ -249,24 +267,25 @@ class ProcessExecutor:
         while True:
             if error is None:
                 for w in list(self._workers):
-                    if w.item is None and todo:
+                    if not w.items and todo:
                         if not w.process.is_alive():  # died between items: nothing to re-run
                             w.conn.close()
+                            w.attached.close(unlink=True)
                             w = self._workers[w.slot] = self._start(w.slot)
                         w.send_item(job, ctx_hash, blob, todo.popleft())
-            busy = [w for w in self._workers if w.item is not None]
+            busy = [w for w in self._workers if w.items]
             if not busy:
                 break
             ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
             for w in busy:
                 if w.conn in ready or w.process.sentinel in ready:
-                    error = self._collect(w, job, fold, todo, deaths, error)
+                    error = self._collect(w, job, ctx_hash, blob, fold, todo, deaths, error)
             if progress:
                 progress(fold.received, len(job.items))
         return error
 
-    def _collect(self, w: _Worker, job: Job, fold: OrderedFold, todo: deque, deaths: dict[int, int],
-                 error: BaseException | None) -> BaseException | None:
+    def _collect(self, w: _Worker, job: Job, ctx_hash: str, blob: bytes, fold: OrderedFold, todo: deque,
+                 deaths: dict[int, int], error: BaseException | None) -> BaseException | None:
         """Take what worker ``w`` sent (or its death); returns the job's error so far."""
         try:
             msg = w.conn.recv() if w.conn.poll() else None
@@ -275,17 +294,23 @@ class ProcessExecutor:
         if msg is not None and msg[0] == "ready":
             return error  # a replacement process has started; its item is still running
         if msg is not None:
-            w.item = None
+            if w.items:
+                w.items.popleft()  # the worker answers its items in the order they were sent
             if msg[0] == "done":
-                fold.add(msg[1])
+                if error is None and todo:  # the next item first: the worker runs it while this one unpacks
+                    w.send_item(job, ctx_hash, blob, todo.popleft())
+                fold.add(unpack(msg[1], w.attached))
                 return error
             return error or msg[2]
         if w.process.is_alive():
             return error  # woken by a sentinel race; nothing to read yet
-        # the process died mid-item: the item goes back to the front of the queue, a new process takes the slot
-        index, w.item = w.item, None
+        # the process died mid-item: its items go back to the front of the queue, a new process takes the slot
+        index = w.items[0]
+        todo.extendleft(reversed(list(w.items)[1:]))
+        w.items.clear()
         deaths[index] = deaths.get(index, 0) + 1
         w.conn.close()
+        w.attached.close(unlink=True)  # the dead worker's segments (any it never announced: the resource tracker)
         self._workers[w.slot] = self._start(w.slot)
         if deaths[index] >= self.max_failures:
             return error or LensrtError(

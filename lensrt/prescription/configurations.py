@@ -18,6 +18,7 @@ curvature           surface                                     1/mm
 conic               surface                                     conic constant
 material            surface (the medium after it)               ``Material``
 semi_diameter       surface                                     mm
+decenter_x, _y      surface (a basic decenter before it)        mm
 stop_surface        (unused, -1)                                0-based surface index
 aperture            (unused, -1)                                the lens aperture kind's value (mm, f-number, NA)
 field_y, field_x    field point                                 rad or mm (the lens's field kind)
@@ -34,6 +35,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 from ..errors import PrescriptionError
+from .geometry import CoordinateTransform
 from .materials import Material
 from .model import Aperture, Fields, Lens, Wavelengths
 
@@ -41,7 +43,7 @@ __all__ = ["OPERAND_KINDS", "SURFACE_KINDS", "ConfigOperand", "MultiConfigLens",
            "check_surface_count"]
 
 #: kinds whose index is a surface
-SURFACE_KINDS = ("thickness", "curvature", "conic", "material", "semi_diameter")
+SURFACE_KINDS = ("thickness", "curvature", "conic", "material", "semi_diameter", "decenter_x", "decenter_y")
 OPERAND_KINDS = SURFACE_KINDS + ("object_distance", "stop_surface", "aperture", "field_y", "field_x",
                                  "field_weight", "wavelength", "wavelength_weight", "primary_wavelength")
 _SYSTEM_KINDS = ("object_distance", "stop_surface", "aperture", "primary_wavelength")
@@ -85,6 +87,9 @@ def _set_surface(surfaces: list, op: ConfigOperand, value: Any) -> None:
                                 f"surfaces 1..{len(surfaces)}", line=op.line,
                                 hint="surface numbers count from the first lens surface (the object is 0)")
     s = surfaces[op.index]
+    if op.kind in ("decenter_x", "decenter_y"):
+        _set_decenter(surfaces, op, float(value))
+        return
     attr = {"thickness": "thickness_mm", "curvature": "curvature_per_mm", "conic": "conic",
              "material": "material", "semi_diameter": "semi_diameter_mm"}[op.kind]
     if op.kind == "material" and not isinstance(value, Material):
@@ -93,6 +98,16 @@ def _set_surface(surfaces: list, op: ConfigOperand, value: Any) -> None:
     if op.kind == "semi_diameter":
         changes["semi_diameter_auto"] = False
     surfaces[op.index] = replace(s, **changes)
+
+
+def _set_decenter(surfaces: list, op: ConfigOperand, value_mm: float) -> None:
+    """A basic decenter (the frame moves before the surface and stays moved) set to ``value_mm`` along x or y."""
+    s = surfaces[op.index]
+    if s.transform_after is not None:
+        raise PrescriptionError(f"{op.label}: surface {op.index + 1} returns its frame after it; only a basic "
+                                "decenter (the new frame holds for the later surfaces) can be zoomed", line=op.line)
+    t = s.transform_before or CoordinateTransform()
+    surfaces[op.index] = replace(s, transform_before=replace(t, **{f"{op.kind}_mm": value_mm}))
 
 
 def _indexed(values: tuple, op: ConfigOperand, value: float, what: str) -> tuple:

@@ -13,7 +13,9 @@ Order (:func:`resolve_glass`):
    ``BK7``, ``SK19``, ``KZFSN5``) -- with a warning naming the catalog used;
    then another grade of a vendor's glass for a name that no catalog lists
    (Ohara ``S-LAL7Q`` -> ``S-LAL7``, Schott ``LF5HT`` -> ``LF5HTi``), only where
-   the line's n_d/V_d confirm it;
+   the line's n_d/V_d confirm it; likewise a name its transcriber marked as
+   uncertain with a trailing ``?`` (``SF12?`` -> Hikari ``SF12``: the file's
+   catalogs first, then every catalog);
 3. only with ``substitute``: a successor or another vendor's equivalent
    (``SK16`` -> ``N-SK16``), with a warning naming both glasses and the index
    difference at the primary wavelength;
@@ -264,6 +266,23 @@ def _variant(base: str, req: GlassRequest) -> CatalogGlass | None:
     return None
 
 
+def _uncertain(base: str, req: GlassRequest, own: Sequence[str], agfs: Sequence[AgfCatalog]
+               ) -> CatalogGlass | None:
+    """The glass a name marked uncertain (``SF12?``) names, taken only when the line's n_d and V_d confirm it within
+    :data:`VARIANT_TOLERANCE` (the file's catalogs first, then every catalog lensrt has)."""
+    name = base.rstrip("?").strip()
+    if name == base or not name or req.nd is None or req.vd is None:
+        return None
+    for g in (_in_catalogs(name, own, agfs), lookup_any(name, agfs)):
+        if g is None:
+            continue
+        nd = float(g.index(FRAUNHOFER_NM["d"]))
+        vd = (nd - 1.0) / float(g.index(FRAUNHOFER_NM["F"]) - g.index(FRAUNHOFER_NM["C"]))
+        if abs(nd - req.nd) <= VARIANT_TOLERANCE[0] and abs(vd - req.vd) <= VARIANT_TOLERANCE[1]:
+            return g
+    return None
+
+
 def _searched(req: GlassRequest, agfs: Sequence[AgfCatalog]) -> str:
     named = ", ".join(req.file_catalogs) if req.file_catalogs else "none"
     users = ", ".join(f"{a.name} ({a.path})" for a in agfs) or "none"
@@ -321,6 +340,13 @@ def resolve_glass(req: GlassRequest, policy: GlassPolicy | None = None) -> tuple
                                f"from {g.source}, another grade of the same glass, as the line's n_d = "
                                f"{req.nd:g}, V_d = {req.vd:g} confirm (n_d differs by "
                                f"{float(g.index(FRAUNHOFER_NM['d'])) - req.nd:+.2e})",
+                               req.surface, req.line))
+        return g, out
+    g = _uncertain(base, req, own, agfs)
+    if g is not None:
+        out.append(LoadWarning("glass_uncertain_name", f"glass {name}: a name marked uncertain; read as "
+                               f"{g.describe()} from {g.source}, as the line's n_d = {req.nd:g}, V_d = {req.vd:g} "
+                               f"confirm (n_d differs by {float(g.index(FRAUNHOFER_NM['d'])) - req.nd:+.2e})",
                                req.surface, req.line))
         return g, out
     # 3. a successor or another vendor's equivalent, on request

@@ -277,7 +277,7 @@ class Surface:
             return
         if not isinstance(sh, SurfaceShape):
             raise PrescriptionError(f"surface shape {sh!r} is not a SurfaceShape", line=self.line)
-        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike"):
+        if self.asphere and sh.kind not in ("toroidal", "xy", "zernike", "zernike_fringe"):
             raise PrescriptionError(f"even asphere terms on a {sh.kind} surface", line=self.line,
                                     hint="give every polynomial term in the shape's coefficients")
 
@@ -362,7 +362,8 @@ class LoadWarning:
     ``code`` is one of ``glass_other_catalog``, ``glass_alias``, ``glass_substituted``,
     ``glass_model``, ``glass_line_disagrees``, ``glass_private``, ``keyword_ignored``,
     ``keyword_unknown``, ``assumed_default``, ``first_order_y_section`` (a surface that is not rotationally
-    symmetric: paraxial data are its y-section's), ...; ``surface`` the 0-based lens surface
+    symmetric: paraxial data are its y-section's), ``dummy_crossing``, ``glass_uncertain_name``,
+    ``surface_numbering``, ...; ``surface`` the 0-based lens surface
     (``None`` for system data); ``line`` the file line.
     """
 

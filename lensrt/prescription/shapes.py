@@ -43,8 +43,18 @@ rho = r / R_n, theta from +x toward +y::
 
     z = conic(c, k; r) + sum_j asphere_j r^(2j+2) + sum_j A_j Z_j(rho, theta)
 
-Both are evaluated as one polynomial in (u, v) (:func:`zernike_to_xy` expands the Zernike terms
-once per surface), by Horner's rule in u within Horner's rule in v.
+``zernike_fringe`` -- Zemax FZERNSAG (Zernike fringe sag): ``coefficients`` on the fringe (University
+of Arizona) Zernike polynomials F_1, F_2, ... (Wyant & Creath, "Basic wavefront aberration theory for
+optical metrology", Applied Optics and Optical Engineering XI (1992), Table 2; OpticStudio's "Zernike
+Fringe" order: F_j = R_n^|m|(rho) cos(m theta) (m > 0), sin(|m| theta) (m < 0), R_n^0 (m = 0), with
+j = (1 + (n + |m|) / 2)^2 - 2 |m| + (m < 0), not normalised; F_2 = rho cos(theta), F_4 = 2 rho^2 - 1,
+F_9 = 6 rho^4 - 6 rho^2 + 1)::
+
+    z = conic(c, k; r) + sum_j asphere_j r^(2j+2) + sum_j A_j F_j(rho, theta)
+
+All three are evaluated as one polynomial in (u, v) (:func:`zernike_to_xy` expands the Zernike terms
+once per surface -- fringe ones after :func:`fringe_to_noll` moves them to Noll's order and
+normalisation), by Horner's rule in u within Horner's rule in v.
 
 The Q polynomials are summed by Clenshaw's recurrence: Q^bfs after Forbes's change of basis to
 P_m (P_{m+1} = (2 - 4x) P_m - P_{m-1}; :func:`qbfs_to_p_basis`, done once per surface), Q^con by
@@ -61,18 +71,20 @@ from typing import Sequence
 
 from ..errors import PrescriptionError
 
-__all__ = ["SHAPE_KINDS", "ROTATIONAL_KINDS", "POLYNOMIAL_KINDS", "MAX_SHAPE_TERMS", "poly_degree", "noll_nm",
-           "zernike_to_xy", "SurfaceShape", "Profile", "profile_of",
+__all__ = ["SHAPE_KINDS", "ROTATIONAL_KINDS", "POLYNOMIAL_KINDS", "MAX_SHAPE_TERMS", "MAX_FRINGE_TERMS",
+           "poly_degree", "noll_nm", "fringe_nm", "fringe_to_noll", "zernike_to_xy", "SurfaceShape", "Profile", "profile_of",
            "sag_grad", "qbfs_to_p_basis", "qbfs_sum", "qcon_sum", "jacobi04_abc", "vertex_expansion"]
 
 #: the surface kinds a :class:`SurfaceShape` may name
-SHAPE_KINDS = ("odd", "qbfs", "qcon", "biconic", "toroidal", "xy", "zernike")
+SHAPE_KINDS = ("odd", "qbfs", "qcon", "biconic", "toroidal", "xy", "zernike", "zernike_fringe")
 #: kinds whose sag depends on r only
 ROTATIONAL_KINDS = ("odd", "qbfs", "qcon")
 #: kinds evaluated as a polynomial in (x, y) over the conic + even asphere
-POLYNOMIAL_KINDS = ("xy", "zernike")
+POLYNOMIAL_KINDS = ("xy", "zernike", "zernike_fringe")
 #: most terms a shape may carry (Zemax's extended surfaces allow up to 480; 66 is an XY polynomial of degree 10)
 MAX_SHAPE_TERMS = 66
+#: terms of the fringe Zernike set (OpticStudio's Zernike Fringe Sag takes up to 37)
+MAX_FRINGE_TERMS = 37
 
 
 def _num(v: object, what: str) -> float:
@@ -110,6 +122,9 @@ class SurfaceShape:
         if len(coef) > MAX_SHAPE_TERMS:
             raise PrescriptionError(f"{self.kind} surface with {len(coef)} terms; lensrt takes at most "
                                     f"{MAX_SHAPE_TERMS}", hint="drop the trailing (zero) terms")
+        if len(coef) > MAX_FRINGE_TERMS and self.kind == "zernike_fringe":
+            raise PrescriptionError(f"fringe Zernike surface with {len(coef)} terms; the fringe set has "
+                                    f"{MAX_FRINGE_TERMS}", hint="drop the trailing (zero) terms")
         if len(coef) > MAX_SHAPE_TERMS - 1 and self.kind == "xy":
             raise PrescriptionError(f"xy surface with {len(coef)} terms; lensrt takes at most {MAX_SHAPE_TERMS - 1}",
                                     hint="drop the trailing (zero) terms")
@@ -240,6 +255,8 @@ def profile_of(surface: object, sign: float = 1.0) -> Profile:
         terms = _triangle((0.0,) + sh.coefficients)
     elif sh.kind == "zernike":
         terms = zernike_to_xy(sh.coefficients)
+    elif sh.kind == "zernike_fringe":
+        terms = zernike_to_xy(fringe_to_noll(sh.coefficients))
     else:
         terms = sh.coefficients
     return Profile(sh.kind, sign * c, k, tuple(sign * a for a in asph), tuple(sign * a for a in terms),
@@ -267,6 +284,38 @@ def noll_nm(j: int) -> tuple[int, int]:
     k = n % 2
     m = 2 * ((p + k) // 2) - k
     return n, (m if j % 2 == 0 else -m) if m else 0
+
+
+def fringe_nm(j: int) -> tuple[int, int]:
+    """Radial order n and signed azimuthal order m of the fringe Zernike F_j (j >= 1; m < 0: sin, m > 0: cos).
+
+    The fringe order runs through the radial shells ``s = (n + |m|) / 2 = 0, 1, 2, ...``; shell s holds
+    j = s^2 + 1 .. (s + 1)^2: |m| = s, s, s - 1, s - 1, ..., 1, 1, 0, cos before sin. The set stops at
+    :data:`MAX_FRINGE_TERMS` = 37, whose last term is the 12th-order spherical term (n = 12, m = 0), not
+    the (6, 6) that the shell pattern would give next (Wyant & Creath Table 2; OpticStudio's table).
+    """
+    if not 1 <= j <= MAX_FRINGE_TERMS:
+        raise PrescriptionError(f"fringe Zernike index {j} is outside 1..{MAX_FRINGE_TERMS}")
+    if j == MAX_FRINGE_TERMS:
+        return 12, 0
+    s = math.isqrt(j - 1)
+    i = j - s * s - 1  # 0 .. 2 s within the shell
+    am = s - i // 2
+    return 2 * s - am, am if i % 2 == 0 else -am
+
+
+def fringe_to_noll(coefficients: Sequence[float]) -> tuple[float, ...]:
+    """Coefficients on Noll's normalised Z_j of ``sum_j A_j F_j`` (fringe order, not normalised)."""
+    if not coefficients:
+        return ()
+    nm = [fringe_nm(j + 1) for j in range(len(coefficients))]
+    deg = max(n for n, _ in nm)
+    where = {noll_nm(j): j for j in range(1, (deg + 1) * (deg + 2) // 2 + 1)}
+    out = [0.0] * ((deg + 1) * (deg + 2) // 2)
+    for a, (n, m) in zip(coefficients, nm):
+        norm = math.sqrt(n + 1.0) if m == 0 else math.sqrt(2.0 * (n + 1.0))
+        out[where[(n, m)] - 1] += a / norm
+    return tuple(out)
 
 
 def zernike_to_xy(coefficients: Sequence[float]) -> tuple[float, ...]:
@@ -368,7 +417,7 @@ def _radial(p: Profile, r2: float) -> tuple[float, float] | None:
 
 def sag_grad(p: Profile, x: float, y: float) -> tuple[float, float, float] | None:
     """Sag z(x, y) and its gradient (dz/dx, dz/dy), float64; None where the surface does not exist."""
-    if p.kind in ("even", "odd", "qbfs", "qcon", "xy", "zernike"):
+    if p.kind in ("even", "odd", "qbfs", "qcon") + POLYNOMIAL_KINDS:
         out = _radial(p, x * x + y * y)
         if out is None:
             return None

@@ -11,10 +11,12 @@ sums of :mod:`lensrt.render.passes`, in pass order), returning the tile's sums o
 only places tiles, and the value is the same bits as :func:`render_job` 's (a pixel's paths
 depend on the pixel index and the pass seed only). A tile also returns, per pass, its paths through
 the lens and the sums of Y over its part of each region of
-:func:`lensrt.render.passes.region_slices` (copying from the device only the rows of the tile that
-meet a region), so that the reduced :class:`lensrt.render.passes.PassSum` carries the per-pass
-data of a pass-by-pass render: the same hit counts, and region means equal to about 1e-15
-relative (tile sums added in tile order instead of one sum over the region).
+:func:`lensrt.render.passes.region_slices`, both counted on the device while the passes run
+(:mod:`lensrt.render.tile_kernels`: no device wait and no host work between passes, so several
+devices driven from one process do not queue for the interpreter lock pass by pass), so that the
+reduced :class:`lensrt.render.passes.PassSum` carries the per-pass data of a pass-by-pass render:
+the same hit counts, and region means equal to about 1e-15 relative (row-segment sums added tile by
+tile instead of one sum over the region).
 :func:`lensrt.render.integrator.render` runs this job for a fixed sample count on an executor;
 ``render_workload`` registers it as the ``render`` workload of ``benchmarks/bench_multigpu.py``.
 """
@@ -24,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .passes import REGIONS, PassSum, RenderSetup, prepare_setup, region_slices, run_pass_item
+from .passes import REGIONS, PassSum, RenderSetup, moments_stderr, prepare_setup, region_slices, run_pass_item
 from ..core.telemetry import launch
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
-           "run_tile_item", "tile_region_span", "tile_region_sums", "render_workload", "WORKLOAD_SIZES"]
+           "run_tile_item", "region_cuts", "region_sums_from_segments", "render_workload", "WORKLOAD_SIZES"]
 
 
 @dataclass
@@ -85,7 +87,7 @@ def render_job(setup: RenderSetup, passes: int, first: int = 0):
 class TileResult:
     """One tile's sums over all passes (float64): spectral (pixels * bands), XYZ and XYZ squared, paths through;
     per pass: ``pass_hits`` (passes,) paths through the lens and ``region_y`` (passes, regions) the sums of
-    the per-pixel Y sums over the tile's part of each region (:func:`tile_region_sums`)."""
+    the per-pixel Y sums over the tile's part of each region (:func:`region_sums_from_segments`)."""
 
     first: int
     end: int
@@ -98,63 +100,73 @@ class TileResult:
     seconds: float = 0.0
 
 
-def tile_region_span(first: int, end: int, shape: tuple[int, int]) -> tuple[int, int] | None:
-    """The pixels [a, b) of the tile [first, end) that lie on rows meeting a region of
-    :func:`region_slices` (``None`` when no row of the tile does): what a pass copies from the device."""
-    cols = shape[1]
-    ra, rb = first // cols, -(-end // cols)
-    rows = [(max(r0, ra), min(r1, rb)) for r0, r1, _, _ in region_slices(shape)]
-    rows = [(a, b) for a, b in rows if a < b]
-    if not rows:
-        return None
-    return max(first, min(a for a, _ in rows) * cols), min(end, max(b for _, b in rows) * cols)
+#: the longest column segment of :func:`region_cuts` (one device thread sums one segment of a row)
+SEGMENT_COLS = 128
 
 
-def tile_region_sums(y: np.ndarray, first: int, end: int, shape: tuple[int, int]) -> np.ndarray:
-    """Sums (float64) of the per-pixel values ``y`` of pixels [first, end) over the part of each region of
-    :func:`region_slices` that they cover (one entry per region, 0 where they cover none)."""
-    cols = shape[1]
-    ra, rb = first // cols, -(-end // cols)
-    rows = np.zeros((rb - ra) * cols)             # whole rows; pixels outside the range add exact zeros
-    rows[first - ra * cols:end - ra * cols] = y
-    rows = rows.reshape(rb - ra, cols)
-    out = np.zeros(len(REGIONS))
+def region_cuts(shape: tuple[int, int], longest: int = SEGMENT_COLS) -> np.ndarray:
+    """Column cuts 0 = c_0 < c_1 < ... < c_m = cols such that every region of :func:`region_slices` spans
+    whole segments [c_k, c_k+1) and no segment is longer than ``longest`` columns (int32)."""
+    cols = int(shape[1])
+    cuts = {0, cols}
+    for _, _, c0, c1 in region_slices(shape):
+        cuts.update((c0, c1))
+    cuts.update(range(0, cols, max(1, int(longest))))
+    return np.array(sorted(cuts), dtype=np.int32)
+
+
+def region_sums_from_segments(seg: np.ndarray, row0: int, shape: tuple[int, int], cuts: np.ndarray) -> np.ndarray:
+    """Region sums from row-segment sums: ``seg`` (..., rows, segments) holds, for image rows row0,
+    row0 + 1, ..., the sums over the columns [cuts[k], cuts[k + 1]) (0 outside the pixels summed); the
+    result (..., regions) sums the segments inside each region of :func:`region_slices`."""
+    seg = np.asarray(seg, dtype=np.float64)
+    rb = row0 + seg.shape[-2]
+    out = np.zeros(seg.shape[:-2] + (len(REGIONS),))
     for k, (r0, r1, c0, c1) in enumerate(region_slices(shape)):
-        a, b = max(r0, ra), min(r1, rb)
-        if a < b:
-            out[k] = rows[a - ra:b - ra, c0:c1].sum()
+        a, b = max(r0, row0), min(r1, rb)
+        ks = np.flatnonzero((cuts[:-1] >= c0) & (cuts[1:] <= c1))
+        if a < b and len(ks):
+            out[..., k] = seg[..., a - row0:b - row0, ks[0]:ks[-1] + 1].sum(axis=(-2, -1))
     return out
 
 
 def run_tile_item(item, prep, device: str) -> TileResult:
     """The ``run`` of a tiled render Job: ``item.params`` = (first pixel, end pixel, passes); every pass of
     the tile summed on the device in pass order (the arithmetic of the one-device render), with each
-    pass's paths through the lens and its Y sums over the tile's part of the regions."""
+    pass's paths through the lens and Y sums over the tile's part of the regions kept on the device
+    (:mod:`lensrt.render.tile_kernels`): the passes are queued without a wait between them, and the tile
+    comes to the host once, at its end."""
     import time
     from ..device import warp
     from .passes import device_pass
     from .pupil_table import launch_sliced
+    from .tile_kernels import HITS_BLOCK, block_hits, row_segment_sums
     wp = warp()
     t0 = time.perf_counter()
     p0, p1, passes = (int(v) for v in item.params)
     s = prep.setup
     n = p1 - p0
     k = prep.kernels
+    cols = s.shape[1]
+    ra, rb = p0 // cols, -(-p1 // cols)
+    cuts_h = region_cuts(s.shape)
+    cuts = wp.array(cuts_h, dtype=wp.int32, device=device)
+    n_blocks = -(-n // HITS_BLOCK)
     spec_sum = wp.zeros(n * s.n_bands, dtype=wp.float64, device=device)
     s1 = wp.zeros((n, 3), dtype=wp.float64, device=device)
     s2 = wp.zeros((n, 3), dtype=wp.float64, device=device)
-    pass_hits = np.zeros(passes, dtype=np.int64)
-    region_y = np.zeros((passes, len(REGIONS)))
-    span = tile_region_span(p0, p1, s.shape)
+    hits = wp.zeros((passes, n_blocks), dtype=wp.int64, device=device)
+    seg = wp.zeros((passes, rb - ra, len(cuts_h) - 1), dtype=wp.float64, device=device)
     buf = None
     for index in range(passes):
         buf = device_pass(prep, index, buf, (p0, p1))
         launch_sliced(k.accumulate, n * s.n_bands, lambda base: [buf.spec[base:], spec_sum[base:]], device)
         launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
-        pass_hits[index] = int(buf.hits.numpy().astype(np.int64).sum())
-        if span is not None:
-            y = buf.xyz[span[0] - p0:span[1] - p0].numpy()[:, 1].astype(np.float64)
-            region_y[index] = tile_region_sums(y, span[0], span[1], s.shape)
+        launch(block_hits, dim=n_blocks, inputs=[buf.hits, n, HITS_BLOCK, index, hits], device=device)
+        launch(row_segment_sums, dim=(rb - ra, len(cuts_h) - 1), inputs=[buf.xyz, p0, p1, ra, cols, cuts, index, seg],
+               device=device)
+    pass_hits = hits.numpy().sum(axis=1)
+    region_y = region_sums_from_segments(seg.numpy(), ra, s.shape, cuts_h)
     return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), int(pass_hits.sum()), pass_hits, region_y,
                       time.perf_counter() - t0)
 
@@ -163,7 +175,9 @@ def run_tile_item(item, prep, device: str) -> TileResult:
 class TileReduction:
     """Places :class:`TileResult` s into the image and adds their per-pass counts in tile order; finishes as
     :class:`RenderSums` whose ``pass_sum`` has the per-pass hits and region means (a
-    :class:`lensrt.parallel.Reduction`)."""
+    :class:`lensrt.parallel.Reduction`). Each tile's XYZ mean and standard error are computed as it is
+    placed (element by element: the bits of the whole-image computation), so that the end of the job,
+    which no device overlaps, only wraps the arrays."""
 
     n_pixels: int
     n_bands: int
@@ -173,13 +187,17 @@ class TileReduction:
 
     def start(self) -> dict:
         return {"spec": np.zeros(self.n_pixels * self.n_bands), "xyz1": np.zeros((self.n_pixels, 3)),
-                "xyz2": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
+                "xyz2": np.zeros((self.n_pixels, 3)), "xyz": np.zeros((self.n_pixels, 3)),
+                "stderr": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
                 "region_y": np.zeros((self.passes, len(REGIONS)))}
 
     def add(self, acc: dict, index: int, result: TileResult) -> dict:
         acc["spec"][result.first * self.n_bands:result.end * self.n_bands] = result.spec_sum
         acc["xyz1"][result.first:result.end] = result.xyz1
         acc["xyz2"][result.first:result.end] = result.xyz2
+        acc["xyz"][result.first:result.end] = result.xyz1 / max(self.passes * self.spp_per_pass, 1)
+        acc["stderr"][result.first:result.end] = moments_stderr(result.xyz1, result.xyz2, self.passes,
+                                                                self.spp_per_pass)
         acc["pass_hits"] += result.pass_hits
         acc["region_y"] += result.region_y
         return acc
@@ -191,7 +209,8 @@ class TileReduction:
         ps.hits = sum(ps.pass_hits)
         counts = np.array([(r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in region_slices(self.shape)], dtype=np.float64)
         ps.region_means = (acc["region_y"] / (counts * self.spp_per_pass)).tolist()
-        return RenderSums.of(ps)
+        return RenderSums(ps.spec, acc["xyz"].reshape(self.shape + (3,)), acc["stderr"].reshape(self.shape + (3,)),
+                          ps.passes, ps.samples_per_pixel, ps.hits, ps)
 
 
 def render_tiles_job(setup: RenderSetup, passes: int, tiles: int):

@@ -26,7 +26,7 @@ from .plan import Plan
 from ..colour import cie_xyz_cmfs
 
 __all__ = ["RenderSetup", "Prepared", "PassResult", "PassSum", "pass_seed", "prepare_setup", "render_pass",
-           "run_pass_item", "device_pass", "sensor_frame", "REGIONS"]
+           "run_pass_item", "device_pass", "sensor_frame", "moments_stderr", "REGIONS"]
 
 #: image regions whose mean Y (and its standard error) every render reports: (name, row0, row1, col0, col1)
 #: as fractions of the image (the whole image first); the corners are 10 % x 10 % boxes
@@ -261,13 +261,19 @@ class PassSum:
 
     def xyz_stderr(self) -> np.ndarray:
         """Per-pixel standard error of :meth:`xyz_mean` by batch means over passes (inf with one pass)."""
-        p = self.passes
-        if p < 2:
-            return np.full(self.shape + (3,), np.inf)
-        m = self.spp_per_pass
-        mean = self.xyz1 / p
-        var = np.maximum(self.xyz2 - p * mean * mean, 0.0) / (p - 1)
-        return (np.sqrt(var / p) / m).reshape(self.shape + (3,))
+        return moments_stderr(self.xyz1, self.xyz2, self.passes, self.spp_per_pass).reshape(self.shape + (3,))
+
+
+def moments_stderr(xyz1: np.ndarray, xyz2: np.ndarray, passes: int, spp_per_pass: int) -> np.ndarray:
+    """Standard error of the mean per path from the sums over ``passes`` passes of the per-pass values
+    (``xyz1``) and of their squares (``xyz2``), by batch means (inf with one pass). Element by element,
+    so any split of the pixels gives the same bits."""
+    p = int(passes)
+    if p < 2:
+        return np.full(np.shape(xyz1), np.inf)
+    mean = xyz1 / p
+    var = np.maximum(xyz2 - p * mean * mean, 0.0) / (p - 1)
+    return np.sqrt(var / p) / spp_per_pass
 
 
 def region_slices(shape: tuple[int, int]) -> list[tuple[int, int, int, int]]:

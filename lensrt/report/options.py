@@ -104,6 +104,12 @@ class ReportOptions:
         Seed of every Monte Carlo estimate.
     command_line : str
         How the report was asked for (shown on the page).
+    ray_fraction : float
+        Every Monte Carlo ray count of the preset (``compare_rays``, ``spot_rays``, ``psf_rays``,
+        ``mtf_rays``, ``bokeh_rays``) times this fraction, in (0, 1]; grids, fields, pixels and methods
+        stay the preset's. The report makes the same kernel launches at any fraction (the launch
+        budget test, tests/report/test_launch_budget.py, runs the normal report this way on a CPU and
+        checks it), with larger standard errors.
     """
 
     quality: str = "normal"
@@ -117,6 +123,7 @@ class ReportOptions:
     precision: str = "float32"
     seed: int = 0
     command_line: str = ""
+    ray_fraction: float = 1.0
 
     def __post_init__(self) -> None:
         from ..paraxial.photographic import sensor_format
@@ -134,12 +141,20 @@ class ReportOptions:
             raise LensrtError(f"--pixel-pitch-um {self.pixel_pitch_um:g} must be positive")
         if self.time_budget_s is not None and not (math.isfinite(self.time_budget_s) and self.time_budget_s > 0):
             raise LensrtError(f"--time-budget {self.time_budget_s:g} must be a positive number of seconds")
+        if not (isinstance(self.ray_fraction, (int, float)) and 0.0 < self.ray_fraction <= 1.0):
+            raise LensrtError(f"ray fraction {self.ray_fraction!r} must be in (0, 1]",
+                              hint="e.g. 0.01 for a hundredth of the preset's rays")
         if self.precision not in ("float32", "float64"):
             raise LensrtError(f"unknown precision {self.precision!r}", hint="use float32 or float64")
 
     @property
     def preset(self) -> Quality:
-        return QUALITIES[self.quality]
+        """The quality preset, its ray counts times ``ray_fraction`` (at least 64 rays each)."""
+        q = QUALITIES[self.quality]
+        if self.ray_fraction == 1.0:
+            return q
+        counts = ("compare_rays", "spot_rays", "psf_rays", "mtf_rays", "bokeh_rays")
+        return replace(q, **{k: max(64, int(getattr(q, k) * self.ray_fraction)) for k in counts})
 
     def with_(self, **changes: Any) -> "ReportOptions":
         return replace(self, **changes)

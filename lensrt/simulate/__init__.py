@@ -5,9 +5,10 @@ the analysis stage's real-ray tools (chief-ray placement, pupil boxes, the strea
 and ISP stages and :mod:`lensrt.io`; only the CLI imports it. See docs/guide/simulate.md.
 
 Files: ``inputs.py`` (image and depth readers), ``spectral.py`` (RGB -> bands), ``optics.py`` (camera,
-real mapping, relative illumination), ``psf_grid.py`` (PSF nodes, cached), ``convolve.py`` (FFT tiles on
-the host), ``compose.py`` (layers, fill, warp, compositing), ``device.py`` (the same blur with Warp kernels
-and tile FFTs on a device), ``pipeline.py`` (``simulate``), ``outputs.py`` (files, sensor and ISP). In
+real mapping, relative illumination), ``psf_grid.py`` (PSF nodes, cached), ``convolve.py`` (FFTs cell by
+cell on the host), ``compose.py`` (layers, fill, warp, compositing), ``banding.py`` (the host blur in bands
+of rows within a memory budget), ``device.py`` (the same blur with Warp kernels and tile FFTs on a device),
+``pipeline.py`` (``simulate``), ``outputs.py`` (files, sensor and ISP). In
 Python::
 
     from lensrt import load_lens

@@ -3,23 +3,27 @@
 The same operator as the host path (:mod:`.convolve`, :mod:`.compose`), step for
 step, with every full-size array on the device: per layer, a warp kernel (the
 real chief-ray mapping through the layer's radial tables, bilinear colour,
-nearest mask, relative illumination) writes the layer's channels; per node tile
-that the layer needs (:func:`lensrt.simulate.convolve.tile_plan`), the tent-
-weighted channels are packed two real signals to one complex one -- (r a, g a),
-(b a, a) and per band (Y_b^2 a, w), w the tent weight, whose blur is the
-full-layer response -- zero-padded to powers of two, transformed by row FFTs
-(``wp.tile_fft``, one row per block), a transpose and row FFTs again, multiplied
-by the band's PSF spectrum, transformed back the same way, and added into the
-layer's box; a compositing kernel applies "over"; a last kernel divides by the
-coverage and forms the coefficients and linear sRGB. Only the picture, the layer
-index and the tables go up, only the results come down.
+nearest mask, relative illumination) writes the layer's channels; the PSF
+spectra of the nodes the layer needs are transformed once (one batch); per cell
+that the layer needs (:func:`lensrt.simulate.convolve.tile_plan`), the cell's
+channels are packed two real signals to one complex one -- (r a, g a), (b a, a)
+and per band (Y_b^2 a, 1), whose blur is the full-layer response -- weighted by
+each corner column's tent and transformed along their rows (``wp.tile_fft``, one
+row per block, zero-padded to powers of two); one kernel transposes them into
+the four corners' slabs, scaled by each corner row's tent (the tents are
+separable); row FFTs again; a kernel multiplies each corner's spectrum by its
+node's PSF spectrum and sums the four (the frequency-domain blend); one inverse
+transform per cell, added into the layer's box. A compositing kernel applies
+"over"; a last kernel divides by the coverage and forms the coefficients and
+linear sRGB. Only the picture, the layer index and the tables go up, only the
+results come down.
 
 Since a real kernel's convolution is linear, the blur of x1 + i x2 is
 h * x1 + i h * x2: one complex FFT carries two real channels.
 
 Single precision (the host path's FFTs are single precision too); results agree
 with the host path to about 1e-5 of the signal (tests/simulate/test_device.py).
-Tile FFT sizes are powers of two up to :data:`MAX_FFT`; a larger tile is one
+Cell FFT sizes are powers of two up to :data:`MAX_FFT`; a larger cell is one
 clear error (use a finer PSF grid).
 """
 from __future__ import annotations
@@ -29,7 +33,7 @@ import warp as wp
 
 from ..errors import LensrtError
 from .compose import radial_tables
-from .convolve import tile_plan, tile_window
+from .convolve import cell_edges, meet_box, plan_from_cells
 
 __all__ = ["simulate_on_device", "fft_rows", "MAX_FFT"]
 
@@ -41,7 +45,7 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.kernel
-def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.int32), inside: int, has_index: int,
+def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.uint8), inside: int, has_index: int,
                 scale_tab: wp.array(dtype=wp.float64), ri_tab: wp.array(dtype=wp.float64), step: float,
                 pitch: float, gain: float, yw: wp.array2d(dtype=wp.float32), shared: wp.array3d(dtype=wp.float32),
                 own: wp.array3d(dtype=wp.float32), outside: wp.array(dtype=wp.int32)):
@@ -67,7 +71,7 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
     if has_index != 0:
         rn = wp.clamp(int(wp.floor(rr + half)), 0, rows - 1)
         cn = wp.clamp(int(wp.floor(ci + half)), 0, cols - 1)
-        if index[rn, cn] != inside:
+        if int(index[rn, cn]) != inside:
             alpha = float(0.0)
     # bilinear, edge pixels repeated beyond the frame (scipy's map_coordinates, order 1, mode "nearest")
     y = wp.clamp(rr, wp.float64(0.0), wp.float64(rows - 1))
@@ -90,28 +94,60 @@ def _warp_layer(image: wp.array3d(dtype=wp.float32), index: wp.array2d(dtype=wp.
 
 
 @wp.kernel
-def _pack(shared: wp.array3d(dtype=wp.float32), own: wp.array3d(dtype=wp.float32), wr: wp.array(dtype=wp.float32),
-          wc: wp.array(dtype=wp.float32), psf: wp.array3d(dtype=wp.float32), r0: int, c0: int, h: int, w: int,
-          p: int, buf: wp.array2d(dtype=wp.vec2f)):
-    """Slabs of the padded tile (p rows of the buffer each): (r a, g a) w, (b a, a) w, per band (Y_b^2 a, 1) w,
-    then per band its PSF (real)."""
-    s, y, x = wp.tid()
+def _cell_flags(shared: wp.array3d(dtype=wp.float32), row_cell: wp.array(dtype=wp.int32),
+                col_edges: wp.array(dtype=wp.int32), flags: wp.array2d(dtype=wp.int32)):
+    """flags[cell] = 1 where the layer's alpha (``shared[3]``) is non-zero somewhere in the cell: one thread
+    per picture row and cell column (``row_cell``: each row's cell row)."""
+    r, cj = wp.tid()
+    for c in range(col_edges[cj], col_edges[cj + 1]):
+        if shared[3, r, c] > 0.0:
+            flags[row_cell[r], cj] = 1
+            break
+
+
+@wp.kernel
+def _pack_psfs(psf: wp.array3d(dtype=wp.float32), p: int, buf: wp.array2d(dtype=wp.vec2f)):
+    """Slab k (p rows of the buffer): the k-th PSF (real), zero-padded."""
+    k, y, x = wp.tid()
+    n = psf.shape[1]
+    val = wp.vec2f(0.0, 0.0)
+    if y < n and x < n:
+        val = wp.vec2f(psf[k, y, x], 0.0)
+    buf[k * p + y, x] = val
+
+
+@wp.kernel
+def _pack_cell(shared: wp.array3d(dtype=wp.float32), own: wp.array3d(dtype=wp.float32),
+               wc: wp.array2d(dtype=wp.float32), j0: int, r0: int, c0: int, w: int, h: int,
+               buf: wp.array2d(dtype=wp.vec2f)):
+    """Per corner column jj (nodes j0, j0 + 1) and slab s, the cell's h rows weighted by that node's column
+    tent: (r a, g a), (b a, a), per band (Y_b^2 a, 1) -- the last one's blur is the full-layer response."""
+    jj, s, y, x = wp.tid()
     n_b = own.shape[0]
     val = wp.vec2f(0.0, 0.0)
-    if s < 2 + n_b:
-        if y < h and x < w:
-            wt = wr[r0 + y] * wc[c0 + x]
-            if s == 0:
-                val = wp.vec2f(shared[0, r0 + y, c0 + x], shared[1, r0 + y, c0 + x]) * wt
-            elif s == 1:
-                val = wp.vec2f(shared[2, r0 + y, c0 + x], shared[3, r0 + y, c0 + x]) * wt
-            else:
-                val = wp.vec2f(own[s - 2, r0 + y, c0 + x], 1.0) * wt
-    else:
-        n = psf.shape[1]
-        if y < n and x < n:
-            val = wp.vec2f(psf[s - 2 - n_b, y, x], 0.0)
-    buf[s * p + y, x] = val
+    if x < w:
+        wt = wc[j0 + jj, c0 + x]
+        if s == 0:
+            val = wp.vec2f(shared[0, r0 + y, c0 + x], shared[1, r0 + y, c0 + x]) * wt
+        elif s == 1:
+            val = wp.vec2f(shared[2, r0 + y, c0 + x], shared[3, r0 + y, c0 + x]) * wt
+        else:
+            val = wp.vec2f(own[s - 2, r0 + y, c0 + x], 1.0) * wt
+    buf[((jj * (2 + n_b)) + s) * h + y, x] = val
+
+
+@wp.kernel
+def _spread_corners(src: wp.array2d(dtype=wp.vec2f), wr: wp.array2d(dtype=wp.float32), i0: int, r0: int, h: int,
+                    slabs: int, p: int, q: int, dst: wp.array2d(dtype=wp.vec2f)):
+    """Transpose the row-transformed slabs (h, q) of corner column jj into the four corners' slabs (q, p), each
+    scaled by its node row's tent and zero-padded to p: corner c = 2 ii + jj."""
+    c, s, x, y = wp.tid()
+    ii = c // 2
+    jj = c - 2 * ii
+    val = wp.vec2f(0.0, 0.0)
+    if y < h:
+        val = src[(jj * slabs + s) * h + y, x] * wr[i0 + ii, r0 + y]
+    dst[(c * slabs + s) * q + x, y] = val
 
 
 @wp.kernel
@@ -122,17 +158,25 @@ def _transpose(src: wp.array2d(dtype=wp.vec2f), p: int, q: int, dst: wp.array2d(
 
 
 @wp.kernel
-def _multiply(spec: wp.array2d(dtype=wp.vec2f), n_b: int, rows: int, out: wp.array2d(dtype=wp.vec2f)):
-    """Per band b: slabs 0 and 1 and b's own slab times b's PSF spectrum -> out slabs 3b .. 3b + 2."""
+def _multiply_corners(spec: wp.array2d(dtype=wp.vec2f), nodes: wp.array2d(dtype=wp.vec2f),
+                      slot: wp.array(dtype=wp.int32), n_b: int, rows: int, out: wp.array2d(dtype=wp.vec2f)):
+    """Per band b: slabs 0 and 1 and b's own slab of each corner times that corner node's PSF spectrum for b,
+    summed over the four corners -> out slabs 3b .. 3b + 2 (the frequency-domain blend of the cell)."""
     s, y, x = wp.tid()
     b = s // 3
     j = s - 3 * b
     src = j
     if j == 2:
         src = 2 + b
-    a = spec[src * rows + y, x]
-    k = spec[(2 + n_b + b) * rows + y, x]
-    out[s * rows + y, x] = wp.vec2f(a[0] * k[0] - a[1] * k[1], a[0] * k[1] + a[1] * k[0])
+    slabs = 2 + n_b
+    re = float(0.0)
+    im = float(0.0)
+    for c in range(4):
+        a = spec[(c * slabs + src) * rows + y, x]
+        k = nodes[(slot[c] * n_b + b) * rows + y, x]
+        re += a[0] * k[0] - a[1] * k[1]
+        im += a[0] * k[1] + a[1] * k[0]
+    out[s * rows + y, x] = wp.vec2f(re, im)
 
 
 @wp.kernel
@@ -260,32 +304,62 @@ def _block(n: int) -> int:
     return max(1, n // _ELEMENTS_PER_THREAD)
 
 
-def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, rows, cols, device):
-    """(blurred (K, 5, bh, bw), ones (K, bh, bw)) of one layer over ``plan.box`` (device arrays)."""
+def _node_spectra(psf: np.ndarray, nodes: list[tuple[int, int]], p: int, q: int, device):
+    """The PSF spectra (transposed: slab ``slot * K + b`` holds q rows of p) of ``nodes`` [(i, j), ...], every
+    band, zero-padded to p x q: one batch of launches per layer."""
     n_b, n = psf.shape[0], psf.shape[-1]
+    ii, jj = np.array([i for i, _ in nodes]), np.array([j for _, j in nodes])
+    host = np.ascontiguousarray(psf[:, ii, jj].transpose(1, 0, 2, 3).reshape(-1, n, n), dtype=np.float32)
+    slabs = host.shape[0]
+    buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
+    spec = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
+    wp.launch(_pack_psfs, dim=(slabs, p, q), inputs=[wp.array(host, dtype=wp.float32, device=device), p, buf],
+              device=device)
+    _fft2(buf, spec, slabs, p, q, False, device)
+    return spec
+
+
+def _blur_layer(shared, own, psf: np.ndarray, plan, wr, wc, device):
+    """(blurred (K, 5, bh, bw), ones (K, bh, bw)) of one layer over ``plan.box`` (device arrays), cell by cell:
+    the four corners' tent-weighted, transformed channels times their nodes' PSF spectra, summed, and one
+    inverse transform per cell (the host path's scheme, :func:`lensrt.simulate.convolve.convolve_layer`)."""
+    n_b, n = psf.shape[0], psf.shape[-1]
+    er, ec = plan.row_edges, plan.col_edges
     r0b, r1b, c0b, c1b = plan.box
     blurred = wp.zeros((n_b, 5, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
     ones = wp.zeros((n_b, r1b - r0b, c1b - c0b), dtype=wp.float32, device=device)
-    for i, j in zip(*np.nonzero(plan.needed)):
-        (r0, r1, c0, c1), where = tile_window(int(i), int(j), rows, cols, n, plan.box)
-        if where is None:
-            continue
-        (sr, sc), (dr, dc) = where
+    h_max, w_max = int(np.diff(er).max()), int(np.diff(ec).max())
+    p, q = _pow2(h_max + n - 1), _pow2(w_max + n - 1)
+    if max(p, q) > MAX_FFT:
+        raise LensrtError(f"a PSF cell needs a {p} x {q} FFT, more than {MAX_FFT} a side on the device",
+                          hint="use a finer --grid (more PSF nodes) for this picture size")
+    cells = []
+    for ci, cj in zip(*np.nonzero(plan.cells_needed)):
+        r0, r1, c0, c1 = int(er[ci]), int(er[ci + 1]), int(ec[cj]), int(ec[cj + 1])
+        where = meet_box(r0, r1, c0, c1, n, plan.box)
+        if where is not None:
+            cells.append((int(ci), int(cj), (r0, r1, c0, c1), where))
+    if not cells:
+        return blurred, ones
+    nodes = sorted({(ci + a, cj + b) for ci, cj, _, _ in cells for a in (0, 1) for b in (0, 1)})
+    slot_of = {node: k for k, node in enumerate(nodes)}
+    slots = wp.array(np.array([slot_of[(ci + a, cj + b)] for ci, cj, _, _ in cells for a in (0, 1) for b in (0, 1)],
+                              dtype=np.int32), dtype=wp.int32, device=device)
+    node_spec = _node_spectra(psf, nodes, p, q, device)
+    slabs = 2 + n_b
+    first = wp.empty((2 * slabs * h_max, q), dtype=wp.vec2f, device=device)
+    spread = wp.empty((4 * slabs * q, p), dtype=wp.vec2f, device=device)
+    prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
+    back = wp.empty((3 * n_b * p, q), dtype=wp.vec2f, device=device)
+    for k, (ci, cj, (r0, r1, c0, c1), ((sr, sc), (dr, dc))) in enumerate(cells):
         h, w = r1 - r0, c1 - c0
-        p, q = _pow2(h + n - 1), _pow2(w + n - 1)
-        if max(p, q) > MAX_FFT:
-            raise LensrtError(f"a PSF tile needs a {p} x {q} FFT, more than {MAX_FFT} a side on the device",
-                              hint="use a finer --grid (more PSF nodes) for this picture size")
-        slabs = 2 + 2 * n_b
-        buf = wp.empty((slabs * p, q), dtype=wp.vec2f, device=device)
-        tmp = wp.empty((slabs * q, p), dtype=wp.vec2f, device=device)
-        k_psf = wp.array(np.ascontiguousarray(psf[:, i, j]), dtype=wp.float32, device=device)
-        wp.launch(_pack, dim=(slabs, p, q), inputs=[shared, own, wr[int(i)], wc[int(j)], k_psf, r0, c0, h, w, p, buf],
+        wp.launch(_pack_cell, dim=(2, slabs, h, q), inputs=[shared, own, wc, cj, r0, c0, w, h, first], device=device)
+        _rows_fft(first, 2 * slabs * h, q, False, device)
+        wp.launch(_spread_corners, dim=(4, slabs, q, p), inputs=[first, wr, ci, r0, h, slabs, p, q, spread],
                   device=device)
-        _fft2(buf, tmp, slabs, p, q, False, device)
-        prod = wp.empty((3 * n_b * q, p), dtype=wp.vec2f, device=device)
-        wp.launch(_multiply, dim=(3 * n_b, q, p), inputs=[tmp, n_b, q, prod], device=device)
-        back = wp.empty((3 * n_b * p, q), dtype=wp.vec2f, device=device)
+        _rows_fft(spread, 4 * slabs * q, p, False, device)
+        wp.launch(_multiply_corners, dim=(3 * n_b, q, p), inputs=[spread, node_spec, slots[4 * k:4 * k + 4], n_b, q,
+                                                                  prod], device=device)
         _fft2(back, prod, 3 * n_b, p, q, True, device)
         wp.launch(_accumulate, dim=(n_b, dr.stop - dr.start, dc.stop - dc.start),
                   inputs=[back, p, 1.0 / (p * q), sr.start, sc.start, dr.start, dc.start, blurred, ones],
@@ -311,27 +385,33 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
     var = wp.zeros((n_b, rows, cols), dtype=wp.float32, device=dev)
     shared = wp.empty((4, rows, cols), dtype=wp.float32, device=dev)
     own = wp.empty((n_b, rows, cols), dtype=wp.float32, device=dev)
-    outside = wp.zeros(1, dtype=wp.int32, device=dev)
+    outside = wp.zeros(len(optics), dtype=wp.int32, device=dev)  # per layer; read once at the end
     wr = wp.array(wr_h.astype(np.float32), dtype=wp.float32, device=dev)
     wc = wp.array(wc_h.astype(np.float32), dtype=wp.float32, device=dev)
-    worst = 0
+    er, ec = cell_edges(grid.node_rows, rows), cell_edges(grid.node_cols, cols)
+    row_cell = wp.array(np.repeat(np.arange(len(er) - 1), np.diff(er)).astype(np.int32), dtype=wp.int32, device=dev)
+    ec_dev = wp.array(ec.astype(np.int32), dtype=wp.int32, device=dev)
+    flags = wp.zeros((len(er) - 1, len(ec) - 1), dtype=wp.int32, device=dev)
     for li, (opt, (image, mask)) in enumerate(zip(optics, layers)):
         step, scale_tab, ri_tab = radial_tables(cam, opt)
-        outside.zero_()
         img = wp.array(np.ascontiguousarray(image, dtype=np.float32), dtype=wp.float32, device=dev)
-        index = wp.array(mask.astype(np.int32) if mask is not None else np.zeros((1, 1), np.int32), dtype=wp.int32,
+        index = wp.array(mask.astype(np.uint8) if mask is not None else np.zeros((1, 1), np.uint8), dtype=wp.uint8,
                          device=dev)
         wp.launch(_warp_layer, dim=(rows, cols), device=dev,
                   inputs=[img, index, 1, int(mask is not None), wp.array(scale_tab, dtype=wp.float64, device=dev),
                           wp.array(ri_tab, dtype=wp.float64, device=dev), step, cam.pitch_mm, float(gains[li]), yw,
-                          shared, own, outside])
-        worst = max(worst, int(outside.numpy()[0]))
+                          shared, own, outside[li:li + 1]])
         psf = grid.psf[li]
-        alpha = shared[3].numpy() if mask is not None else np.ones((rows, cols), np.float32)
-        plan = tile_plan(alpha, grid.node_rows, grid.node_cols, psf.shape[-1] // 2)
-        if not plan.active.any():
+        # which cells the layer shows in, found on the device (only the small flag array comes down)
+        flags.zero_()
+        if mask is None:
+            flags.fill_(1)
+        else:
+            wp.launch(_cell_flags, dim=(rows, len(ec) - 1), inputs=[shared, row_cell, ec_dev, flags], device=dev)
+        plan = plan_from_cells(flags.numpy().astype(bool), er, ec, psf.shape[-1] // 2, (rows, cols))
+        if not plan.cells.any():
             continue
-        blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, grid.node_rows, grid.node_cols, dev)
+        blurred, ones = _blur_layer(shared, own, psf, plan, wr, wc, dev)
         r0b, r1b, c0b, c1b = plan.box
         wp.launch(_composite, dim=(n_b, r1b - r0b, c1b - c0b), device=dev,
                   inputs=[blurred, ones, r0b, c0b, yw, wp.array(np.asarray(rays[li], np.float32), dtype=wp.float32,
@@ -342,4 +422,5 @@ def simulate_on_device(layers, cam, optics: list, gains: list[float], grid, y_we
     wp.launch(_finish, dim=(rows, cols), device=dev,
               inputs=[col, acc, var, wp.array(np.asarray(to_rgb, np.float32), dtype=wp.float32, device=dev), coef,
                       rgb, var_y])
+    worst = int(outside.numpy().max()) if len(optics) else 0
     return coef.numpy(), rgb.numpy(), var_y.numpy(), worst / float(rows * cols)

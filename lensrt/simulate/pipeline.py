@@ -21,10 +21,11 @@ from typing import Any
 import numpy as np
 
 from ..colour.rgb import linear_srgb_to_xyz
+from ..core.budget import format_bytes
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .compose import (Compositor, LayerFill, assign_layers, blur_and_composite, geometry, layer_depths_mm,
-                      warp_layer)
+from .banding import blur_host, fixed_bytes, plan_row_bands
+from .compose import LayerFill, assign_layers, layer_depths_mm
 from .optics import Camera, LayerOptics, cached_layer_optics, far_depth_mm, make_camera, pinhole_focal_mm
 from .psf_grid import cache_dir
 from .psf_grid import PsfGrid, compute_psf_grid, hat_weights
@@ -64,6 +65,9 @@ class SimulateOptions:
     device: str | None = None
     #: where the blur runs: "auto" (Warp tile FFTs on a CUDA device, NumPy/SciPy on the CPU), "host", "warp"
     backend: str = "auto"
+    #: working-memory budget (bytes) of the host blur; a picture beyond it runs in bands of rows
+    #: (:mod:`.banding`). None: 60 % of the machine's memory (:func:`memory_limit_bytes`)
+    max_memory_bytes: int | None = None
 
 
 @dataclass
@@ -154,12 +158,14 @@ def simulate(image: np.ndarray, lens: Lens, depth_m: np.ndarray | None = None,
     t0 = time.perf_counter()
     _use_device(options)  # a device asked for and not there: one error before any work
     shape = image.shape[:2]
-    need = memory_bytes(shape, options.bands, options.layers if depth_m is not None else 1)
-    limit = memory_limit_bytes()
-    if need > limit:
-        raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {need / 2**30:.1f} GiB of working memory, "
-                          f"more than the {limit / 2**30:.1f} GiB allowed (60 % of this machine's)",
-                          hint="use a smaller image, fewer --bands or fewer --layers")
+    budget = _budget_bytes(options)
+    fixed = fixed_bytes(shape, options.bands)
+    if fixed > budget:  # the input and the outputs alone: no band can help
+        raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {format_bytes(fixed)} of working memory "
+                          f"for its input and outputs alone, more than the {format_bytes(budget)} allowed",
+                          hint="use a smaller image or fewer --bands, or give more memory (--max-memory)")
+    # bands of the thinnest kind, before any PSF is traced (the exact plan, with the PSFs' halo, comes later)
+    plan_row_bands(shape, options.bands, 0, shape[1] // max(options.grid[1] - 1, 1) + 1, 1, budget)
     if depth_m is not None and depth_m.shape != shape:
         raise LensrtError(f"the depth map is {depth_m.shape[1]} x {depth_m.shape[0]}, the image {shape[1]} x {shape[0]}")
     bands = make_bands(options.bands)
@@ -197,25 +203,34 @@ def _blur(image: np.ndarray, cam: Camera, optics: list[LayerOptics], idx: np.nda
     gains = [opt.axis_gain_sr / ref for opt in optics]
     to_rgb = _rgb_matrix(bands)
     if _use_device(options):
+        need, budget = memory_bytes(shape, bands.count, len(optics)), _budget_bytes(options)
+        if need > budget:
+            raise LensrtError(f"a {shape[1]} x {shape[0]} image needs about {format_bytes(need)} of working memory "
+                              f"on the device path, more than the {format_bytes(budget)} allowed (it blurs whole "
+                              f"pictures)", hint="use --device cpu (it blurs in bands of rows), or --max-memory")
         from .device import FFT_STATE, simulate_on_device
         coef, rgb, var_y, outside = simulate_on_device(_layer_inputs(image, idx, grid), cam, optics, gains, grid, yw,
                                                        rays, to_rgb, options.device or "cpu")
         note = f"; {FFT_STATE['note']}" if FFT_STATE["note"] else ""
         return coef, rgb, var_y, outside, f"{options.device or 'cpu'} (Warp tile FFTs{note})"
-    wr, wc = hat_weights(grid.node_rows, shape[0]), hat_weights(grid.node_cols, shape[1])
-    geo = geometry(cam)
-    comp = Compositor(bands.count, shape, yw)
-    outside = 0.0
-    for li, (opt, (layer_img, mask)) in enumerate(zip(optics, _layer_inputs(image, idx, grid))):
-        sharp, alpha, out = warp_layer(cam, geo, opt, layer_img, mask, gains[li])
-        outside = max(outside, out)
-        blur_and_composite(comp, sharp, alpha, grid.psf[li], rays[li], wr, wc, grid.node_rows, grid.node_cols)
-        del sharp, alpha
-    coef, var_y = comp.result()
-    n_b, _, rows, cols = coef.shape
-    rgb = (to_rgb.reshape(3, -1).astype(np.float32) @ coef.reshape(3 * n_b, -1)).reshape(3, rows, cols)
-    return (np.ascontiguousarray(coef.transpose(0, 2, 3, 1)), np.ascontiguousarray(rgb.transpose(1, 2, 0)), var_y,
-            outside, "host (NumPy/SciPy FFTs)")
+    n_px = max(p.shape[-1] for p in grid.psf)
+    cell_cols = int(np.diff(grid.node_cols).max()) + 1
+    row_bands = plan_row_bands(shape, bands.count, n_px // 2, cell_cols, n_px, _budget_bytes(options))
+    coef, rgb, var_y, outside = blur_host(cam, optics, lambda: _layer_inputs(image, idx, grid), grid, yw, rays,
+                                          gains, to_rgb, row_bands)
+    where = "host (NumPy/SciPy FFTs)"
+    if len(row_bands) > 1:
+        where += f" in {len(row_bands)} bands of up to {max(b - a for a, b in row_bands)} rows (memory budget)"
+    return coef, rgb, var_y, outside, where
+
+
+def _budget_bytes(options: SimulateOptions) -> int:
+    """The working-memory budget (bytes): ``options.max_memory_bytes``, else :func:`memory_limit_bytes`."""
+    if options.max_memory_bytes is None:
+        return memory_limit_bytes()
+    if not options.max_memory_bytes > 0:
+        raise LensrtError(f"memory budget {options.max_memory_bytes!r} bytes: give a positive size")
+    return int(options.max_memory_bytes)
 
 
 def _layer_inputs(image: np.ndarray, idx: np.ndarray | None, grid: PsfGrid):

@@ -72,7 +72,8 @@ APERTURE_SHAPE_CODES = {"circle": 1, "annulus": 2, "rectangle": 3, "ellipse": 4}
 #: extra columns from S_X = SURF_COLS -- normalisation radius, number of terms, x curvature, 1 + x conic, the
 #: terms (Q^bfs in the P basis, xy and Zernike as monomials in (x, y) / R_n) -- present only when the lens has
 #: such a surface (the row is then wider)
-SHAPE_KIND_CODES = {"odd": 3, "qbfs": 4, "qcon": 5, "biconic": 6, "toroidal": 7, "xy": 8, "zernike": 8}
+SHAPE_KIND_CODES = {"odd": 3, "qbfs": 4, "qcon": 5, "biconic": 6, "toroidal": 7, "xy": 8, "zernike": 8,
+                    "zernike_fringe": 8}
 S_X = SURF_COLS
 X_RN, X_NT, X_CX, X_KXP1, X_TERMS = range(5)
 MEDIUM_CONSTANT, MEDIUM_FORMULA = 0.0, 1.0

@@ -69,3 +69,16 @@ def freeform() -> Lens:
         Surface(-1 / 25.0, 20.0, semi_diameter_mm=5.0, asphere=(0.0, -2e-5),
                 shape=SurfaceShape("zernike", zern, 5.0)),
     ], 8.0)
+
+
+def fringe() -> Lens:
+    """A Zernike fringe sag front (OpticStudio's FZERNSAG: tilt, defocus, astigmatism, coma, spherical, trefoil and
+    the 12th-order spherical term F_37) over a conic and an even term, and a fringe rear with a few terms."""
+    front = (0.0, 2e-3, -1e-3, 0.02, 0.01, -0.008, 0.004, 0.003, 0.006, -0.002, 0.001, 0.0, 0.0, 0.0, 0.0, 0.002) + \
+        (0.0,) * 20 + (5e-4,)
+    return _lens([
+        Surface(1 / 15.0, 3.0, GLASS, 5.0, conic=-0.4, asphere=(0.0, 1e-5), is_stop=True,
+                shape=SurfaceShape("zernike_fringe", front, 5.0)),
+        Surface(-1 / 25.0, 20.0, semi_diameter_mm=5.0, shape=SurfaceShape("zernike_fringe", (0.0, 0.0, 0.0, -0.01,
+                                                                                           0.0, 0.004), 5.5)),
+    ], 8.0)

@@ -80,6 +80,29 @@ def test_codev_zoom_as_codev_saves_it() -> None:
     with pytest.raises(PrescriptionError, match="TIT Z5: position 5 is not one of the 3"):
         loads_seq(text.replace("TIT Z3", "TIT Z5"), "bad.seq")
 
+def test_codev_zoomed_decenter_is_the_sequence_with_that_decenter() -> None:
+    """``ZOO YDE S3 0 0.5 -0.5`` (with its code row ``ZOO YDC``): position k is the plain sequence whose surface 3
+    carries ``YDE`` of position k (a basic decenter); ``ZOO VUY F2`` that repeats the sequence's VUY is read, one
+    that changes it is refused (lensrt keeps one vignetting factor per field)."""
+    rows = "ZOO YDE S3 0 0.5 -0.5\nZOO YDC S3 100 100 100\nZOO VUY F2 0.2 0.2 0.2\nZOO VLY F3 0.4 0.4 0.4"
+    fam = loads_seq(_seq(rows), "zoom.seq")
+    assert fam.configuration(1).surfaces == loads_seq(SEQ.read_text()).configuration(1).surfaces
+    for k, dy in ((2, "0.5"), (3, "-0.5")):
+        plain = loads_seq(_position_seq(SEQ.read_text(), {}).replace("S     0.02653743294670983 12.5 NSK2_SCHOTT",
+                                                                      "S     0.02653743294670983 12.5 NSK2_SCHOTT\n"
+                                                                      f"  YDE {dy}"))
+        other = read_configurations(SEQ).configuration(k)  # the thicknesses of position k, no decenter
+        want = [a if i != 2 else b for i, (a, b) in enumerate(zip(other.surfaces, plain.surfaces))]
+        assert list(fam.configuration(k).surfaces) == want
+        assert fam.configuration(k).surfaces[2].transform_before.decenter_y_mm == float(dy)
+    with pytest.raises(PrescriptionError, match="ZOO VUY F2: a vignetting factor that changes"):
+        loads_seq(_seq("ZOO VUY F2 0.2 0.3 0.2"), "bad.seq")
+    with pytest.raises(PrescriptionError, match="ZOO YDE S3: the surface's decenter is DAR"):
+        loads_seq(_seq("ZOO YDE S3 0 0.5 -0.5").replace("S     0.02653743294670983 12.5 NSK2_SCHOTT",
+                                                         "S     0.02653743294670983 12.5 NSK2_SCHOTT\n  DAR"),
+                  "bad.seq")
+
+
 def _position_seq(text: str, values: dict[str, str]) -> str:
     """The zoom sequence as a plain sequence of one position (ZOO/POS lines dropped)."""
     out = [ln for ln in text.splitlines() if not ln.strip().startswith(("ZOO", "POS", "!"))]

@@ -32,7 +32,9 @@ REFUSAL_RULES: dict[str, str] = {
     "FLOA without a stop size or other aperture": r"FLOA: the aperture floats on the stop's semi-diameter",
     "several configurations (MNUM > 1: zooms)": r"MNUM \d+: multi-configuration files are not supported",
     "non-sequential or mixed mode (MODE NSC)": r"MODE \w+: only sequential \(MODE SEQ\) files are supported",
-    "surfaces that cross inside their clear apertures (not a physical lens)": r"surfaces \d+ and \d+ cross",
+    "surfaces that cross inside their clear apertures (not a physical lens)":
+        r"surfaces \d+ and \d+ (\(a glass element\) )?cross",
+    "wavelength outside lensrt's 200..20000 nm": r"wavelengths \(.*\) nm are outside 200\.\.20000 nm",
 }
 
 #: files whose outcome is a known gap: file -> (kind, reason); xfail(strict=True) in the matching test

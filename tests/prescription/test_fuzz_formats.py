@@ -39,7 +39,10 @@ SOURCES = [ROOT / "data" / "cooke_triplet.zmx", ROOT / "data" / "ag_dblgauss.seq
            ROOT / "data" / "cooke_triplet_mce.zmx", ROOT / "data" / "ag_dblgauss_zoom.seq",
            ROOT.parent / "lens_prescriptions" / "fujinon_xf_90mm_f2_inner_focus.toml",
            # CODE V special surfaces (issue 22): SPS ODD / XYP / QBF with SCO and SCC
-           ROOT / "data" / "special_surfaces.seq"]
+           ROOT / "data" / "special_surfaces.seq",
+           # the long tail (issue 25): FZERNSAG, SCBD on a lens surface, a dummy inside a mirror's sag, a glass
+           # name marked uncertain (SF12?); ZOO YDE/YDC and ZOO VUY/VLY
+           ROOT / "data" / "fringe_telescope.zmx", ROOT / "data" / "zoom_decenter.seq"]
 VARIANTS_PER_FILE = 60
 SEED = 20260521
 TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "-37.5", "3", "x", "", "STOP", "[[",
@@ -48,7 +51,8 @@ TOKENS = ["0", "-1", "1e308", "-1e308", "nan", "inf", "-inf", "1e-320", "0.5", "
           "MIRROR", "REFL", "DAR", "BEN", "REV", "OBS", "COORDBRK", "90", "-45", "CUF", "PIM", "UMY", "HMY",
           "UCY", "SCBD", "517000.520000", "PARAXIAL",
           "ODDASPHE", "QED_TYPE", "XASPHERE", "XOSPHERE", "BICONICX", "TOROIDAL", "XPOLYNOM", "SZERNSAG", "XDAT",
-          "PARM", "67", "2", "MNUM", "THIC", "ZOO", "POS", "TIT", "[[configuration]]", "thickness_mm", "floating"]
+          "PARM", "67", "2", "MNUM", "THIC", "ZOO", "POS", "TIT", "[[configuration]]", "thickness_mm", "floating",
+          "FZERNSAG", "SF12?", "YDE", "YDC", "VUY", "37", "38"]
 
 
 def _mutate(lines: list[str], rng: np.random.Generator) -> tuple[list[str], str]:

@@ -82,6 +82,7 @@ def test_four_pole_page_folded_exactly_enough() -> None:
     ("S-LAL7Q", ("SCHOTT", "OHARA"), 1.6516, 58.54, "S-LAL 7", "glass_variant"),     # US 2025/0155694
     ("LF5HT", ("SCHOTT", "HOYA"), 1.58148, 40.9, "LF5", "glass_variant"),           # Beam42 Noct-Nikkor 58 mm
     ("LZ_K8", ("LZOS", "HIKARI"), None, None, "K8", "glass_fitted"),                # ZemaxUtils (LZOS.AGF's prefix)
+    ("SF12?", ("SCHOTT", "HOYA", "HIKARI"), 1.64831, 33.77, "SF12", "glass_uncertain_name"),  # Beam42 Nikkor 50/1.8S
 ])
 def test_corpus_glass_names_resolve_with_a_warning(name, cats, nd, vd, found, code) -> None:
     mat, out = resolve_glass(GlassRequest(name, cats, nd, vd))
@@ -113,12 +114,24 @@ def test_variant_needs_the_line_to_confirm() -> None:
         resolve_glass(GlassRequest("S-LAL7Q", ("OHARA",), 1.70, 58.5))  # a line that names another glass
 
 
+def test_uncertain_name_needs_the_line_to_confirm() -> None:
+    """``SF12?`` (a transcriber's uncertain reading) is SF12 only where the line's n_d/V_d agree with it."""
+    with pytest.raises(UnknownGlassError, match="SF12\\?"):
+        resolve_glass(GlassRequest("SF12?", ("HIKARI",)))                 # no n_d/V_d on the line
+    with pytest.raises(UnknownGlassError, match="SF12\\?"):
+        resolve_glass(GlassRequest("SF12?", ("HIKARI",), 1.6600, 33.8))  # a line that names another glass
+    mat, _ = resolve_glass(GlassRequest("SF12?", ("HIKARI",), 1.6483, 33.8))
+    assert mat.name == "SF12"
+
+
 @pytest.mark.parametrize("name,cats,nd,vd", [("FDS30_hoya", None, None, None),       # opticspy microscope.seq
+                                              ("NBFD25", ("HOYA", "OHARA"), 1.85451, 25.15),  # Beam42 Sigma 50/35 mm
+                                              ("FD270", ("HOYA", "HIKARI"), 1.6843, 26.81),   # Beam42 Noct-Nikkor v8
                                               ("D-ZK3M", ("LIGHTPATH", "SCHOTT"), 1.601, 50.277746),  # 354710-C
                                               ("NBFD29", ("HOYA",), 1.77047, 29.74)])  # US 2025/0155694
 def test_glasses_in_no_catalog_are_one_clear_error(name, cats, nd, vd) -> None:
-    """Hoya FDS30 (obsolete after 1980), LightPath's moldable D-ZK3M and Hoya's NBFD29 are in none of the
-    catalogs lensrt has (opticalglass, the refractiveindex.info database, Robb 1983): an error that names the
+    """Hoya FDS30 (obsolete after 1980), LightPath's moldable D-ZK3M and Hoya's NBFD29, NBFD25 and FD270 are in none
+    of the catalogs lensrt has (opticalglass, the refractiveindex.info database, Robb 1983): an error that names the
     glass and, where the line has data, offers --glass-model-fallback."""
     with pytest.raises(UnknownGlassError, match=name) as err:
         resolve_glass(GlassRequest(name, cats, nd, vd))

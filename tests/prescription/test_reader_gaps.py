@@ -178,10 +178,10 @@ def test_scbd_tilts_the_image_plane_to_meet_the_chief_ray_normally() -> None:
 
 
 @pytest.mark.parametrize("edit,needle", [
-    (("SCBD 1 0 0 0.0 0.0 9.0E+01", "SCBD 1 0 0 0.0 1.0 9.0E+01"), "order or options"),
-    (("SCBD 1 0 0 0.0 0.0 9.0E+01 0.0", "SCBD 1 0 0 0.0 0.0 9.0E+01 5.0"), "order or options"),
-    (("SCBD 1 0 0", "SCBD 1 1 0"), "order or options"),
-    (("  CONI -1\n", "  CONI -1\n  SCBD 1 0 0 0 0 5 0 0\n"), "on a lens surface"),
+    (("SCBD 1 0 0 0.0 0.0 9.0E+01 0.0 0.0", "SCBD 1 0 0 0.0 0.0 9.0E+01 0.0 0.0 5.0"), "flags or extra values"),
+    (("SCBD 1 0 0", "SCBD 1 0 1"), "flags or extra values"),
+    (("SCBD 1 0 0", "SCBD 1 2 0"), "flags or extra values"),
+    (("  CONI -1\n", "  CONI -1\n  SCBD 2 1 2 0 0 5 0 0\n"), "after a lens surface"),
 ])
 def test_scbd_that_cannot_be_read_is_refused(edit: tuple[str, str], needle: str) -> None:
     text = (DATA / "readers_keywords.zmx").read_text()
@@ -191,6 +191,30 @@ def test_scbd_that_cannot_be_read_is_refused(edit: tuple[str, str], needle: str)
     assert err.value.line is not None
 
 
+@pytest.mark.parametrize("flags,order", [("1 0 0", 0), ("1 1 0", 1)])
+def test_scbd_flag_two_is_the_order_of_decenter_and_tilts(flags: str, order: int) -> None:
+    """``SCBD 1 <order> 0 dx dy tx ty tz``: the second flag is a COORDBRK's PARM 6 (MZDDE's ACCOSin.m writes it
+    so); the image plane's frame is then the COORDBRK frame of those values."""
+    from lensrt.prescription.formats.zemax_geometry import coordbrk_transform
+    text = (DATA / "readers_keywords.zmx").read_text()
+    lens = loads_zmx(text.replace("SCBD 1 0 0 0.0 0.0 9.0E+01", f"SCBD {flags} 0.5 -1.5 9.0E+01 3.0"), "x.zmx")
+    want = coordbrk_transform({1: (0.5, 1), 2: (-1.5, 1), 3: (90.0, 1), 4: (3.0, 1), 6: (float(order), 1)}, 1.0,
+                              None, 1)
+    assert lens.image_transform == want and want.order == order
+
+
+def test_scbd_on_a_lens_surface_is_a_coordinate_break_before_it() -> None:
+    """A lens surface's ``SCBD 1`` moves the frame before it and the frame stays moved (OpticStudio's default
+    "after surface": explicit zeros), read in lens units as a COORDBRK's values."""
+    text = (DATA / "readers_keywords.zmx").read_text()
+    assert "  CONI -1\n" in text
+    tilted = loads_zmx(text.replace("  CONI -1\n", "  CONI -1\n  SCBD 1 0 0 0.1 -0.2 0.3 0.05 0\n"), "x.zmx")
+    k = next(i for i, s in enumerate(tilted.surfaces) if s.conic == -1.0)
+    t = tilted.surfaces[k].transform_before
+    assert loads_zmx(text, "x.zmx").surfaces[k].transform_before is None
+    assert (t.decenter_x_mm, t.decenter_y_mm, t.order) == (0.1, -0.2, 0)
+    assert (t.tilt_x_rad, t.tilt_y_rad) == pytest.approx((math.radians(0.3), math.radians(0.05)), rel=1e-15)
+    assert tilted.surfaces[k].transform_after is None
 # -- solves -------------------------------------------------------------------------------------------------------
 def test_umy_and_pim_reproduce_the_written_solution() -> None:
     """opticspy's singlet: EPD 20, CUY UMY -0.1 then PIM. The solve gives R2 = 1175.711073142907 (CODE V's

@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from shape_cases import anamorphic, freeform, phone_odd_qcon
+from shape_cases import anamorphic, freeform, fringe, phone_odd_qcon
 
 from lensrt.errors import PrescriptionError
 from lensrt.prescription.model import Surface
-from lensrt.prescription.shapes import (SurfaceShape, noll_nm, profile_of, qbfs_sum, qbfs_to_p_basis, qcon_sum,
-                                        sag_grad, vertex_expansion)
+from lensrt.prescription.shapes import (MAX_FRINGE_TERMS, SurfaceShape, fringe_nm, noll_nm, profile_of, qbfs_sum,
+                                        qbfs_to_p_basis, qcon_sum, sag_grad, vertex_expansion)
 
 XS = np.linspace(0.0, 1.0, 11)
 
@@ -76,10 +76,11 @@ def test_sags_match_optiland_geometries() -> None:
 
 
 def _surfaces() -> list[Surface]:
-    return list(phone_odd_qcon().surfaces) + list(anamorphic().surfaces) + list(freeform().surfaces)
+    return list(phone_odd_qcon().surfaces) + list(anamorphic().surfaces) + list(freeform().surfaces) + \
+        list(fringe().surfaces)
 
 
-@pytest.mark.parametrize("k", range(8))
+@pytest.mark.parametrize("k", range(10))
 def test_gradient_is_the_derivative_of_the_sag(k: int) -> None:
     p = profile_of(_surfaces()[k])
     h = 1e-6
@@ -104,7 +105,7 @@ def test_biconic_and_toroid_reduce_to_closed_forms() -> None:
 
 def test_vertex_expansion_and_paraxial_curvature() -> None:
     xy_even = Surface(1 / 15.0, conic=-0.4, shape=SurfaceShape("xy", (0.0,) * 4 + (0.02,) + (0.0,) * 8 + (0.004,), 5.0))
-    for s in [s for s in _surfaces() if s.shape.kind not in ("xy", "zernike")] + [xy_even]:
+    for s in [s for s in _surfaces() if s.shape.kind not in ("xy", "zernike", "zernike_fringe")] + [xy_even]:
         p = profile_of(s)
         a2, a4 = vertex_expansion(p)
         odd = s.shape.kind == "odd"
@@ -180,3 +181,49 @@ def test_xy_terms_are_zemax_extended_polynomial_order() -> None:
         u, v = x / 3.0, y / 3.0
         mono = (u, v, u * u, u * v, v * v, u ** 3, u * u * v, u * v * v, v ** 3)
         assert sag_grad(p, x, y)[0] == pytest.approx(sum(a * m for a, m in zip(coef, mono)), abs=1e-15)
+
+
+def _fringe_closed(j: int, rho: float, th: float) -> float:
+    """Wyant & Creath (1992) Table 2 (OpticStudio's Zernike Fringe table), F_1 .. F_16 and F_37: not normalised."""
+    r2 = rho * rho
+    table = {1: 1.0, 2: rho * math.cos(th), 3: rho * math.sin(th), 4: 2 * r2 - 1, 5: r2 * math.cos(2 * th),
+             6: r2 * math.sin(2 * th), 7: (3 * r2 - 2) * rho * math.cos(th), 8: (3 * r2 - 2) * rho * math.sin(th),
+             9: 6 * r2 * r2 - 6 * r2 + 1, 10: rho ** 3 * math.cos(3 * th), 11: rho ** 3 * math.sin(3 * th),
+             12: (4 * r2 - 3) * r2 * math.cos(2 * th), 13: (4 * r2 - 3) * r2 * math.sin(2 * th),
+             14: (10 * r2 * r2 - 12 * r2 + 3) * rho * math.cos(th), 15: (10 * r2 * r2 - 12 * r2 + 3) * rho * math.sin(th),
+             16: 20 * r2 ** 3 - 30 * r2 ** 2 + 12 * r2 - 1,
+             37: 924 * r2 ** 6 - 2772 * r2 ** 5 + 3150 * r2 ** 4 - 1680 * r2 ** 3 + 420 * r2 ** 2 - 42 * r2 + 1}
+    return table[j]
+
+
+@pytest.mark.parametrize("j", list(range(1, 17)) + [37])
+def test_fringe_terms_match_the_fringe_table(j: int) -> None:
+    s = Surface(0.0, shape=SurfaceShape("zernike_fringe", (0.0,) * (j - 1) + (1.0,), 2.0))
+    p = profile_of(s)
+    for x, y in ((0.3, 0.1), (-1.2, 0.7), (0.0, -1.9), (1.5, 1.1)):
+        want = _fringe_closed(j, math.hypot(x, y) / 2.0, math.atan2(y, x))
+        assert sag_grad(p, x, y)[0] == pytest.approx(want, abs=1e-12 * max(1.0, abs(want)))
+
+
+def test_fringe_indices_match_optiland_and_end_with_the_12th_order_spherical() -> None:
+    from optiland.zernike.fringe import ZernikeFringe
+    peer = [tuple(int(v) for v in nm) for nm in ZernikeFringe(num_terms=36).indices[:36]]
+    assert [fringe_nm(j) for j in range(1, 37)] == peer
+    assert fringe_nm(MAX_FRINGE_TERMS) == (12, 0)  # the set's last term (optiland's 37th would be (6, 6))
+    with pytest.raises(PrescriptionError, match="outside 1..37"):
+        fringe_nm(38)
+    with pytest.raises(PrescriptionError, match="the fringe set has 37"):
+        SurfaceShape("zernike_fringe", (1e-3,) * 38, 5.0)
+
+
+def test_fringe_sag_matches_optiland() -> None:
+    """A surface with 36 fringe terms over a conic against optiland's ZernikePolynomialGeometry("fringe")."""
+    from optiland.coordinate_system import CoordinateSystem
+    from optiland.geometries.zernike import ZernikePolynomialGeometry
+    coef = tuple(float(v) for v in np.random.default_rng(3).normal(0.0, 1e-3, 36))
+    s = Surface(1 / 40.0, conic=-0.6, shape=SurfaceShape("zernike_fringe", coef, 6.0))
+    geo = ZernikePolynomialGeometry(CoordinateSystem(), 40.0, -0.6, coefficients=list(coef), zernike_type="fringe",
+                                    norm_radius=6.0)
+    p = profile_of(s)
+    for x, y in ((0.0, 0.0), (1.3, -2.2), (-4.0, 3.1), (0.5, 5.6), (-5.9, -0.4)):
+        assert sag_grad(p, x, y)[0] == pytest.approx(float(geo.sag(x, y)), abs=1e-13)

@@ -225,7 +225,7 @@ def test_ignored_keywords_and_merit_operands_are_harmless() -> None:
     (("DISZ 5", "DISZ 5\n  OBSC 1"), "OBSC needs two sizes"),
     (("DISZ 5", "DISZ 5\n  CLAP 3 1 0"), "inner radius 3 mm"),
     (("DISZ 5", "DISZ 5\n  SPID 1 4"), "spider"),
-    (("DISZ 5", "DISZ 5\n  SCBD 1 0 0 0 0 5 0 0"), "tilt/decenter"),
+    (("DISZ 5", "DISZ 5\n  SCBD 2 1 2 0 0 5 0 0"), "tilt/decenter after"),
     (("GCAT SCHOTT", "GCAT SCHOTT\nMNUM 3 1\nPRAM 2 1 0 0 0 0 1 1 1 0 0 \"\" 0"), "multi-configuration operand PRAM"),
     (("GCAT SCHOTT", "GCAT SCHOTT\nVANN 0 10"), "vignetting angle"),
     (("GCAT SCHOTT", "GCAT SCHOTT\nPUPD 1 0.5"), "apodization"),

@@ -1,5 +1,5 @@
 """Zemax surface types beyond STANDARD/EVENASPH: ODDASPHE, XOSPHERE, XASPHERE, QED_TYPE, BICONICX, TOROIDAL,
-XPOLYNOM, SZERNSAG."""
+XPOLYNOM, SZERNSAG, FZERNSAG."""
 from __future__ import annotations
 
 import warnings
@@ -55,6 +55,11 @@ def test_types_read_with_units(unit: str, f: float) -> None:
         z = loads_zmx(zmx(unit, "SZERNSAG", "PARM 2 1e-6\n  XDAT 1 4\n  XDAT 2 8\n  XDAT 6 0.01")).surfaces[0]
     assert z.shape == SurfaceShape("zernike", (0.0, 0.0, 0.0, 0.01 * f), 8 * f)
     assert z.asphere == pytest.approx((0.0, 1e-6 * f ** -3), rel=1e-15)
+    with pytest.warns(UserWarning, match="not rotationally symmetric"):
+        fz = loads_zmx(zmx(unit, "FZERNSAG", "PARM 3 2e-9\n  XDAT 1 9\n  XDAT 2 75\n  XDAT 3 1e-6\n"
+                                             "  XDAT 11 -3e-7")).surfaces[0]
+    assert fz.shape == SurfaceShape("zernike_fringe", (1e-6 * f,) + (0.0,) * 7 + (-3e-7 * f,), 75 * f)
+    assert fz.asphere == pytest.approx((0.0, 0.0, 2e-9 * f ** -5), rel=1e-15)
 
 
 @pytest.mark.parametrize("type1,extra,needle", [
@@ -68,6 +73,8 @@ def test_types_read_with_units(unit: str, f: float) -> None:
     ("XASPHERE", "XDAT 1 1\n  XDAT 2 10\n  XDAT 3 1e308\n  XDAT 400 1", "extra data numbers"),
     ("STANDARD", "XDAT 1 1", "not supported for STANDARD"),
     ("SZERNSAG", "PARM 9 0.5", "PARM 9 = 0.5 on a SZERNSAG"),
+    ("FZERNSAG", "PARM 10 0.5", "PARM 10 = 0.5 on a FZERNSAG"),
+    ("FZERNSAG", "XDAT 1 38\n  XDAT 2 10", "at most 37 fringe Zernike terms"),
     ("XPOLYNOM", "XDAT 1 70\n  XDAT 2 1", "whole number 0..66"),
 ])
 def test_bad_shape_data_is_one_error(type1: str, extra: str, needle: str) -> None:
@@ -104,3 +111,31 @@ def test_toroidal_mirror_first_order_matches_rayoptics(tmp_path: Path, monkeypat
     assert tor[0].shape.curvature_x_per_mm == pytest.approx(1 / 1035.0, rel=1e-15)
     assert "first_order_y_section" in [w.code for w in lens.warnings]
     assert first_order(lens).efl_mm == pytest.approx(efl_ro, rel=1e-9)
+
+
+def test_fringe_telescope_reads_the_fringe_terms_the_surface_tilt_and_the_dummy() -> None:
+    """tests/data/fringe_telescope.zmx: a FZERNSAG parabolic mirror (F_5 = 1e-4 mm astigmatism, F_9 = -5e-5 mm
+    spherical over R_n = 30 mm) with ``SCBD 1 0 0 0 0 0.01 0.005 0`` (tilts in degrees), a plane dummy 0 mm after
+    it (inside the mirror's sag: a warning) and a lens in ``SF12?``. The y-section's paraxial curvature is the
+    closed form c + 2 a_2 with a_2 = (-A_5 - 6 A_9) / R_n^2 (F_5 = rho^2 cos 2 theta is -rho^2 on the y axis,
+    F_9 = 6 rho^4 - 6 rho^2 + 1)."""
+    import math
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from lensrt.loading import load_lens
+        lens = load_lens(Path(__file__).resolve().parents[1] / "data" / "fringe_telescope.zmx")
+    m = lens.surfaces[0]
+    assert m.mirror and m.shape == SurfaceShape("zernike_fringe", (0.0,) * 4 + (1e-4, 0.0, 0.0, 0.0, -5e-5), 30.0)
+    t = m.transform_before
+    assert (t.tilt_x_rad, t.tilt_y_rad, t.tilt_z_rad, t.order) == (math.radians(0.01), math.radians(0.005), 0.0, 0)
+    assert m.paraxial_curvature_per_mm == pytest.approx(-0.0025 + 2 * (-1e-4 + 6 * 5e-5) / 900.0, rel=1e-12)
+    codes = {w.code for w in lens.warnings}
+    assert {"dummy_crossing", "glass_uncertain_name", "first_order_y_section"} <= codes
+    assert lens.surfaces[2].material.name == "SF12"
+
+
+def test_fringe_telescope_round_trips_through_the_native_format() -> None:
+    """``lensrt lens convert`` writes the fringe shape, the surface tilt, the mirror and the dummy exactly."""
+    lens = _read(Path(__file__).resolve().parents[1] / "data" / "fringe_telescope.zmx")
+    again = loads_native(dumps_native(lens))
+    assert again.surfaces == lens.surfaces

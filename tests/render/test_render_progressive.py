@@ -97,21 +97,60 @@ def test_progressive_runs_on_an_executor_keep_pass_rounds():
     _same_estimates(a, b, rel=0.0)
 
 
-def test_tile_region_sums_add_up_to_the_region_sums():
-    """Any split of the pixels into ranges (row-aligned or not): the tiles' region sums add up to the sums
-    over each region; the span a tile copies covers every region pixel it holds."""
-    from lensrt.render.jobs import tile_region_span, tile_region_sums
+def test_region_sums_from_row_segments_add_up_to_the_region_sums(device):
+    """Any split of the pixels into ranges (row-aligned or not): the row-segment sums that the device
+    kernel writes for each range give, added range by range, the sums over each region (numpy on the
+    whole image); the hit blocks give the paths through of each range."""
+    from lensrt.device import warp
+    from lensrt.render.jobs import region_cuts, region_sums_from_segments
     from lensrt.render.passes import region_slices
+    from lensrt.render.tile_kernels import block_hits, row_segment_sums
+    wp = warp()
     shape = (23, 17)
-    y = np.random.default_rng(1).random(shape)
-    want = [y[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
-    cuts = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
-    got = np.zeros(len(want))
-    for p0, p1 in zip(cuts[:-1], cuts[1:]):
-        span = tile_region_span(p0, p1, shape)
-        if span is not None:
-            got += tile_region_sums(y.reshape(-1)[span[0]:span[1]], span[0], span[1], shape)
+    rng = np.random.default_rng(1)
+    y = rng.random(shape).astype(np.float32)
+    hits = rng.integers(0, 9, shape[0] * shape[1]).astype(np.int32)
+    want = [y.astype(np.float64)[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
+    cuts = region_cuts(shape, longest=4)
+    assert cuts[0] == 0 and cuts[-1] == shape[1] and np.all(np.diff(cuts) <= 4) and np.all(np.diff(cuts) > 0)
+    xyz = np.zeros((y.size, 3), dtype=np.float32)
+    xyz[:, 1] = y.reshape(-1)
+    got, through = np.zeros(len(want)), 0
+    bounds = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
+    for p0, p1 in zip(bounds[:-1], bounds[1:]):
+        ra, rb = p0 // shape[1], -(-p1 // shape[1])
+        seg = wp.zeros((2, rb - ra, len(cuts) - 1), dtype=wp.float64, device=device)
+        wp.launch(row_segment_sums, dim=(rb - ra, len(cuts) - 1), device=device,
+                  inputs=[wp.array(xyz[p0:p1], dtype=wp.vec3, device=device), p0, p1, ra, shape[1],
+                          wp.array(cuts, dtype=wp.int32, device=device), 1, seg])
+        got += region_sums_from_segments(seg.numpy()[1], ra, shape, cuts)
+        assert not seg.numpy()[0].any()                       # slot 0 untouched
+        blocks = wp.zeros((1, -(-(p1 - p0) // 3)), dtype=wp.int64, device=device)
+        wp.launch(block_hits, dim=blocks.shape[1], device=device,
+                  inputs=[wp.array(hits[p0:p1], dtype=wp.int32, device=device), p1 - p0, 3, 0, blocks])
+        through += int(blocks.numpy().sum())
     assert np.allclose(got, want, rtol=1e-13, atol=0)
+    assert through == int(hits.sum())
+
+
+def test_a_tile_copies_from_its_device_once_whatever_its_pass_count(monkeypatch):
+    """A tile queues all its passes without bringing anything to the host between them (on a GPU each
+    copy waits for the device): the number of device-to-host copies of one item does not grow with its
+    passes."""
+    import warp as wp
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.workloads import get_workload
+    copies = []
+    numpy_of = wp.array.numpy
+    monkeypatch.setattr(wp.array, "numpy", lambda self: copies.append(1) or numpy_of(self))
+    per_item = []
+    for passes in (2, 5):
+        job = get_workload("render")(f"passes={passes},tiles=2", 3)
+        LocalExecutor("cpu").run(job)
+        copies.clear()
+        LocalExecutor("cpu").run(job)
+        per_item.append(len(copies) / len(job.items))
+    assert per_item[0] == per_item[1] <= 5
 
 
 def test_render_job_workload_reduces_in_pass_order():

@@ -46,6 +46,18 @@ def test_device_path_equals_host_path(device, tmp_path):
     assert dev.outside_fraction == pytest.approx(host.outside_fraction)
 
 
+def test_device_path_without_a_depth_map_equals_host_path(tmp_path):
+    """One layer everywhere (no mask: every cell flagged without the flag kernel)."""
+    img, _ = _scene(42, 56)
+    base = dict(sensor="24x18", focus_m=2.0, grid=(3, 4), rays=1 << 11, ri_rays=1 << 12, bands=2,
+                cache_dir=str(tmp_path), device="cpu")
+    host = simulate(img, load_lens("dgauss_50mm_f2"), None, SimulateOptions(**base, backend="host"))
+    dev = simulate(img, load_lens("dgauss_50mm_f2"), None, SimulateOptions(**base, backend="warp"))
+    scale = float(np.abs(host.rgb).max())
+    np.testing.assert_allclose(dev.coefficients, host.coefficients, atol=2e-5 * scale)
+    np.testing.assert_allclose(dev.rgb, host.rgb, atol=2e-5 * scale)
+
+
 def test_tile_fft_rows_match_numpy():
     """The row-FFT kernel (wp.tile_fft) is numpy.fft.fft along rows, forward and inverse (unnormalised)."""
     import warp as wp

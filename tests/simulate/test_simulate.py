@@ -235,6 +235,8 @@ def test_cli_bad_inputs_end_in_one_line(tmp_path, capsys):
         ([str(good), "--sensor", "36x24"], "non-square"),
         ([str(good), "--sensor-preset", "no_such_sensor"], "unknown sensor preset"),
         ([str(good), "--iso", "100"], "need --sensor-preset"),
+        ([str(good), "--max-memory", "lots"], "not a memory size"),
+        ([str(good), "--max-memory", "1K"], "input and outputs alone"),
     ]
     import warp as wp
     wp.init()
@@ -325,7 +327,7 @@ def test_source_side_interpolation_is_exact_and_seamless():
     shared, own = img * alpha, img[:1] * alpha
     psfs = np.stack([psf, psf[::-1]]).astype(np.float32)
     plan = tile_plan(alpha, rows, cols, n // 2)
-    assert plan.active.sum() < plan.active.size  # some tiles are skipped
+    assert plan.cells.sum() < plan.cells.size  # some cells are skipped
     blurred, ones = convolve_layer(shared, own, psfs, wr, wc, rows, cols, plan)
     r0, r1, c0, c1 = plan.box
     for k, p in enumerate((psf, psf[::-1])):

@@ -1,4 +1,4 @@
-"""Odd, Q-type, biconic and toroidal surfaces in the Warp kernels against the float64 reference tracer.
+"""Odd, Q-type, biconic, toroidal, XY and Zernike (standard, fringe) surfaces in the Warp kernels against the float64 reference tracer.
 
 The generic store kernel (the shared ``@wp.func`` code of :mod:`lensrt.trace.kernels.surfaces`) meets
 the steep cases of ``tests/oracles/shape_cases.py`` -- a phone-camera-like doublet (odd asphere,
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shape_cases import WL_NM, anamorphic, freeform, phone_odd_qcon, ray_fan
+from shape_cases import WL_NM, anamorphic, freeform, fringe, phone_odd_qcon, ray_fan
 from test_trace_kernels import FLOAT32_BOUND_MM
 
 from lensrt.errors import LensrtError
@@ -22,7 +22,8 @@ from lensrt.trace.reference import trace_reference
 from lensrt.trace.status import OK
 
 COS_70 = float(np.cos(np.radians(70.0)))
-CASES = {"phone": (phone_odd_qcon, 0.95), "anamorphic": (anamorphic, 3.8), "freeform": (freeform, 3.8)}
+CASES = {"phone": (phone_odd_qcon, 0.95), "anamorphic": (anamorphic, 3.8), "freeform": (freeform, 3.8),
+         "fringe": (fringe, 3.8)}
 
 
 @pytest.mark.parametrize("name", sorted(CASES))

@@ -20,6 +20,7 @@ __getattr__, __all__ = lazy_face(__name__, {
     "compare_lens": "comparison",
     "best_focus": "focus",
     "real_focal_length": "focus",
+    "real_focal_lengths": "focus",
     "distortion_curve": "distortion",
     "real_pupils": "pupils",
     "pupil_outline": "pupils",

@@ -37,8 +37,8 @@ from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams
 from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
-                    real_focal_length)
-from .pupils import RealPupils, real_pupils
+                    real_focal_lengths)
+from .pupils import RealPupils, pupil_outlines, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
                        object_field_point, paraxial_chief, trace64)
 from .vignetting import RI_DEFINITION, Vignetting, vignetting
@@ -255,7 +255,7 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     hy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, curve_points), [f.hy for f in fields]]), 12))
     index = [int(np.argmin(np.abs(hy - f.hy))) for f in fields]
     notes = []
-    focal = [real_focal_length(lens, w, device=dev) for w in wls]
+    focal = real_focal_lengths(lens, wls, device=dev)  # every wavelength's rays traced together
     # the chief rays of the curves' field points at every wavelength, aimed in one solve
     curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
     chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
@@ -266,13 +266,20 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
         grid = None
         notes.append(f"no grid distortion: {e}")
     lsa = longitudinal_aberration(lens, wls, device=dev)
+    # the polychromatic best focus first: the focus moments of all the lens's wavelengths in one batched search,
+    # which the single-wavelength ones then find in best_focus's cache (the same moments, fewer launches)
+    poly = best_focus(lens, list(lens.wavelengths.nm), device=dev)
     bf = {f"{w:g}": best_focus(lens, [w], [1.0], device=dev) for w in wls}
-    bf["polychromatic"] = best_focus(lens, list(lens.wavelengths.nm), device=dev)
+    bf["polychromatic"] = poly
     chrom = chromatic_focal_shift(lens, best_focus_wavelengths_nm=wls, device=dev)
     fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w]) for w in wls}
     lat = lateral_colour(lens, fields, wls, device=dev)
-    pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
+    # the pupil outlines of the real pupils' fields and of vignetting's exit-pupil illumination in one batched
+    # search (each analysis then finds its outlines in pupil_outlines' cache: the same outlines, fewer launches)
+    pupil_outlines(lens, [0.0] + [field_spec(lens, h).object_value for h in [f.hy for f in fields] + list(vhy)],
+                   primary, n_azimuth=180, device=dev)
+    pup = real_pupils(lens, [f.hy for f in fields], primary, device=dev)
     vig = vignetting(lens, vhy, primary, rays=rays, seed=seed, device=dev)
     if vig.ri_disagreement_note():
         notes.append(vig.ri_disagreement_note())

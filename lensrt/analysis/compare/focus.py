@@ -40,7 +40,8 @@ from ...trace import RayBatch
 from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments_many
 from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64)
 
-__all__ = ["FocalLength", "real_focal_length", "LongitudinalAberration", "longitudinal_aberration", "BestFocus",
+__all__ = ["FocalLength", "real_focal_length", "real_focal_lengths", "LongitudinalAberration",
+           "longitudinal_aberration", "BestFocus",
            "best_focus", "ChromaticFocalShift", "chromatic_focal_shift", "FieldCurvature", "field_curvature",
            "BEST_FOCUS_DEFINITION", "correction_name"]
 
@@ -91,40 +92,53 @@ def real_focal_length(lens: Lens, wavelength_nm: float | None = None, heights_mm
     the near-axis value uses ``near_axis_fraction`` x r_EP and the equivalent focal
     length ``small_angle_fraction`` x the largest field angle (object at infinity only).
     """
-    from ...paraxial import first_order
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    fo = first_order(lens, wl)
-    try:  # an EFL belongs to infinite conjugates: the entrance pupil there sets the heights
-        r_ep = 0.5 * first_order(lens, wl, math.inf).entrance_pupil_diameter_mm
-    except LensrtError:
-        r_ep = 0.5 * fo.entrance_pupil_diameter_mm
-    h = np.linspace(0.1, 1.0, 10) * r_ep if heights_mm is None else np.asarray(heights_mm, dtype=np.float64)
-    h_all = np.concatenate([[near_axis_fraction * r_ep], h])
-    n = len(h_all)
-    origin = np.column_stack([np.zeros(n), h_all, np.zeros(n)])
-    direction = np.tile([0.0, 0.0, 1.0], (n, 1))
-    res = trace64(lens, RayBatch(origin, direction, wl), device)
-    n_img = float(lens.indices(wl)[-1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        f = np.where(res.ok, -h_all / (n_img * res.direction[:, 1]), np.nan)
-    f_eq, theta = None, None
-    if fo.object_distance_mm is None and lens.fields.max_radial > 0:
-        theta = small_angle_fraction * max(field_spec(lens, 1.0).object_value, 1e-3)
-        chief = chief_batch(lens, [object_field_point(lens, theta)], wl, device)
-        r = trace64(lens, chief, device, plane_z_mm=fo.image_z_mm)
-        if r.ok[0]:
-            n_obj = float(lens.indices(wl)[0])
-            f_eq = float(r.position_mm[0, 1] / (n_obj * math.tan(theta)))
-    m_par = m_real = h_obj = None
-    if fo.object_distance_mm is not None and lens.fields.max_radial > 0:
-        h_obj = small_angle_fraction * max(field_spec(lens, 1.0).object_value, 1e-3)
-        chief = chief_batch(lens, [object_field_point(lens, h_obj)], wl, device)
-        r = trace64(lens, chief, device, plane_z_mm=fo.image_z_mm)
-        m_par = fo.magnification
-        if r.ok[0]:
-            m_real = float(r.position_mm[0, 1] / h_obj)
-    return FocalLength(wl, fo.efl_mm, h, f[1:], float(h_all[0]), float(f[0]), theta, f_eq,
-                       fo.front_focal_length_mm, m_par, m_real, h_obj)
+    return real_focal_lengths(lens, [wl], heights_mm, near_axis_fraction, small_angle_fraction, device)[0]
+
+
+def real_focal_lengths(lens: Lens, wavelengths_nm: Sequence[float], heights_mm: Sequence[float] | None = None,
+                       near_axis_fraction: float = 1e-3, small_angle_fraction: float = 1e-3,
+                       device: str | None = None) -> list[FocalLength]:
+    """:func:`real_focal_length` at several wavelengths, the same results: the parallel rays of every
+    wavelength in one trace, the small-field chief ray of every wavelength in one aiming run."""
+    from ...paraxial import first_order
+    from ..raysets import chief_batches, trace64_many
+    wls = [float(w) for w in wavelengths_nm]
+    fos = [first_order(lens, wl) for wl in wls]
+    heights, batches = [], []
+    for wl, fo in zip(wls, fos):
+        try:  # an EFL belongs to infinite conjugates: the entrance pupil there sets the heights
+            r_ep = 0.5 * first_order(lens, wl, math.inf).entrance_pupil_diameter_mm
+        except LensrtError:
+            r_ep = 0.5 * fo.entrance_pupil_diameter_mm
+        h = np.linspace(0.1, 1.0, 10) * r_ep if heights_mm is None else np.asarray(heights_mm, dtype=np.float64)
+        h_all = np.concatenate([[near_axis_fraction * r_ep], h])
+        n = len(h_all)
+        heights.append((h, h_all))
+        batches.append(RayBatch(np.column_stack([np.zeros(n), h_all, np.zeros(n)]), np.tile([0.0, 0.0, 1.0], (n, 1)),
+                                wl))
+    parallel = trace64_many(lens, batches, device)
+    small = small_angle_fraction * max(field_spec(lens, 1.0).object_value, 1e-3) if lens.fields.max_radial > 0 \
+        else None
+    chiefs = chief_batches(lens, [object_field_point(lens, small)], wls, device) if small is not None else []
+    out = []
+    for k, (wl, fo, (h, h_all), res) in enumerate(zip(wls, fos, heights, parallel)):
+        n_img = float(lens.indices(wl)[-1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = np.where(res.ok, -h_all / (n_img * res.direction[:, 1]), np.nan)
+        f_eq = theta = m_par = m_real = h_obj = None
+        r = trace64(lens, chiefs[k], device, plane_z_mm=fo.image_z_mm) if chiefs else None
+        if r is not None and fo.object_distance_mm is None:
+            theta = small
+            if r.ok[0]:
+                f_eq = float(r.position_mm[0, 1] / (float(lens.indices(wl)[0]) * math.tan(theta)))
+        elif r is not None:
+            h_obj, m_par = small, fo.magnification
+            if r.ok[0]:
+                m_real = float(r.position_mm[0, 1] / h_obj)
+        out.append(FocalLength(wl, fo.efl_mm, h, f[1:], float(h_all[0]), float(f[0]), theta, f_eq,
+                               fo.front_focal_length_mm, m_par, m_real, h_obj))
+    return out
 
 
 @dataclass

@@ -255,11 +255,31 @@ def pupil_outlines(lens: Lens, object_values: Sequence[float], wavelength_nm: fl
                    radial_nodes: int = 16) -> list[PupilOutline | LensrtError]:
     """:func:`pupil_outline` of several field points at once, the same outlines: each bisection step traces
     the rays of every field point in one call. A field point without an outline gets, in its place, the
-    :class:`LensrtError` that :func:`pupil_outline` raises for it."""
+    :class:`LensrtError` that :func:`pupil_outline` raises for it. Outlines already traced with the same
+    arguments are taken from a cache (a comparison asks for its fields' outlines twice: real pupils, then
+    the exit-pupil illumination of vignetting); each outline is the same whatever else is traced beside it."""
     if tracer not in ("kernel", "reference"):
         raise LensrtError(f"unknown tracer {tracer!r}", hint="use 'kernel' or 'reference'")
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    values = [float(v) for v in object_values]
+    opts = (wl, n_azimuth, iterations, clip, tracer, iris, device, radial_nodes)
+    keys = [(lens, float(v)) + opts for v in object_values]
+    missing = list(dict.fromkeys(k[1] for k in keys if k not in _OUTLINES))
+    if missing:
+        got = _traced_outlines(lens, missing, wl, n_azimuth, iterations, clip, tracer, iris, device, radial_nodes)
+        if len(_OUTLINES) + len(got) > _OUTLINES_KEPT:
+            _OUTLINES.clear()
+        _OUTLINES.update({(lens, v) + opts: o for v, o in zip(missing, got)})
+    return [_OUTLINES[k] for k in keys]
+
+
+#: pupil outlines already traced, per (lens, object value, wavelength, options, device); at most _OUTLINES_KEPT kept
+_OUTLINES: dict = {}
+_OUTLINES_KEPT = 64
+
+
+def _traced_outlines(lens: Lens, values: list[float], wl: float, n_azimuth: int, iterations: int, clip: bool,
+                     tracer: str, iris: Iris | None, device: str | None, radial_nodes: int) -> list:
+    """The outlines of :func:`pupil_outlines`, traced."""
     fps = [object_field_point(lens, v) for v in values]
     frames = [pupil_frame(lens, fp) for fp in fps]
     passes = _passes_kernel(lens, clip, iris, device) if tracer == "kernel" else _passes_reference(lens, clip, iris)

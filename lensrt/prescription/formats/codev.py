@@ -594,7 +594,8 @@ def loads_seq(text: str, path: str | Path | None = None) -> Lens | MultiConfigLe
         with located(spath, line):
             if not seq.command(line, toks):
                 break
-    return seq.zoom.build(seq.build(), MM_PER_UNIT[seq.dim], seq.material)
+    return seq.zoom.build(seq.build(), MM_PER_UNIT[seq.dim], seq.material,
+                          [r.get("dtype", "basic") for r in seq.rows if r["kind"] == "S"])
 
 
 def read_seq(path: str | Path, text: str | None = None) -> Lens | MultiConfigLens:

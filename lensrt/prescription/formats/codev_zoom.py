@@ -9,6 +9,10 @@ Read::
     ZOO YAN F3 14 8 5                 ! (XAN, YOB, XOB, YIM, XIM, YRI, XRI: the file's field kind)
     ZOO WL W2 587.6 ...               ! ZOO WTW W2 ..., ZOO WTF F2 ...
     ZOO STO S10 S11 S10               ! the stop surface per position
+    ZOO YDE S2 0 1.25 -1.25           ! (or XDE) a basic decenter of surface 2 per position; on a DAR, REV or
+                                      ! BEN surface an error
+    ZOO VUY F1 0.1 0.1 0.1            ! (VLY, VUX, VLX) a field's vignetting factor per position: read only where
+                                      ! every position repeats the sequence's own factor (nothing zooms)
     ZOO REF 2 2 2
     POS 2                             ! the current position (default 1)
 
@@ -17,7 +21,7 @@ and what CODE V writes around them when it saves a zoomed lens::
     ZOO 3                             ! the number of positions (then every ZOO row gives 3 values)
     ZOO TIT                           ! the positions carry titles:
     TIT Z1 'wide'                     ! the title of position 1 (CODE V writes ""wide"": quotes stripped)
-    ZOO THC S5 100 100 100            ! variable/solve codes per position (THC, CCY, GLC, ...): no
+    ZOO THC S5 100 100 100            ! variable/solve codes per position (THC, CCY, GLC, YDC, ...): no
                                       ! optics, skipped
 
 Every ``ZOO`` command must give the same number of positions (``ZOO n`` or the
@@ -44,11 +48,14 @@ ZOOM_ITEMS: dict[str, tuple[str, str]] = {
     "GLA": ("material", "S"), "CIR": ("semi_diameter", "S"), "STO": ("stop_surface", "-"),
     "EPD": ("aperture", "-"), "FNO": ("aperture", "-"), "NAO": ("aperture", "-"),
     "WL": ("wavelength", "W"), "WTW": ("wavelength_weight", "W"), "WTF": ("field_weight", "F"),
-    "REF": ("primary_wavelength", "-"),
+    "REF": ("primary_wavelength", "-"), "XDE": ("decenter_x", "S"), "YDE": ("decenter_y", "S"),
     **{f"{a}{k}": ("field_y" if a == "Y" else "field_x", "F") for a in "XY" for k in ("AN", "OB", "IM", "RI")},
 }
 #: CODE V's per-position optimisation codes (variable, frozen, solve): they carry no optics
-ZOOM_CODES = frozenset({"THC", "CCY", "GLC", "KC", *(f"{c}C" for c in "ABCDEFGHJ")})
+ZOOM_CODES = frozenset({"THC", "CCY", "GLC", "KC", *(f"{c}C" for c in "ABCDEFGHJ"),
+                        *(f"{a}DC" for a in "XYZABC")})
+#: vignetting factors: zoomed only where every position repeats the sequence's value (:meth:`ZoomReader.vignetting`)
+VIGNETTING_ITEMS = ("VUX", "VLX", "VUY", "VLY")
 _SURF = re.compile(r"^S(\d+|O|I)$", re.IGNORECASE)
 _QUAL = re.compile(r"^([FW])(\d+)$", re.IGNORECASE)
 
@@ -64,6 +71,7 @@ class ZoomReader:
         self.items: list[tuple[str, str, list[str], int]] = []  # item, qualifier, values, line
         self.count_line: int | None = None
         self.titles: dict[int, str] = {}  # position (0-based) -> TIT Zk title
+        self.vignetting_rows: list[tuple[str, list[str], int]] = []  # ZOO VUY F1 v1 .. vn (item, args, line)
 
     def err(self, msg: str, line: int | None, hint: str | None = None) -> PrescriptionError:
         return PrescriptionError(msg, path=self.path, line=line, hint=hint)
@@ -85,6 +93,10 @@ class ZoomReader:
         if item == "TIT" and len(args) == 1:
             return  # the titles follow as TIT Zk lines
         if item in ZOOM_CODES:
+            return
+        if item in VIGNETTING_ITEMS:
+            self.vignetting_rows.append((item, args[1:], line))
+            self.count = self.count if self.count is not None else max(len(args) - 2, 1)
             return
         if item not in ZOOM_ITEMS:
             raise self.err(f"ZOO {item}: zooming {item} is not supported", line,
@@ -127,8 +139,39 @@ class ZoomReader:
         self.titles[k] = name
         return True
 
-    def build(self, lens: Lens, unit_mm: float, glass: Callable[[str, int], Material]) -> Lens | MultiConfigLens:
-        """The zoom positions over ``lens`` (the S lines' values are shared where nothing is zoomed)."""
+    def vignetting(self, lens: Lens) -> None:
+        """``ZOO VUY F1 ...`` (VLY, VUX, VLX): every position must repeat the sequence's own factor of that field
+        (``lens.notes``' ``vignetting_vuy``, 0 where absent); lensrt does not vary vignetting factors by position."""
+        for item, args, line in self.vignetting_rows:
+            if not args or not (_QUAL.match(args[0]) and args[0][0].upper() == "F"):
+                raise self.err(f"ZOO {item} needs a field (F1)", line)
+            k = int(args[0][1:]) - 1
+            if not 0 <= k < len(lens.fields.y):
+                raise self.err(f"ZOO {item} {args[0]}: field {k + 1} is not one of the {len(lens.fields.y)} fields",
+                               line)
+            base = [float(v) for v in lens.meta.get(f"vignetting_{item.lower()}", "").split()] or \
+                [0.0] * len(lens.fields.y)
+            vals = [parse_number(v, f"ZOO {item} value", path=self.path, line=line) for v in args[1:]]
+            if len(vals) != self.count:
+                raise self.err(f"ZOO {item} {args[0]} gives {len(vals)} positions, the zoom {self.count}", line,
+                               "every ZOO command gives one value per zoom position")
+            if any(abs(v - base[k]) > 1e-9 * max(1.0, abs(base[k])) for v in vals):
+                raise self.err(f"ZOO {item} {args[0]}: a vignetting factor that changes with the zoom position "
+                               "is not supported", line, f"lensrt reads {item} once for every position; give the "
+                               f"field's {item} on the {item} line and drop ZOO {item}")
+
+    def build(self, lens: Lens, unit_mm: float, glass: Callable[[str, int], Material],
+              decenter_types: list[str] | None = None) -> Lens | MultiConfigLens:
+        """The zoom positions over ``lens`` (the S lines' values are shared where nothing is zoomed);
+        ``decenter_types`` (basic, dar, rev, ben per lens surface) guard zoomed decenters."""
+        self.vignetting(lens)
+        for item, qual, _, line in self.items:
+            if item not in ("XDE", "YDE") or not qual[1:].isdigit() or decenter_types is None:
+                continue
+            k = int(qual[1:]) - 1
+            if 0 <= k < len(decenter_types) and decenter_types[k] != "basic":
+                raise self.err(f"ZOO {item} {qual}: the surface's decenter is {decenter_types[k].upper()}; lensrt "
+                               "zooms basic decenters only", line)
         if self.count is None:
             if self.pos_line is not None and self.current != 0:
                 raise self.err(f"POS {self.current + 1}: the sequence has no ZOO data", self.pos_line)
@@ -176,7 +219,7 @@ class ZoomReader:
         v = parse_number(tok, f"ZOO {item} value", path=self.path, line=line)
         if kind == "object_distance":
             return math.inf if v >= 1e10 else v * unit_mm
-        if kind in ("thickness", "semi_diameter"):
+        if kind in ("thickness", "semi_diameter", "decenter_x", "decenter_y"):
             return v * unit_mm
         if kind == "curvature":
             return (0.0 if v == 0.0 else unit_mm / v) if item == "RDY" else v / unit_mm

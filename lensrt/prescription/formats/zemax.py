@@ -44,7 +44,7 @@ from ...units import MM_PER_UNIT, NM_PER_UM, deg_to_rad
 from ..configurations import MultiConfigLens
 from ..glass_lookup import GlassRequest, resolve_glass
 from ..limits import MAX_ZEMAX_PARM
-from ..materials import AIR, Material, ModelGlass
+from ..materials import AIR, ConstantIndex, Material, ModelGlass
 from ..model import Aperture, Fields, Lens, LoadWarning, Surface, Wavelengths  # noqa: F401 (Lens in annotations)
 from ..shapes import MAX_SHAPE_TERMS
 from ._common import (LensFileWarning, emit_load_warnings, fmt_list, make_lens, parse_number, reject_other_format, substitution_note)
@@ -70,7 +70,8 @@ IGNORED: dict[str, str] = {
     "SDMA": "semi-diameter margin", "ROPD": "OPD reference", "PICB": "settings", "POLS": "polarisation",
     "TOL": "tolerance data", "MOFF": "multi-configuration operand", "HYPR": "settings",
     "RCMF": "settings", "VDSZ": "optimisation variable", "VPAR": "optimisation variable",
-    "VCRV": "optimisation variable", "VTHI": "optimisation variable", "PPAR": "parameter pickup (value stored)",
+    "VCRV": "optimisation variable", "VTHI": "optimisation variable", "VCON": "optimisation variable",
+    "PPAR": "parameter pickup (value stored)",
     "PZUP": "thickness pickup (value stored)", "MAZH": "settings", "MEMA": "mechanical semi-diameter",
     "OMMA": "mechanical settings", "OEMA": "mechanical settings", "FLAP": "floating aperture = DIAM",
     "DMFS": "merit function settings", "BLNK": "merit function comment", "AUTH": "author",
@@ -94,7 +95,8 @@ _TYPE_NAMES = {
     "DGRATING": "a diffraction grating",
     "TOROIDAL": "a toroidal surface", "BICONICX": "a biconic surface", "BICONIC": "a biconic surface",
     "PARAXIAL": "an ideal paraxial lens", "ODDASPHE": "an odd asphere", "XOSPHERE": "an extended odd asphere",
-    "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface", "BINARY_1": "a binary optic",
+    "XASPHERE": "an extended asphere", "SZERNSAG": "a Zernike sag surface",
+    "FZERNSAG": "a Zernike fringe sag surface", "BINARY_1": "a binary optic",
     "BINARY_2": "a binary optic", "GRID_SAG": "a grid sag surface", "TILTSURF": "a tilted surface",
     "NONSEQCO": "a non-sequential component", "USERSURF": "a user-defined surface", "QED_TYPE": "a Q-type asphere",
 }
@@ -125,6 +127,8 @@ class _Surf:
     apertures: list[tuple[str, float, float, int]] = field(default_factory=list)
     obdc: tuple[float, float] = (0.0, 0.0)
     scbd: tuple[list[float], int] | None = None
+    #: an ``SCBD 2`` line (the tilt/decenter after the surface): refused on a lens surface
+    scbd_after: tuple[list[float], int] | None = None
 
 
 def _rest(raw: str, keyword: str) -> str:
@@ -185,8 +189,7 @@ class _Reader:
         if kw == "SURF":
             n = int(self.num(args[0], "surface number", no)) if args else -1
             if n != len(self.surfs):
-                raise self.err(f"SURF {args[0] if args else ''} out of order (expected SURF {len(self.surfs)})", no,
-                               "surfaces must be numbered 0 (object), 1, 2, ... in order")
+                self._numbering_gap(n, args, no)
             self.surfs.append(_Surf(number=n, line=no))
             return
         if kw == "MODE":
@@ -311,6 +314,22 @@ class _Reader:
             current = int(self.num(args[1], "current configuration", no)) if len(args) > 1 else 1
             self.mce, self.in_mce = MultiConfigReader(self.path, count, current, no), True
 
+    def _numbering_gap(self, n: int, args: list[str], no: int) -> None:
+        """A SURF number that skips some (``SURF 39`` after ``SURF 37``, a surface deleted by hand): read as the next
+        surface where the light between is in air -- there a skipped surface, were it a plane of zero thickness
+        in air (what an empty row of OpticStudio's editor is), changes nothing -- with a ``surface_numbering``
+        warning; any other order is an error."""
+        prev = self.surfs[-1] if self.surfs else None
+        if prev is None or n < len(self.surfs) or prev.glass is not None or self.mce is not None:
+            why = "" if prev is None or n < len(self.surfs) else \
+                (" after a surface whose medium is not air" if prev.glass is not None else " in a multi-configuration "
+                 "file (its operands name surfaces by number)")
+            raise self.err(f"SURF {args[0] if args else ''} out of order (expected SURF {len(self.surfs)}){why}", no,
+                           "surfaces must be numbered 0 (object), 1, 2, ... in order")
+        self.warnings.append(LoadWarning(
+            "surface_numbering", f"SURF {n} follows SURF {prev.number}: read as surface {len(self.surfs)} (the light "
+            f"between is in air, so a skipped plane surface of zero thickness would change nothing)", None, no))
+
     def glass(self, name: str, no: int) -> Material:
         """The material a multi-configuration GLSS row names (looked up as a GLAS line is)."""
         return self.material(_Surf(number=-1, line=no, glass=[name], glass_line=no))
@@ -396,8 +415,11 @@ class _Reader:
 
     def kw_SCBD(self, args, no, raw):
         vals = self.nums(args, "tilt/decenter value", no)
-        if any(v != 0.0 for v in vals[1:]):
-            self.cur("SCBD", no).scbd = (vals, no)  # read at assembly (zemax_geometry.scbd_transform)
+        if any(v != 0.0 for v in vals[1:]):  # read at assembly (zemax_geometry.scbd_transform)
+            if vals[0] == 2.0:
+                self.cur("SCBD", no).scbd_after = (vals, no)
+            else:
+                self.cur("SCBD", no).scbd = (vals, no)
 
     def kw_XDAT(self, args, no, raw):
         s = self.cur("XDAT", no)
@@ -428,6 +450,8 @@ class _Reader:
         vd = self.num(toks[4], "V_d", no) if len(toks) > 4 else 0.0
         real = nd >= 1.0 and vd > 0.0
         if name.upper() in ("___BLANK", "MODEL"):
+            if vd == 0.0 and len(toks) > 4 and 0.5 <= nd <= 5.0 and nd != 1.0:
+                return self._constant_model(name, nd, surface, no)
             if not real:
                 raise self.err(f"GLAS {name}: a model glass needs n_d >= 1 and V_d > 0 on the line "
                                f"(found {nd:g}, {vd:g})", no, "give 'GLAS ___BLANK 1 0 nd vd'")
@@ -445,6 +469,19 @@ class _Reader:
             self.notes.append((f"model_glass_{name}", f"n_d/V_d from the GLAS line (line {no}); in no catalog"))
         elif _norm_name(glass.name) != _norm_name(name):
             self.subs[name] = glass.describe()
+        return glass
+
+    def _constant_model(self, name: str, nd: float, surface: int | None, no: int) -> Material:
+        """``GLAS ___BLANK 1 0 nd 0``: a model glass with V_d = 0, i.e. no dispersion to model -- a constant index.
+        Monochromatic designs write it so (a 193 nm lithography lens: fused silica 1.56029 at 193.3 nm); an index
+        below 1 there is one relative to air (helium-filled gaps: 0.999712), which Snell's law reads as it reads
+        any index (only ratios enter)."""
+        with located(self.path, no):
+            glass = ConstantIndex(nd, name=f"n={nd:g}", exotic=nd < 1.0)
+        below = "; an index below 1 is read as relative to air (only index ratios enter the trace)" \
+            if nd < 1.0 else ""
+        self.warnings.append(LoadWarning("glass_model", f"model glass n_d = {nd:g}, V_d = 0 (GLAS {name}): no "
+                                         f"dispersion, a constant index at every wavelength{below}", surface, no))
         return glass
 
     # -- assemble --------------------------------------------------------------
@@ -466,9 +503,7 @@ class _Reader:
         with located(self.path, obj.line):
             object_medium = self.material(obj)
         for k, s in enumerate(body):
-            if s.scbd is not None:
-                raise self.err("SCBD: a tilt/decenter on a lens surface is not supported (only on the image "
-                               "surface)", s.scbd[1], "write the frame change as COORDBRK surfaces around it")
+            self._check_scbd(s)
             with located(self.path, s.line):
                 before = surfaces[-1].material if surfaces else object_medium
                 if s.type == "COORDBRK":
@@ -494,14 +529,42 @@ class _Reader:
                     sd, entries, fixed = entries[0][2], [], True  # a centred circular CLAP: the semi-diameter
                 if sd is not None and sd <= 0.0:
                     sd = None  # DIAM 0: no semi-diameter given (computed on load)
+                sd = self._automatic_inside_clap(s, sd, entries, fixed, len(surfaces))
                 surfaces.append(Surface(
                     curvature_per_mm=s.curv / f, thickness_mm=(s.disz or 0.0) * f,
                     material=before if s.mirror else self.material(s, k),
                     semi_diameter_mm=None if sd is None else sd * f,
                     conic=s.conic, asphere=asph, shape=shape, is_stop=s.stop, label=s.label, line=s.line,
                     mirror=s.mirror,
-                    apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed))
+                    apertures=surface_apertures(entries, s.obdc, f, self.path), semi_diameter_fixed=fixed,
+                    transform_before=None if s.scbd is None else scbd_transform(*s.scbd, f, self.path)))
         return self._system(surfaces, obj, f)
+
+    def _check_scbd(self, s: _Surf) -> None:
+        """A lens surface's SCBD lines: "before" (``SCBD 1``) becomes its ``transform_before``
+        (:func:`.zemax_geometry.scbd_transform`) on a surface of glass or air; "after" (``SCBD 2``) is refused."""
+        if s.scbd_after is not None:
+            raise self.err("SCBD 2: a tilt/decenter after a lens surface (explicit, pickup or reverse) is not read",
+                           s.scbd_after[1], "write the frame change after the surface as a COORDBRK")
+        if s.scbd is not None and s.type in ("COORDBRK", "PARAXIAL"):
+            raise self.err(f"SCBD on a {s.type} surface is not read", s.scbd[1],
+                           "write the frame change as a COORDBRK surface")
+
+    def _automatic_inside_clap(self, s: _Surf, sd: float | None, entries: list, fixed: bool, index: int
+                               ) -> float | None:
+        """An automatic semi-diameter (``DIAM v 0``) that lies inside the surface's annular ``CLAP rmin rmax``
+        would, clipping, stop every ray the CLAP passes; OpticStudio clips at the CLAP only. The CLAP's outer
+        radius is then the semi-diameter, with a warning."""
+        if fixed or sd is None or s.obdc != (0.0, 0.0):
+            return sd
+        clap = [e for e in entries if e[0] == "CLAP" and e[1] >= sd and math.isfinite(e[2])]
+        if not clap:
+            return sd
+        self.warnings.append(LoadWarning(
+            "semi_diameter_from_clap", f"surface {index + 1}: the automatic semi-diameter {sd:g} (DIAM, flag 0) lies "
+            f"inside its CLAP {clap[0][1]:g} {clap[0][2]:g}, which would stop every ray; the CLAP's outer radius "
+            f"{clap[0][2]:g} is the semi-diameter (OpticStudio clips at the CLAP only)", index, clap[0][3]))
+        return clap[0][2]
 
     def _first_order_note(self, index: int, s: _Surf) -> None:
         self.warnings.append(LoadWarning(

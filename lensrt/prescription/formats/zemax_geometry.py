@@ -15,16 +15,20 @@ that reader and this one do not collide.
   ``SQAP xhalf yhalf`` (rectangular), ``ELAP xhalf yhalf`` (elliptical),
   each moved by ``OBDC x y`` (the aperture decenter). A centred circular
   ``CLAP 0 r`` stays the surface's semi-diameter, as before.
-* ``SCBD f1 f2 f3 dx dy tx ty tz`` on the image surface: OpticStudio's surface
-  tilt/decenter ("before surface") of the image plane, read as three integer
-  flags then decenter x, y (lens units) and tilts about x, y, z (degrees),
-  becoming ``Lens.image_transform``. The .zmx layout is not published: it is
-  inferred from rayoptics' ``zmax_37992.zmx`` (a 90 deg off-axis parabola whose
-  image plane is tilted 90 deg about x, so that the chief ray meets it
-  normally). Only values whose meaning does not depend on the unknown flags
-  are read: all-zero flags 2 and 3, and either decenters alone or a single
-  tilt alone (then the order of decenter and tilts cannot matter); anything
-  else, and SCBD on a lens surface, is an error naming the construct.
+* ``SCBD 1 order 0 dx dy tx ty tz``: OpticStudio's surface-properties tilt/decenter
+  "before surface": decenter x, y (lens units) and tilts about x, y, z (degrees)
+  in the order of a COORDBRK's ``PARM 6`` (0: decenter then tilts x, y, z; 1:
+  tilts z, y, x then decenter). On a lens surface it becomes the surface's
+  ``transform_before`` and the frame stays moved for the surfaces after it (the
+  "after surface" default: explicit zeros); on the image surface it becomes
+  ``Lens.image_transform``. The .zmx layout is not published: the values'
+  meaning is fixed by rayoptics' ``zmax_37992.zmx`` (a 90 deg off-axis parabola
+  whose image plane is tilted 90 deg about x, so that the chief ray meets it
+  normally), the flags' by D. Griffith's ACCOS-to-OpticStudio converter
+  (MZDDE, ``ACCOSin.m``, BSD licence: it writes ``SCBD 1 <order> 0 ...``
+  with the order it also gives a COORDBRK's PARM 6, and "after" lines as
+  ``SCBD 2 ...``). An ``SCBD 2`` (after surface) line on a lens surface, and any
+  other flags, are an error naming the construct.
 * ``DIAM v flag``: flag 1 is a user-defined semi-diameter (OpticStudio's
   floating aperture), the kind that vignettes under the ``opticstudio``
   aperture rule.
@@ -97,13 +101,13 @@ def surface_apertures(entries: list[tuple[str, float, float, int]], decenter: tu
 
 
 def scbd_transform(values: list[float], line: int, unit_mm: float, path: str | None) -> CoordinateTransform:
-    """The image plane's tilt/decenter from an ``SCBD`` line (see the module docstring for what is read)."""
-    flags, v = values[:3], values[3:8] + [0.0] * (8 - len(values))
-    tilts = [t for t in v[2:5] if t != 0.0]
-    if len(values) < 4 or any(x != 0.0 for x in flags[1:]) or any(x != 0.0 for x in values[8:]) or \
-            len(tilts) > 1 or (tilts and (v[0] != 0.0 or v[1] != 0.0)):
-        raise PrescriptionError("SCBD: a surface tilt/decenter whose order or options lensrt cannot read "
-                                "(the .zmx layout is inferred: decenters alone or one tilt alone)", path=path,
-                                line=line, hint="write the frame change as a COORDBRK before the image surface")
+    """The frame change before a surface from an ``SCBD 1 order 0 dx dy tx ty tz`` line (module docstring)."""
+    flags, v = values[:3] + [0.0] * (3 - len(values[:3])), values[3:8] + [0.0] * (8 - len(values[:8]))
+    if flags[0] != 1.0 or flags[1] not in (0.0, 1.0) or flags[2] != 0.0 or any(x != 0.0 for x in values[8:]):
+        raise PrescriptionError("SCBD: a surface tilt/decenter whose flags or extra values lensrt cannot read "
+                                f"({' '.join(f'{x:g}' for x in values[:3])}; read: '1 order 0' then decenter x, y "
+                                "and tilts x, y, z)", path=path, line=line,
+                                hint="write the frame change as a COORDBRK before the surface")
     return CoordinateTransform(decenter_x_mm=v[0] * unit_mm, decenter_y_mm=v[1] * unit_mm,
-                               tilt_x_rad=deg_to_rad(v[2]), tilt_y_rad=deg_to_rad(v[3]), tilt_z_rad=deg_to_rad(v[4]))
+                               tilt_x_rad=deg_to_rad(v[2]), tilt_y_rad=deg_to_rad(v[3]), tilt_z_rad=deg_to_rad(v[4]),
+                               order=int(flags[1]))

@@ -20,19 +20,25 @@ Used by :mod:`.zemax`. Lengths are in lens units in the file (``f`` = mm per len
   ``XDAT 1`` = number of terms, ``XDAT 2`` = normalisation radius, ``XDAT 3..`` = Z_1, Z_2, ... (Noll's
   order and normalisation, OpticStudio's "Zernike Standard"; lens units) -> ``zernike``. A Zernike
   decenter (``PARM 9``, ``PARM 10``) is refused.
+* ``FZERNSAG`` (Zernike fringe sag): the same parameters and extra data, the coefficients on the fringe
+  Zernike terms F_1 .. F_37 (OpticStudio's "Zernike Fringe" order, not normalised) -> ``zernike_fringe``.
+  The layout is OpticStudio's for both Zernike sag surfaces (its manual, "Zernike Fringe Sag": extra data
+  1 = number of terms, 2 = normalisation radius, 3.. = coefficients); it is checked on the three
+  FZERNSAG files of YuryStrelkov/ZemaxUtils (a 2 m telescope whose Zernike terms are small figure errors:
+  8 terms over the mirrors' and lenses' semi-diameters).
 
 Any other non-zero parameter or extra data on these surfaces is refused by name, never dropped.
 """
 from __future__ import annotations
 
 from ...errors import PrescriptionError
-from ..shapes import MAX_SHAPE_TERMS, SurfaceShape
+from ..shapes import MAX_FRINGE_TERMS, MAX_SHAPE_TERMS, SurfaceShape
 
 __all__ = ["SHAPE_TYPES", "zemax_shape"]
 
 #: the surface types read here
 SHAPE_TYPES = ("ODDASPHE", "XOSPHERE", "XASPHERE", "QED_TYPE", "BICONICX", "BICONIC", "TOROIDAL", "XPOLYNOM",
-               "SZERNSAG")
+               "SZERNSAG", "FZERNSAG")
 
 Params = dict[int, tuple[float, int]]
 
@@ -90,12 +96,16 @@ def zemax_shape(kind: str, parm: Params, xdat: Params, f: float, path: str | Non
         _refuse_extra(kind, xdat, range(1, 1), "XDAT", path, line)
         rx = p(1) * f
         return SurfaceShape("biconic", curvature_x_per_mm=0.0 if rx == 0.0 else 1.0 / rx, conic_x=p(2)), ()
-    if kind in ("XPOLYNOM", "SZERNSAG"):
-        even = kind == "SZERNSAG"
+    if kind in ("XPOLYNOM", "SZERNSAG", "FZERNSAG"):
+        even = kind != "XPOLYNOM"
         _refuse_extra(kind, parm, range(1, 9 if even else 1), "PARM", path, line)
         coef, rn = _extended(kind, xdat, 1, f, path, line)
         asph = tuple(p(i) * f ** (1 - 2 * i) for i in range(1, 9)) if even else ()
-        return SurfaceShape("zernike" if even else "xy", tuple(coef), rn), asph
+        if kind == "FZERNSAG" and len(coef) > MAX_FRINGE_TERMS:
+            raise PrescriptionError(f"XDAT 1 = {len(coef)}: a FZERNSAG surface has at most {MAX_FRINGE_TERMS} "
+                                    "fringe Zernike terms", path=path, line=xdat.get(1, (0, line))[1])
+        kinds = {"XPOLYNOM": "xy", "SZERNSAG": "zernike", "FZERNSAG": "zernike_fringe"}
+        return SurfaceShape(kinds[kind], tuple(coef), rn), asph
     if kind == "TOROIDAL":
         _refuse_extra(kind, parm, range(0, 10), "PARM", path, line)  # PARM 0 (unused) is written as 0
         if parm.get(0, (0.0, line))[0] != 0.0:

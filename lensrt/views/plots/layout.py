@@ -93,8 +93,7 @@ def _draw_obscurations(ax, lens: Lens, i: int) -> None:
 def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: float | None = None,
                 rays_per_field: int = 9, device: str | None = None, title: str = "") -> Path:
     """Cross-section of ``lens`` (y-z plane) with meridional ray bundles at normalised fields ``hy``."""
-    from ...analysis.raysets import aim_batches, field_spec, object_field_point
-    from ...trace import trace
+    from ...analysis.raysets import aim_batches, field_spec, object_field_point, trace64_many
     from ...trace.status import OK, TIR, VIGNETTED
     hy = [0.0, 0.7, 1.0] if hy is None else list(hy)
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
@@ -134,7 +133,7 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
     # evenly across it
     probe = np.linspace(-1.2, 1.2, 97)
     probes = aim_batches(lens, [(fp, np.zeros_like(probe), probe, wl) for fp in fps], "real", device)
-    passed = [trace(lens, pr, "float64", device, clip=True).ok & pr.aimed for pr in probes]
+    passed = [r.ok & pr.aimed for r, pr in zip(trace64_many(lens, probes, device, clip=True), probes)]
     spread = []
     for ok in passed:
         step = probe[1] - probe[0]
@@ -142,15 +141,15 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
             if ok.any() else np.zeros(0)
         spread.append(py)
     fans = aim_batches(lens, [(fp, np.zeros_like(py), py, wl) for fp, py in zip(fps, spread) if len(py)], "real",
-                       device)[::-1]
+                       device)
+    fans = _traced_with_records(lens, fans, device)[::-1]  # every field's fan in one trace
     for k, spec in enumerate(specs):
         fp, py = fps[k], spread[k]
         colour = _FIELD_COLOURS[k % len(_FIELD_COLOURS)]
         if not len(py):
             ax.plot([], [], color=colour, ls=":", label=f"{spec.label}: every ray vignetted")
             continue
-        rays = fans.pop()
-        res = trace(lens, rays, "float64", device, clip=True, record=True)
+        rays, res = fans.pop()
         for j in range(len(py)):
             st, where = int(res.status[j]), int(res.surface[j])
             rows = n + 1 if st == OK else (where + 1 if st in (VIGNETTED, TIR) else max(where, 0))
@@ -194,3 +193,16 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
     height = (width - 1.0) * (2.6 * hi) / max(z1 - z0, 1e-9) + 1.2
     fig.set_size_inches(width, min(max(height, 3.0), 6.5))
     return save_figure(fig, path)
+
+
+def _traced_with_records(lens: Lens, batches: list, device: str | None) -> list:
+    """(batch, its result) of each batch traced in float64 with clipping and every surface's intersection
+    recorded, all in one trace."""
+    from ...trace import RayBatch, trace
+    if not batches:
+        return []
+    joined = RayBatch(np.concatenate([b.origin_mm for b in batches]), np.concatenate([b.direction for b in batches]),
+                      np.concatenate([b.wavelength_nm for b in batches]))
+    res = trace(lens, joined, "float64", device, clip=True, record=True)
+    ends = np.cumsum([0] + [len(b) for b in batches])
+    return [(b, res.part(int(i), int(j))) for b, i, j in zip(batches, ends[:-1], ends[1:])]
