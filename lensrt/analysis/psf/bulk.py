@@ -25,8 +25,7 @@ import numpy as np
 
 from ..grid import ImageGrid
 from .energy import Rings
-from .jackknife import mtf_directions, usable_freqs
-from .otf import tangential_angle_rad
+from .otf import mtf_directions, tangential_angle_rad, usable_freqs
 
 __all__ = ["FieldSums", "field_sums", "mtf_requests", "FIELDS_PER_PASS"]
 

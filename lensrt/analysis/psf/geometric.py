@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -50,6 +51,9 @@ from .otf import mtf_estimate, tangential_angle_rad
 from .result import PsfResult, geometric_psf
 from .setup import PsfSetup
 from ..pupil_rays import field_xy_of, pupil_grid_rays
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry",
            "round_seed",
@@ -279,7 +283,7 @@ def run_stream(setup: PsfSetup, geom: FieldGeometry, grid: ImageGrid, seed: int,
 
 
 def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, freqs_curve,
-                      mtf_fn=None, sums=None) -> dict[str, Estimate]:
+                      mtf_fn=None, sums: FieldSums | None = None) -> dict[str, Estimate]:
     """Sagittal/tangential MTF Estimates at the reference frequencies (and curves) for a PSF result.
 
     From per-batch histograms (jackknife) when ``hist`` is given; else deterministic, from
@@ -335,7 +339,7 @@ def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | Non
 
 def finish_geometric(setup: PsfSetup, f: FieldSpec, seed: int, geom: FieldGeometry, grid: ImageGrid, half: float,
                      tot: StreamTotals, run: ProgressiveRun | None, seconds: float, reason: str = "asked for",
-                     extra: dict | None = None, sums=None) -> PsfResult:
+                     extra: dict | None = None, sums: FieldSums | None = None) -> PsfResult:
     """The PsfResult of a field's traced totals (``seconds``: set-up and tracing so far); ``sums``: their
     :func:`~lensrt.analysis.psf.bulk.field_sums` when a group made them (else made here for this field)."""
     t1 = time.perf_counter()

@@ -25,15 +25,19 @@ computing, and many PSFs are analysed side by side.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from ...errors import LensrtError
 from ..grid import ImageGrid
+from .otf import mtf_directions
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["jackknife_se", "moment_jackknife", "mtf_jackknife", "geometric_radius_jackknife",
-           "ee_radii_jackknife", "mtf_directions", "usable_freqs"]
+           "ee_radii_jackknife"]
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -86,21 +90,8 @@ def _otf_sums(hb: np.ndarray, grid: ImageGrid, fx: np.ndarray, fy: np.ndarray) -
     return np.einsum("bfr,fr->bf", a, ey)
 
 
-def usable_freqs(freqs_cpmm: np.ndarray, nyquist_cpmm: float) -> np.ndarray:
-    """The frequencies (cycles/mm) in [0, Nyquist] (to 1e-9), where a grid samples the MTF."""
-    f = np.asarray(freqs_cpmm, dtype=np.float64)
-    return f[(f >= 0) & (f <= nyquist_cpmm * (1 - 1e-9))]
-
-
-def mtf_directions(freqs_cpmm: Sequence[float], angles_rad: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """(fx, fy) cycles/mm of every frequency along every direction, angle by angle (A * F each)."""
-    f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
-    return (np.concatenate([f * math.cos(a) for a in angles_rad]),
-            np.concatenate([f * math.sin(a) for a in angles_rad]))
-
-
 def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], angles_rad: Sequence[float],
-                  binned: bool = True, sums=None) -> list[tuple[np.ndarray, np.ndarray]]:
+                  binned: bool = True, sums: FieldSums | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """MTF along each direction of ``angles_rad`` at ``freqs_cpmm`` from per-batch histograms, with jackknife
     standard errors: one (value (F,), stderr (F,)) per angle -- :func:`lensrt.analysis.psf.otf.mtf_estimate`'s
     numbers, all angles and left-out batches from one matrix product. ``sums``: the field's
@@ -128,7 +119,7 @@ def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], 
     return [(full[i * k:(i + 1) * k], se[i * k:(i + 1) * k]) for i in range(len(angles_rad))]
 
 
-def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid, sums=None) -> tuple[float, float]:
+def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid, sums: FieldSums | None = None) -> tuple[float, float]:
     """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring);
     ``sums``: the field's :class:`~lensrt.analysis.psf.bulk.FieldSums` when already computed."""
     b = hb.shape[0]
@@ -223,7 +214,7 @@ def ee_centres_mm(c: tuple[float, float], grid: ImageGrid) -> list[tuple[float, 
 
 
 def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractions: Sequence[float],
-                       sums=None) -> dict[float, tuple[float, float]]:
+                       sums: FieldSums | None = None) -> dict[float, tuple[float, float]]:
     """Encircled-energy radii about the centroid holding ``fractions`` of all landed light (on and off the
     grid) and their linearised jackknife errors, as :func:`lensrt.analysis.psf.result._ee_radius_jackknife`
     computes them one fraction at a time; fractions the grid cannot hold are left out. ``sums``: the field's

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -31,6 +31,9 @@ from ...stats import Estimate, batch_means, jackknife
 from .energy import centroid_mm, radius_for_energy
 from ..grid import ImageGrid
 from .otf import tangential_angle_rad
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["PsfResult", "MOMENT_KEYS", "PSF_KINDS", "histogram_rays", "ray_moment_sums",
            "geometric_psf", "diffraction_result"]
@@ -250,7 +253,7 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
                   field_xy: tuple[float, float] = (0.0, 0.0), field_kind: str = "angle",
                   samples: int = 0, seconds: float = 0.0, seed: int | None = None,
                   ee_fractions: Sequence[float] = (0.5, 0.8), metadata: dict | None = None,
-                  sums: Any = None) -> PsfResult:
+                  sums: FieldSums | None = None) -> PsfResult:
     """A geometric :class:`PsfResult` from per-batch histograms and (optionally) moment sums.
 
     Parameters
