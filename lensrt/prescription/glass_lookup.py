@@ -259,11 +259,16 @@ def _variant(base: str, req: GlassRequest) -> CatalogGlass | None:
             g = find_exact_vendor_glass(root + other, vendor) or find_rii_glass(root + other, (vendor,))
             if g is None:
                 continue
-            nd = float(g.index(FRAUNHOFER_NM["d"]))
-            vd = (nd - 1.0) / float(g.index(FRAUNHOFER_NM["F"]) - g.index(FRAUNHOFER_NM["C"]))
-            if abs(nd - req.nd) <= VARIANT_TOLERANCE[0] and abs(vd - req.vd) <= VARIANT_TOLERANCE[1]:
+            if _line_confirms(g, req):
                 return g
     return None
+
+
+def _line_confirms(g: CatalogGlass, req: GlassRequest) -> bool:
+    """Whether the line's n_d and V_d agree with glass ``g`` within :data:`VARIANT_TOLERANCE`."""
+    nd = float(g.index(FRAUNHOFER_NM["d"]))
+    vd = (nd - 1.0) / float(g.index(FRAUNHOFER_NM["F"]) - g.index(FRAUNHOFER_NM["C"]))
+    return abs(nd - req.nd) <= VARIANT_TOLERANCE[0] and abs(vd - req.vd) <= VARIANT_TOLERANCE[1]
 
 
 def _uncertain(base: str, req: GlassRequest, own: Sequence[str], agfs: Sequence[AgfCatalog]
@@ -276,9 +281,7 @@ def _uncertain(base: str, req: GlassRequest, own: Sequence[str], agfs: Sequence[
     for g in (_in_catalogs(name, own, agfs), lookup_any(name, agfs)):
         if g is None:
             continue
-        nd = float(g.index(FRAUNHOFER_NM["d"]))
-        vd = (nd - 1.0) / float(g.index(FRAUNHOFER_NM["F"]) - g.index(FRAUNHOFER_NM["C"]))
-        if abs(nd - req.nd) <= VARIANT_TOLERANCE[0] and abs(vd - req.vd) <= VARIANT_TOLERANCE[1]:
+        if _line_confirms(g, req):
             return g
     return None
 

@@ -57,12 +57,39 @@ def second_moments_mm2(psf: np.ndarray, grid: ImageGrid, sheppard: bool = True) 
 class Rings:
     """Pixel geometry about a centre, reused for many radii."""
 
-    def __init__(self, grid: ImageGrid, centre_mm: tuple[float, float], supersample: int) -> None:
-        gx, gy = grid.mesh_mm()
-        self.ax, self.ay = np.abs(gx - centre_mm[0]).ravel(), np.abs(gy - centre_mm[1]).ravel()
+    def __init__(self, grid: ImageGrid, centre_mm: tuple[float, float], supersample: int,
+                 pixels: np.ndarray | None = None) -> None:
+        gx, gy = (v.ravel() for v in grid.mesh_mm())
+        if pixels is not None:  # only these pixels (flat indices): fractions() then has one entry each
+            gx, gy = gx[pixels], gy[pixels]
+        self.ax, self.ay = np.abs(gx - centre_mm[0]), np.abs(gy - centre_mm[1])
         self.h = 0.5 * grid.pitch_mm
         self.dmin = np.hypot(np.maximum(self.ax - self.h, 0.0), np.maximum(self.ay - self.h, 0.0))
         self.dmax = np.hypot(self.ax + self.h, self.ay + self.h)
+        self._subsamples(grid, supersample)
+
+    @classmethod
+    def many(cls, grids: Sequence[ImageGrid], centres_mm: np.ndarray, supersample: int) -> list[Rings]:
+        """The Rings of many (grid, centre) pairs of one grid shape, the pixel geometry computed for all
+        in whole-array passes (the same numbers as one at a time); ``centres_mm`` (n, 2)."""
+        c = np.asarray(centres_mm, dtype=np.float64)
+        rows, cols = grids[0].shape
+        xs = np.stack([g.x_mm for g in grids])[:, None, :]
+        ys = np.stack([g.y_mm for g in grids])[:, :, None]
+        ax = np.broadcast_to(np.abs(xs - c[:, 0, None, None]), (len(grids), rows, cols)).reshape(len(grids), -1)
+        ay = np.broadcast_to(np.abs(ys - c[:, 1, None, None]), (len(grids), rows, cols)).reshape(len(grids), -1)
+        h = np.array([0.5 * g.pitch_mm for g in grids])[:, None]
+        dmin = np.hypot(np.maximum(ax - h, 0.0), np.maximum(ay - h, 0.0))
+        dmax = np.hypot(ax + h, ay + h)
+        out = []
+        for k, g in enumerate(grids):
+            r = cls.__new__(cls)
+            r.ax, r.ay, r.h, r.dmin, r.dmax = ax[k], ay[k], float(h[k, 0]), dmin[k], dmax[k]
+            r._subsamples(g, supersample)
+            out.append(r)
+        return out
+
+    def _subsamples(self, grid: ImageGrid, supersample: int) -> None:
         s = max(1, int(supersample))
         off = ((np.arange(s) + 0.5) / s - 0.5) * 2.0 * self.h
         self.ox, self.oy = (v.ravel() for v in np.meshgrid(off, off))

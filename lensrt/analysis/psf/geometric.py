@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -50,6 +51,9 @@ from .otf import mtf_estimate, tangential_angle_rad
 from .result import PsfResult, geometric_psf
 from .setup import PsfSetup
 from ..pupil_rays import field_xy_of, pupil_grid_rays
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry",
            "round_seed",
@@ -279,12 +283,13 @@ def run_stream(setup: PsfSetup, geom: FieldGeometry, grid: ImageGrid, seed: int,
 
 
 def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, freqs_curve,
-                      mtf_fn=None) -> dict[str, Estimate]:
+                      mtf_fn=None, sums: FieldSums | None = None) -> dict[str, Estimate]:
     """Sagittal/tangential MTF Estimates at the reference frequencies (and curves) for a PSF result.
 
     From per-batch histograms (jackknife) when ``hist`` is given; else deterministic, from
     ``mtf_fn(freqs, angle_rad)`` (e.g. a diffraction OTF over whole FFT periods) or the PSF itself.
-    Frequencies beyond the grid's Nyquist are left out (listed in the metadata).
+    Frequencies beyond the grid's Nyquist are left out (listed in the metadata). ``sums``: the
+    histograms' :class:`~lensrt.analysis.psf.bulk.FieldSums` (Fourier sums of :func:`mtf_requests`).
     """
     from .otf import mtf_along
     from .jackknife import mtf_jackknife
@@ -306,7 +311,7 @@ def add_mtf_estimates(result: PsfResult, hist: np.ndarray | None, freqs_ref, fre
         if f.size == 0:
             continue
         pairs = (("sagittal", t + 0.5 * math.pi), ("tangential", t))
-        jk = mtf_jackknife(hist, grid, f, [a for _, a in pairs]) if hist is not None else None
+        jk = mtf_jackknife(hist, grid, f, [a for _, a in pairs], sums=sums) if hist is not None else None
         for j, (name, ang) in enumerate(pairs):
             if jk is not None:  # mtf_estimate's numbers, both directions in one pass
                 e = Estimate(jk[j][0], jk[j][1], int(result.samples), float(result.seconds),
@@ -334,8 +339,9 @@ def geometric_psf_at(setup: PsfSetup, f: FieldSpec, seed: int, device: str | Non
 
 def finish_geometric(setup: PsfSetup, f: FieldSpec, seed: int, geom: FieldGeometry, grid: ImageGrid, half: float,
                      tot: StreamTotals, run: ProgressiveRun | None, seconds: float, reason: str = "asked for",
-                     extra: dict | None = None) -> PsfResult:
-    """The PsfResult of a field's traced totals (``seconds``: set-up and tracing so far)."""
+                     extra: dict | None = None, sums: FieldSums | None = None) -> PsfResult:
+    """The PsfResult of a field's traced totals (``seconds``: set-up and tracing so far); ``sums``: their
+    :func:`~lensrt.analysis.psf.bulk.field_sums` when a group made them (else made here for this field)."""
     t1 = time.perf_counter()
     spec = setup.spectrum
     n = tot.rays
@@ -357,12 +363,15 @@ def finish_geometric(setup: PsfSetup, f: FieldSpec, seed: int, geom: FieldGeomet
         meta["grazing_rays"] = tot.counts["GRAZING"]
     if not tot.hist.sum() > 0:
         raise LensrtError(f"field {f.label}: no ray reached the PSF grid", hint="check the focus and the field")
+    if sums is None:
+        from .bulk import field_sums
+        sums = field_sums(tot.hist[None], tot.off_grid[None], [grid], [geom.reference_mm], setup)[0]
     result = geometric_psf(tot.hist, grid, moment_sums=tot.moments, off_grid=tot.off_grid,
                            reference_mm=geom.reference_mm, wavelengths_nm=spec.lines_nm, weights=spec.line_weights,
                            field_xy=field_xy_of(setup.lens, f.hx, f.hy), field_kind=setup.lens.fields.kind,
                            samples=n, seconds=seconds, seed=int(seed), ee_fractions=setup.ee_fractions,
-                           metadata=meta)
-    add_mtf_estimates(result, tot.hist, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm)
+                           metadata=meta, sums=sums)
+    add_mtf_estimates(result, tot.hist, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm, sums=sums)
     # the fraction of the pupil box's rays that reach the plane, batch means over the (equal) batches
     v, se = batch_means(tot.ok / (n / setup.batches))
     result.estimates["transmission"] = Estimate(float(v), float(se), n, seconds,

@@ -14,8 +14,10 @@ fields, with the same results bit for bit:
    the stream's sums do not depend on what else shares the launch
    (:mod:`lensrt.trace.kernels`): the histograms, counts and moment sums are those
    of the field traced alone;
-3. the per-field analysis of :func:`~lensrt.analysis.psf.geometric.finish_geometric`
-   (vectorised over batches, :mod:`lensrt.analysis.psf.jackknife`).
+3. the analysis: the passes over every field's per-batch histograms at once
+   (:func:`~lensrt.analysis.psf.bulk.field_sums`), then each field's
+   :func:`~lensrt.analysis.psf.geometric.finish_geometric` on those sums (vectorised over
+   batches, :mod:`lensrt.analysis.psf.jackknife`).
 
 So a PSF map is the same whether its fields run one at a time, in one group, or in
 groups spread over devices and machines (:mod:`lensrt.analysis.psf.map`). Progressive
@@ -50,6 +52,7 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
     fields' :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometries when already found."""
     from ...device import resolve_device
     from ...trace.stream import Grid, StreamSource, stream
+    from .bulk import FIELDS_PER_PASS, field_sums
     from .geometric import StreamTotals, finish_geometric, geometric_psf_at, prepare_fields, psf_windows, round_seed
     fields = list(fields)
     reasons = [reason] * len(fields) if isinstance(reason, str) else list(reason)
@@ -83,25 +86,36 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
                          sampler=setup.sampler, batches=B, precision=setup.precision, device=dev,
                          batch_histograms=True)
             share = 1.0 / len(part)
-
-            def finish(j: int, k: int, res=res, part=part, grids=grids, share=share) -> None:
-                tot = StreamTotals(np.zeros((B, pixels, pixels)), np.zeros((B, 6)), np.zeros(B))
-                tot.add(res, j, share)
-                extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
-                         "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
-                results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
-                                              tot, None, setup_each + tot.trace_seconds, reasons[k], extra)
-
-            # the fields' analyses side by side (NumPy releases the GIL in its loops); each field's
-            # numbers do not depend on the threads
-            workers = min(ANALYSIS_THREADS, len(part), os.cpu_count() or 1)
             t_an = time.perf_counter()
+            extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
+                     "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
+
+            def analyse(js: range, res=res, part=part, grids=grids, extra=extra) -> None:
+                # a run of fields: their totals (histograms stacked; a run's stack, not the group's, so
+                # that its memory is reused and stays in cache), the passes over all of them at once
+                # (bulk.field_sums), then each field's estimates from those sums
+                stack = np.zeros((len(js), B, pixels, pixels))
+                tots = [StreamTotals(stack[i], np.zeros((B, 6)), np.zeros(B)) for i in range(len(js))]
+                for i, j in enumerate(js):
+                    tots[i].add(res, j, share)
+                sums = field_sums(stack, np.stack([t.off_grid for t in tots]), grids[js.start:js.stop],
+                                  [geoms[part[j]].reference_mm for j in js], setup)
+                for i, j in enumerate(js):
+                    k = part[j]
+                    results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
+                                                  tots[i], None, setup_each + tots[i].trace_seconds, reasons[k],
+                                                  dict(extra), sums[i])
+
+            # runs of fields analysed side by side (NumPy releases the GIL in its loops); each field's
+            # numbers do not depend on the threads or on the other fields of its run
+            runs = [range(a, min(a + FIELDS_PER_PASS, len(part))) for a in range(0, len(part), FIELDS_PER_PASS)]
+            workers = min(ANALYSIS_THREADS, len(runs), os.cpu_count() or 1)
             if workers > 1:
                 with ThreadPoolExecutor(workers) as pool:
-                    list(pool.map(lambda jk: finish(*jk), enumerate(part)))
+                    list(pool.map(analyse, runs))
             else:
-                for j, k in enumerate(part):
-                    finish(j, k)
+                for js in runs:
+                    analyse(js)
             # wall-clock times of the group (the per-field times above overlap in threads)
             group = {"group_id": f"{int(seeds[part[0]])}:{len(part)}",
                      "group_setup_seconds": setup_each * len(part),

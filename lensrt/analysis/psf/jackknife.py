@@ -25,12 +25,16 @@ computing, and many PSFs are analysed side by side.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from ...errors import LensrtError
 from ..grid import ImageGrid
+from .otf import mtf_directions
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["jackknife_se", "moment_jackknife", "mtf_jackknife", "geometric_radius_jackknife",
            "ee_radii_jackknife"]
@@ -87,20 +91,21 @@ def _otf_sums(hb: np.ndarray, grid: ImageGrid, fx: np.ndarray, fy: np.ndarray) -
 
 
 def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], angles_rad: Sequence[float],
-                  binned: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
+                  binned: bool = True, sums: FieldSums | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """MTF along each direction of ``angles_rad`` at ``freqs_cpmm`` from per-batch histograms, with jackknife
     standard errors: one (value (F,), stderr (F,)) per angle -- :func:`lensrt.analysis.psf.otf.mtf_estimate`'s
-    numbers, all angles and left-out batches from one matrix product."""
+    numbers, all angles and left-out batches from one matrix product. ``sums``: the field's
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (its Fourier sums at these frequencies, if it has them)."""
     h = np.asarray(hb, dtype=np.float64)
     f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
     nyq = 0.5 / grid.pitch_mm
-    fx = np.concatenate([f * math.cos(a) for a in angles_rad])
-    fy = np.concatenate([f * math.sin(a) for a in angles_rad])
+    fx, fy = mtf_directions(f, angles_rad)
     if np.max(np.maximum(np.abs(fx), np.abs(fy)), initial=0.0) > nyq * (1 + 1e-9):
         raise LensrtError(f"frequency {f.max():g} cycles/mm is beyond this PSF grid's Nyquist {nyq:g}",
                           hint="sample the PSF on a finer grid or ask for lower frequencies")
-    nb = _otf_sums(h, grid, fx, fy)  # (B, A*F)
-    tb = h.sum(axis=(1, 2))
+    nb = sums.otf.get((fx.tobytes(), fy.tobytes())) if sums is not None else None
+    nb = _otf_sums(h, grid, fx, fy) if nb is None else nb  # (B, A*F)
+    tb = h.sum(axis=(1, 2)) if sums is None else sums.s_b
     tot = tb.sum()
     if not tot > 0:
         raise LensrtError("the PSF holds no light: no MTF")
@@ -114,20 +119,24 @@ def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], 
     return [(full[i * k:(i + 1) * k], se[i * k:(i + 1) * k]) for i in range(len(angles_rad))]
 
 
-def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid) -> tuple[float, float]:
-    """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring)."""
+def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid, sums: FieldSums | None = None) -> tuple[float, float]:
+    """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring);
+    ``sums``: the field's :class:`~lensrt.analysis.psf.bulk.FieldSums` when already computed."""
     b = hb.shape[0]
     flat = hb.reshape(b, -1)
     gx, gy = (v.ravel() for v in grid.mesh_mm())
-    H = flat.sum(axis=0)
+    H = flat.sum(axis=0) if sums is None else sums.H
     S = H.sum()
     if not S > 0:
         return 0.0, 0.0
-    sb = flat.sum(axis=1)
-    sx_b, sy_b = np.einsum("bp,p->b", flat, gx), np.einsum("bp,p->b", flat, gy)
+    if sums is None:
+        sb = flat.sum(axis=1)
+        sx_b, sy_b = np.einsum("bp,p->b", flat, gx), np.einsum("bp,p->b", flat, gy)
+        lit_n = np.count_nonzero(flat > 0, axis=0)
+    else:
+        sb, sx_b, sy_b, lit_n = sums.s_b, sums.sx_b, sums.sy_b, sums.lit_n
     sx, sy = float(sx_b.sum()), float(sy_b.sum())
     cx, cy = sx / S, sy / S
-    lit_n = np.count_nonzero(flat > 0, axis=0)
     lit = lit_n > 0
     d0 = np.hypot(gx - cx, gy - cy)
     full = float(d0[lit].max())
@@ -168,19 +177,25 @@ class _Annulus:
         return self.e_inner + _dot(self.h, f)
 
 
-def _radius_bisect(rings, H: np.ndarray, target: float, tol: float) -> float:
-    """Radius whose pixel-fraction energy sum(H * fractions(r)) reaches ``target`` (bisection, bracketed
-    by the pixels' nearest and farthest points: a pixel is wholly inside r when its farthest point is,
-    and adds nothing while its nearest point is outside)."""
+def _radial_profiles(rings, H: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The lit pixels' farthest and nearest distances from the centre, sorted, each with the cumulative
+    light in that order (the brackets of :func:`_radius_bisect`, shared by every fraction)."""
     lit = np.nonzero(H > 0)[0]
     h = H[lit]
     dmax, dmin = rings.dmax[lit], rings.dmin[lit]
-    order = np.argsort(dmax, kind="stable")
-    k = int(np.searchsorted(np.cumsum(h[order]), target * (1 - 1e-12)))
-    hi = float(dmax[order[min(k, len(order) - 1)]]) + 1e-12
-    order = np.argsort(dmin, kind="stable")
-    k = int(np.searchsorted(np.cumsum(h[order]), target))
-    lo = max(float(dmin[order[min(k, len(order) - 1)]]) - 1e-12, 0.0)
+    o_max, o_min = np.argsort(dmax, kind="stable"), np.argsort(dmin, kind="stable")
+    return dmax[o_max], np.cumsum(h[o_max]), dmin[o_min], np.cumsum(h[o_min])
+
+
+def _radius_bisect(rings, H: np.ndarray, target: float, tol: float, profiles: tuple | None = None) -> float:
+    """Radius whose pixel-fraction energy sum(H * fractions(r)) reaches ``target`` (bisection, bracketed
+    by the pixels' nearest and farthest points: a pixel is wholly inside r when its farthest point is,
+    and adds nothing while its nearest point is outside); ``profiles``: :func:`_radial_profiles`."""
+    dmax, c_max, dmin, c_min = _radial_profiles(rings, H) if profiles is None else profiles
+    k = int(np.searchsorted(c_max, target * (1 - 1e-12)))
+    hi = float(dmax[min(k, len(dmax) - 1)]) + 1e-12
+    k = int(np.searchsorted(c_min, target))
+    lo = max(float(dmin[min(k, len(dmin) - 1)]) - 1e-12, 0.0)
     ann = _Annulus(rings, H, lo, hi)
     if not (ann.energy(lo) < target <= ann.energy(hi)):  # numerical edge: the whole range
         lo, hi = 0.0, float(rings.dmax.max())
@@ -191,25 +206,44 @@ def _radius_bisect(rings, H: np.ndarray, target: float, tol: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractions: Sequence[float]
-                       ) -> dict[float, tuple[float, float]]:
+def ee_centres_mm(c: tuple[float, float], grid: ImageGrid) -> list[tuple[float, float]]:
+    """The centres of the encircled-energy rings: the centroid ``c``, then shifted by -+ a quarter pixel in x
+    and in y (the centroid gradient of the energy, :func:`ee_radii_jackknife`)."""
+    d = 0.25 * grid.pitch_mm
+    return [c] + [(c[0] + dx, c[1] + dy) for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d))]
+
+
+def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractions: Sequence[float],
+                       sums: FieldSums | None = None) -> dict[float, tuple[float, float]]:
     """Encircled-energy radii about the centroid holding ``fractions`` of all landed light (on and off the
     grid) and their linearised jackknife errors, as :func:`lensrt.analysis.psf.result._ee_radius_jackknife`
-    computes them one fraction at a time; fractions the grid cannot hold are left out."""
+    computes them one fraction at a time; fractions the grid cannot hold are left out. ``sums``: the field's
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed."""
     from .energy import Rings
     nb = hb.shape[0]
     flat_b = hb.reshape(nb, -1)
-    tot_b = flat_b.sum(axis=1) + off
-    total = float(tot_b.sum())
-    H = flat_b.sum(axis=0)
-    hs = H.sum()
     gx, gy = (v.ravel() for v in grid.mesh_mm())
-    sx_b, sy_b, s_b = np.einsum("bp,p->b", flat_b, gx), np.einsum("bp,p->b", flat_b, gy), flat_b.sum(axis=1)
+    if sums is None:
+        H, s_b = flat_b.sum(axis=0), flat_b.sum(axis=1)
+        sx_b, sy_b = np.einsum("bp,p->b", flat_b, gx), np.einsum("bp,p->b", flat_b, gy)
+    else:
+        H, s_b, sx_b, sy_b = sums.H, sums.s_b, sums.sx_b, sums.sy_b
+    tot_b = s_b + off
+    total = float(tot_b.sum())
+    hs = H.sum()
     sx, sy = float(_dot(H, gx)), float(_dot(H, gy))
     c = (sx / hs, sy / hs)
     d = 0.25 * grid.pitch_mm
-    rings = Rings(grid, c, 4)
-    shifted = [Rings(grid, (c[0] + dx, c[1] + dy), 4) for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d))]
+    centres = ee_centres_mm(c, grid)
+    if sums is None:
+        rings, *shifted = (Rings(grid, cc, 4) for cc in centres)
+        H_s = H
+    else:
+        # the shifted rings serve one dot product with H each: on the lit pixels alone (the rest add 0)
+        lit = np.nonzero(H)[0]
+        rings, H_s = sums.rings, H[lit]
+        shifted = [Rings(grid, cc, 4, lit) for cc in centres[1:]]
+    profiles = _radial_profiles(rings, H)
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
         cx_i = (sx - sx_b) / rest
@@ -218,15 +252,15 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     for frac in fractions:
         if hs < frac * total:
             continue
-        full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm)
+        full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm, profiles)
         w = rings.fractions(full)
         lo = max(full - d, 0.0)
         dedr = float(_dot(H, rings.fractions(full + d) - rings.fractions(lo))) / (full + d - lo)
         if not dedr > 0:
             out[frac] = (full, 0.0)
             continue
-        grad = [float(_dot(H, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
-                float(_dot(H, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
+        grad = [float(_dot(H_s, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
+                float(_dot(H_s, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
         e = float(_dot(H, w)) - np.einsum("bp,p->b", flat_b, w) + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
         loo = np.where(rest > 0, full + (frac * (total - tot_b) - e) / dedr, full)
         out[frac] = (full, float(jackknife_se(loo)))

@@ -32,7 +32,7 @@ __all__ = ["FULL_FRAME_DIAGONAL_MM", "AIRY_FIRST_ZERO", "nyquist_cpmm", "diffrac
            "diffraction_mtf", "polychromatic_diffraction_mtf", "airy_psf", "airy_first_zero_mm",
            "airy_encircled_energy", "detector_mtf", "olpf_mtf", "system_mtf", "mtf_2d", "otf_along",
            "mtf_along", "tangential_angle_rad", "sagittal_tangential", "mtf_vs_field",
-           "reference_frequencies_cpmm", "through_focus_mtf", "mtf_estimate"]
+           "reference_frequencies_cpmm", "through_focus_mtf", "mtf_estimate", "usable_freqs", "mtf_directions"]
 
 #: diagonal of the 36 x 24 mm full-frame format (mm)
 FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
@@ -263,3 +263,16 @@ def mtf_estimate(batch_psfs: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[f
     value, se = jackknife(b, lambda h: mtf_along(h, grid, freqs_cpmm, angle_rad, binned))
     return Estimate(np.asarray(value), np.asarray(se), int(samples), float(seconds),
                     f"jackknife over {b.shape[0]} batches", "")
+
+
+def usable_freqs(freqs_cpmm: np.ndarray, nyquist_cpmm: float) -> np.ndarray:
+    """The frequencies (cycles/mm) in [0, Nyquist] (to 1e-9), where a grid samples the MTF."""
+    f = np.asarray(freqs_cpmm, dtype=np.float64)
+    return f[(f >= 0) & (f <= nyquist_cpmm * (1 - 1e-9))]
+
+
+def mtf_directions(freqs_cpmm: Sequence[float], angles_rad: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """(fx, fy) cycles/mm of every frequency along every direction, angle by angle (A * F each)."""
+    f = np.atleast_1d(np.asarray(freqs_cpmm, dtype=np.float64))
+    return (np.concatenate([f * math.cos(a) for a in angles_rad]),
+            np.concatenate([f * math.sin(a) for a in angles_rad]))

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -31,6 +31,9 @@ from ...stats import Estimate, batch_means, jackknife
 from .energy import centroid_mm, radius_for_energy
 from ..grid import ImageGrid
 from .otf import tangential_angle_rad
+
+if TYPE_CHECKING:
+    from .bulk import FieldSums
 
 __all__ = ["PsfResult", "MOMENT_KEYS", "PSF_KINDS", "histogram_rays", "ray_moment_sums",
            "geometric_psf", "diffraction_result"]
@@ -249,7 +252,8 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
                   wavelengths_nm: Sequence[float] = (), weights: Sequence[float] | None = None,
                   field_xy: tuple[float, float] = (0.0, 0.0), field_kind: str = "angle",
                   samples: int = 0, seconds: float = 0.0, seed: int | None = None,
-                  ee_fractions: Sequence[float] = (0.5, 0.8), metadata: dict | None = None) -> PsfResult:
+                  ee_fractions: Sequence[float] = (0.5, 0.8), metadata: dict | None = None,
+                  sums: FieldSums | None = None) -> PsfResult:
     """A geometric :class:`PsfResult` from per-batch histograms and (optionally) moment sums.
 
     Parameters
@@ -266,6 +270,10 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
     samples, seconds, seed
         Rays traced (all batches), wall-clock seconds, seed -- carried into
         every estimate.
+    sums : FieldSums, optional
+        The histograms' per-batch sums, made for many fields at once by
+        :func:`lensrt.analysis.psf.bulk.field_sums` (the same numbers to 1e-12
+        relative; without them they are computed here, the reference path).
 
     Notes
     -----
@@ -285,14 +293,17 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
         raise LensrtError(f"histograms must be (batches >= 2, {grid.shape[0]}, {grid.shape[1]}), not {h.shape}")
     nb = h.shape[0]
     off = np.zeros(nb) if off_grid is None else np.asarray(off_grid, dtype=np.float64)
-    landed_b = h.sum(axis=(1, 2)) + off
+    landed_b = (h.sum(axis=(1, 2)) if sums is None else sums.s_b) + off
     total = float(landed_b.sum())
     if not total > 0:
         raise LensrtError("no rays reached the image plane: no PSF",
                           hint="check the field point, focus and aperture (all rays vignetted?)")
     area = grid.pixel_area_mm2
-    psf = h.sum(axis=0) / (total * area)
-    _, pix_se = batch_means(h * (nb / (total * area)))
+    if sums is None:
+        psf = h.sum(axis=0) / (total * area)
+        _, pix_se = batch_means(h * (nb / (total * area)))
+    else:
+        psf, pix_se = sums.H.reshape(grid.shape) / (total * area), sums.psf_stderr
     jk = f"jackknife over {nb} batches"
 
     def est(value: Any, se: Any, unit: str, method: str = jk) -> Estimate:
@@ -326,10 +337,10 @@ def geometric_psf(hist: np.ndarray, grid: ImageGrid, *, moment_sums: np.ndarray 
         for name, fn in stat.items():
             ests[name] = est(*jackknife(h, fn), "mm", jk + " (from the histogram)")
     from .jackknife import ee_radii_jackknife, geometric_radius_jackknife
-    ests["geometric_radius_mm"] = est(*geometric_radius_jackknife(h, grid), "mm",
+    ests["geometric_radius_mm"] = est(*geometric_radius_jackknife(h, grid, sums), "mm",
                                       jk + " (extreme value: indicative)")
     skipped = []
-    ee = ee_radii_jackknife(h, off, grid, ee_fractions)
+    ee = ee_radii_jackknife(h, off, grid, ee_fractions, sums)
     for frac in ee_fractions:
         key = f"ee{int(round(100 * frac))}_radius_mm"
         if frac not in ee:
