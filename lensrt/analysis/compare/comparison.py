@@ -77,12 +77,13 @@ def lateral_colour(lens: Lens, fields: Sequence[FieldSpec], wavelengths_nm: Sequ
     fps = [object_field_point(lens, f.object_value) for f in fields]
     # the chief rays of every field and wavelength aimed in one solve
     chiefs = aim_batches(lens, [(fp, 0.0, 0.0, float(w)) for w in wls for fp in fps], "real", device)
-    for j, w in enumerate(wls):
+    # and traced in one trace, a result per wavelength
+    parts = [chiefs[j * len(fps):(j + 1) * len(fps)] for j in range(len(wls))]
+    batches = [RayBatch(np.concatenate([c.origin_mm for c in part]), np.concatenate([c.direction for c in part]),
+                        float(w), np.concatenate([c.aimed for c in part])) for w, part in zip(wls, parts)]
+    traced = trace64_many(lens, batches, device, plane_z_mm=z)
+    for j, (w, r) in enumerate(zip(wls, traced)):
         fo = first_order(lens, float(w))
-        part = chiefs[j * len(fps):(j + 1) * len(fps)]
-        chief = RayBatch(np.concatenate([c.origin_mm for c in part]), np.concatenate([c.direction for c in part]),
-                         float(w), np.concatenate([c.aimed for c in part]))
-        r = trace64(lens, chief, device, plane_z_mm=z)
         real[:, j] = np.where(r.ok, r.position_mm[:, 1], np.nan)
         for i, f in enumerate(fields):
             h, u = paraxial_chief(lens, fo, f.object_value)

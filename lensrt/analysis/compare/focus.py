@@ -38,7 +38,7 @@ from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
 from ...trace.focus import BEST_FOCUS_DEFINITION, best_focus_plane, focus_moments_many
-from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64)
+from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch, field_spec, meridional_intersection_z, object_field_point, paraxial_chief, plane_crossing_z, trace64, trace64_many)
 
 __all__ = ["FocalLength", "real_focal_length", "real_focal_lengths", "LongitudinalAberration",
            "longitudinal_aberration", "BestFocus",
@@ -193,9 +193,9 @@ def longitudinal_aberration(lens: Lens, wavelengths_nm: Sequence[float] | None =
     fp = object_field_point(lens, 0.0)
     par_z = np.array([first_order(lens, float(w)).image_z_mm for w in wls])
     focus = np.full((len(wls), len(rho)), np.nan)
-    for k, w in enumerate(wls):
-        rays = aim_batch(lens, fp, np.zeros_like(rho), rho, float(w), aim, device)
-        r = trace64(lens, rays, device)
+    # every wavelength's zones aimed, then traced in one trace
+    aimed = [aim_batch(lens, fp, np.zeros_like(rho), rho, float(w), aim, device) for w in wls]
+    for k, (rays, r) in enumerate(zip(aimed, trace64_many(lens, aimed, device))):
         ok = r.ok & rays.aimed
         focus[k] = np.where(ok, axis_crossing_z(r.position_mm, r.direction), np.nan)
     s = seidel_sums(lens, primary)

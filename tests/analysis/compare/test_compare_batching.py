@@ -68,3 +68,23 @@ def test_real_pupils_trace_every_field_and_the_marginal_ray_in_one_launch(dg):
         for name in ("entrance_pupil_z_mm", "exit_pupil_z_mm", "entrance_tangential_mm", "exit_sagittal_mm"):
             assert np.array_equal(getattr(both, name)[k:k + 1], getattr(one, name), equal_nan=True), name
         assert both.real_working_f_number == one.real_working_f_number
+
+
+def test_lateral_colour_and_longitudinal_aberration_trace_every_wavelength_together(dg):
+    """Three wavelengths in one trace each (was a trace per wavelength); the numbers are each wavelength's alone."""
+    from lensrt.analysis.compare.comparison import lateral_colour
+    from lensrt.analysis.compare.focus import longitudinal_aberration
+    from lensrt.analysis.raysets import lens_fields
+    wls = list(dg.wavelengths.nm)
+    fields = lens_fields(dg, None)
+    lateral_colour(dg, fields, wls, "cpu")  # aim the chief rays (kept by aim_batches)
+    with measure() as rec:
+        lat = lateral_colour(dg, fields, wls, "cpu")
+        lsa = longitudinal_aberration(dg, wls, device="cpu")  # paraxial aiming: no launch
+    assert rec.launches == 2
+    for j, w in enumerate(wls):
+        assert np.array_equal(lat.real_height_mm[:, j], lateral_colour(dg, fields, [w], "cpu").real_height_mm[:, 0],
+                              equal_nan=True)
+        assert np.array_equal(lsa.focus_z_mm[j], longitudinal_aberration(dg, [w], device="cpu").focus_z_mm[0],
+                              equal_nan=True)
+    assert np.isfinite(lat.real_height_mm).all() and np.isfinite(lsa.focus_z_mm).all()
