@@ -38,10 +38,10 @@ from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distor
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
                     real_focal_lengths)
-from .pupils import RealPupils, pupil_outlines, real_pupils
+from .pupils import RealPupils, pupil_outlines, real_pupil_jobs, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
                        close_ray_batch, object_field_point, paraxial_chief, trace64, trace64_many)
-from .vignetting import RI_DEFINITION, Vignetting, vignetting
+from .vignetting import RI_DEFINITION, Vignetting, mapping_points, vignetting
 
 __all__ = ["Comparison", "compare_lens", "lateral_colour", "LateralColour"]
 
@@ -65,6 +65,12 @@ class LateralColour:
                 "real_from_primary_mm": self.real_height_mm - self.real_height_mm[:, k:k + 1]}
 
 
+def _lateral_jobs(lens: Lens, fields: Sequence[FieldSpec], wls) -> list[tuple]:
+    """The chief rays :func:`lateral_colour` aims: every field at every wavelength (wavelength-major)."""
+    fps = [object_field_point(lens, f.object_value) for f in fields]
+    return [(fp, 0.0, 0.0, float(w)) for w in wls for fp in fps]
+
+
 def lateral_colour(lens: Lens, fields: Sequence[FieldSpec], wavelengths_nm: Sequence[float],
                    device: str | None = None) -> LateralColour:
     """Paraxial and real chief-ray heights at each wavelength, all on the primary's paraxial image plane."""
@@ -76,7 +82,7 @@ def lateral_colour(lens: Lens, fields: Sequence[FieldSpec], wavelengths_nm: Sequ
     real = np.full((len(fields), len(wls)), np.nan)
     fps = [object_field_point(lens, f.object_value) for f in fields]
     # the chief rays of every field and wavelength aimed in one solve
-    chiefs = aim_batches(lens, [(fp, 0.0, 0.0, float(w)) for w in wls for fp in fps], "real", device)
+    chiefs = aim_batches(lens, _lateral_jobs(lens, fields, wls), "real", device)
     # and traced in one trace, a result per wavelength
     parts = [chiefs[j * len(fps):(j + 1) * len(fps)] for j in range(len(wls))]
     batches = [RayBatch(np.concatenate([c.origin_mm for c in part]), np.concatenate([c.direction for c in part]),
@@ -198,6 +204,14 @@ _SAGITTAL_PUPIL = np.linspace(0.0, 1.0, 21)
 def _aim_fans(lens: Lens, fields: list[FieldSpec], wls, device: str | None) -> list:
     """The rays of every field's tangential and sagittal fan aimed in one solve: [tangential, sagittal] per
     field, each the list :func:`ray_fan` takes as ``aimed`` (None where that fan could not be set up)."""
+    jobs, spans = _fan_jobs_of(lens, fields, wls)
+    aimed = aim_batches(lens, jobs, "real", device)
+    return [None if sp is None else aimed[sp[0]:sp[1]] for sp in spans]
+
+
+def _fan_jobs_of(lens: Lens, fields: list[FieldSpec], wls) -> tuple[list, list]:
+    """The aiming jobs of every field's tangential and sagittal fan, and each fan's (start, stop) in them
+    (None where that fan could not be set up)."""
     jobs, spans = [], []
     for f in fields:
         for fan, pupil in (("tangential", None), ("sagittal", _SAGITTAL_PUPIL)):
@@ -208,8 +222,24 @@ def _aim_fans(lens: Lens, fields: list[FieldSpec], wls, device: str | None) -> l
                 continue
             spans.append((len(jobs), len(jobs) + len(part)))
             jobs += part
-    aimed = aim_batches(lens, jobs, "real", device)
-    return [None if sp is None else aimed[sp[0]:sp[1]] for sp in spans]
+    return jobs, spans
+
+
+def _aim_ahead(lens: Lens, fields: list[FieldSpec], wls, curve_fps: list, vhy: np.ndarray, fans: bool,
+               device: str | None) -> None:
+    """Every real ray that the analyses of :func:`compare_lens` aim with ``aim_batches``/``chief_batch`` -- the
+    curves' and lateral colour's chief rays at every wavelength, the real pupils' chief and rim rays,
+    vignetting's mapping-factor chief rays, the fans -- in one Newton run. ``aim_batches`` keeps them, so each
+    analysis then finds its rays aimed: the same bits (each ray's Newton run is its own), one run instead of
+    one each."""
+    primary = lens.wavelengths.primary_nm
+    jobs = [(fp, 0.0, 0.0, float(w)) for w in wls for fp in curve_fps] + _lateral_jobs(lens, fields, wls)
+    jobs += real_pupil_jobs(lens, [f.hy for f in fields], primary)
+    pts = mapping_points(lens, np.array([field_spec(lens, h).object_value for h in vhy]))[0]
+    jobs += [(object_field_point(lens, float(v)), 0.0, 0.0, float(primary)) for v in pts]
+    if fans:
+        jobs += _fan_jobs_of(lens, fields, wls)[0]
+    aim_batches(lens, jobs, "real", device)
 
 
 def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
@@ -257,8 +287,11 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     index = [int(np.argmin(np.abs(hy - f.hy))) for f in fields]
     notes = []
     focal = real_focal_lengths(lens, wls, device=dev)  # every wavelength's rays traced together
-    # the chief rays of the curves' field points at every wavelength, aimed in one solve
+    # the chief rays of the curves' field points at every wavelength, aimed in one solve with the rays of the
+    # other analyses (_aim_ahead)
     curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
+    vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
+    _aim_ahead(lens, fields, wls, curve_fps, vhy, fans, dev)
     chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
     # every wavelength's chief rays (distortion) and close rays about them (field curvature) in one trace
     curve_rays = [chiefs[w] for w in wls] + [close_ray_batch(lens, chiefs[w], curve_fps) for w in wls]
@@ -279,7 +312,6 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     fcurv = {w: field_curvature(lens, hy, w, device=dev, chief=chiefs[w], traced=t)
              for w, t in zip(wls, curves[len(wls):])}
     lat = lateral_colour(lens, fields, wls, device=dev)
-    vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
     # the pupil outlines of the real pupils' fields and of vignetting's exit-pupil illumination in one batched
     # search (each analysis then finds its outlines in pupil_outlines' cache: the same outlines, fewer launches)
     pupil_outlines(lens, [0.0] + [field_spec(lens, h).object_value for h in [f.hy for f in fields] + list(vhy)],

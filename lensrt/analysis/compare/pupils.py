@@ -43,7 +43,8 @@ from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_
 from ..raysets import (aim_batch, aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64,
                       trace64_many)
 
-__all__ = ["PupilOutline", "pupil_outline", "pupil_outlines", "RealPupils", "real_pupils", "stop_only_lens", "physical_rim_mm",
+__all__ = ["PupilOutline", "pupil_outline", "pupil_outlines", "RealPupils", "real_pupils", "real_pupil_jobs",
+           "stop_only_lens", "physical_rim_mm",
            "pupil_frame"]
 
 
@@ -452,6 +453,15 @@ class RealPupils:
                 "vignetted_outlines": [o.to_dict() for o in self.outlines]}
 
 
+def real_pupil_jobs(lens: Lens, hy: Sequence[float], wavelength_nm: float) -> list[tuple]:
+    """The rays :func:`real_pupils` aims together (jobs for :func:`~lensrt.analysis.raysets.aim_batches`): per
+    field the chief ray and the four stop-rim rays (+-y, +-x)."""
+    pup = np.array([[0.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
+    wl = float(wavelength_nm)
+    fps = [object_field_point(lens, field_spec(lens, h).object_value) for h in hy]
+    return [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps]
+
+
 def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = None, *, outlines: bool = True,
                 n_azimuth: int = 180, device: str | None = None) -> RealPupils:
     """Paraxial against real pupils at normalised fields ``hy`` (module docstring)."""
@@ -465,10 +475,9 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
     n = len(specs)
     ep_z, xp_z = np.full(n, np.nan), np.full(n, np.nan)
     ent_t, ent_s, ex_t, ex_s = (np.full(n, np.nan) for _ in range(4))
-    pup = np.array([[0.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
     outs = []
     fps = [object_field_point(lens, spec.object_value) for spec in specs]
-    aimed = aim_batches(lens, [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps], "real", device)
+    aimed = aim_batches(lens, real_pupil_jobs(lens, hy, wl), "real", device)
     # the real axial marginal ray (for the real working f-number) aimed, and traced with every field's rays
     marginal = aim_batch(lens, object_field_point(lens, 0.0), 0.0, 1.0, wl, "real", device)
     *traced, m = trace64_many(lens, list(aimed) + [marginal], device)

@@ -45,7 +45,8 @@ from ...stats import Estimate, batch_means, jackknife
 from .pupils import pupil_frame, pupil_outlines, stop_only_lens
 from ..raysets import chief_batch, field_spec, object_field_point, trace64
 
-__all__ = ["Vignetting", "vignetting", "mapping_factor", "relative_illumination_at", "RI_DEFINITION",
+__all__ = ["Vignetting", "vignetting", "mapping_factor", "mapping_points",
+           "relative_illumination_at", "RI_DEFINITION",
            "RI_VALIDITY"]
 
 RI_DEFINITION = ("relative illumination E(theta)/E(0) of a uniform Lambertian object: real pupil cross-section "
@@ -62,6 +63,15 @@ RI_AGREE_SIGMAS = 3.0
 RI_AGREE_ABS = 2e-3
 
 
+def mapping_points(lens: Lens, object_values: np.ndarray, step: float | None = None) -> tuple[np.ndarray, float]:
+    """The object-space field values whose real chief rays :func:`mapping_factor` traces (the points, each
+    +- the step, and +- the step about the axis) and the step."""
+    obj = np.asarray(object_values, dtype=np.float64)
+    top = max(float(np.max(np.abs(obj))), field_spec(lens, 1.0).object_value, 1e-6)
+    h = 1e-4 * top if step is None else float(step)
+    return np.concatenate([obj, obj + h, obj - h, [h, -h]]), h
+
+
 def mapping_factor(lens: Lens, object_values: np.ndarray, wavelength_nm: float, device: str | None = None,
                    step: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Solid angle (or object area) per image area relative to the axis, and the real image heights (mm).
@@ -70,9 +80,7 @@ def mapping_factor(lens: Lens, object_values: np.ndarray, wavelength_nm: float, 
     with ``step`` (default 1e-4 of the largest field value).
     """
     obj = np.asarray(object_values, dtype=np.float64)
-    top = max(float(np.max(np.abs(obj))), field_spec(lens, 1.0).object_value, 1e-6)
-    h = 1e-4 * top if step is None else float(step)
-    pts = np.concatenate([obj, obj + h, obj - h, [h, -h]])
+    pts, h = mapping_points(lens, obj, step)
     fps = [object_field_point(lens, float(v)) for v in pts]
     r = trace64(lens, chief_batch(lens, fps, wavelength_nm, device), device)
     if not r.ok.all():

@@ -88,3 +88,26 @@ def test_lateral_colour_and_longitudinal_aberration_trace_every_wavelength_toget
         assert np.array_equal(lsa.focus_z_mm[j], longitudinal_aberration(dg, [w], device="cpu").focus_z_mm[0],
                               equal_nan=True)
     assert np.isfinite(lat.real_height_mm).all() and np.isfinite(lsa.focus_z_mm).all()
+
+
+def test_compare_aims_the_analyses_rays_ahead_in_one_run():
+    """compare_lens's one Newton run (_aim_ahead) holds the very rays each analysis then aims: lateral colour,
+    the mapping factor, the real pupils' rim rays and the fans launch no aiming of their own afterwards."""
+    from lensrt.analysis.compare.comparison import _aim_ahead, _aim_fans, lateral_colour
+    from lensrt.analysis.compare.pupils import real_pupil_jobs
+    from lensrt.analysis.compare.vignetting import mapping_factor
+    from lensrt.analysis.raysets import lens_fields
+    lens = load_lens("cooke_triplet_50mm_f5")  # a lens no other test here has aimed
+    wls = list(lens.wavelengths.nm)
+    fields = lens_fields(lens, [0.25])
+    curve_fps = [object_field_point(lens, field_spec(lens, h).object_value) for h in np.linspace(0.0, 1.0, 5)]
+    vhy = np.linspace(0.0, 1.0, 4)
+    _aim_ahead(lens, fields, wls, curve_fps, vhy, True, "cpu")
+    with measure() as rec:
+        lateral_colour(lens, fields, wls, "cpu")  # one trace
+        mapping_factor(lens, np.array([field_spec(lens, h).object_value for h in vhy]), lens.wavelengths.primary_nm,
+                       "cpu")  # one trace
+        aim_batches(lens, real_pupil_jobs(lens, [f.hy for f in fields], lens.wavelengths.primary_nm), "real", "cpu")
+        aimed = _aim_fans(lens, fields, wls, "cpu")
+        chief_batches(lens, curve_fps, wls, "cpu")
+    assert rec.launches == 2 and all(a is not None for a in aimed)
