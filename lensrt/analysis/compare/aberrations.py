@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
@@ -269,15 +269,21 @@ def spot_diagrams(lens: Lens, hy: Sequence[float], wavelengths_nm: Sequence[floa
     grid = Grid(1, 1, 1.0)
     table = dict(zip(lens.wavelengths.nm, lens.wavelengths.weights))
 
-    def run(spectrum, s: int) -> tuple[np.ndarray, int, float]:
-        t0 = time.perf_counter()
-        res = stream(lens, sources, grid, rays, spectrum=spectrum, sampler=sampler, seed=seed + s, batches=batches,
-                     precision="float64", device=device)
-        st = res.batch_stats[:, :, [1, 2, 3, 4, 5]]
-        return st, res.rays_per_source, time.perf_counter() - t0
-
-    per_wl = {w: run(spectrum_discrete([w], [1.0]), i) for i, w in enumerate(wls)}
-    poly = run(spectrum_discrete(list(wls), [table.get(w, 1.0) for w in wls]), len(wls))
+    # one stream launch for every wavelength's run and the polychromatic one: run s gives each field its
+    # seed + s, its own random-number index (its position in the field list) and spectrum s -- the rays and
+    # sums of that run launched alone
+    spectra = [spectrum_discrete([w], [1.0]) for w in wls] + \
+        [spectrum_discrete(list(wls), [table.get(w, 1.0) for w in wls])]
+    runs = [replace(src, seed=seed + s, rng_index=k, spectrum=s) for s in range(len(spectra))
+            for k, src in enumerate(sources)]
+    t0 = time.perf_counter()
+    res = stream(lens, runs, grid, rays, spectrum=spectra, sampler=sampler, seed=seed, batches=batches,
+                 precision="float64", device=device)
+    each = (time.perf_counter() - t0) / len(spectra)
+    st = res.batch_stats[:, :, [1, 2, 3, 4, 5]]
+    n_src = len(sources)
+    per_wl = {w: (st[i * n_src:(i + 1) * n_src], res.rays_per_source, each) for i, w in enumerate(wls)}
+    poly = (st[len(wls) * n_src:], res.rays_per_source, each)
     # the spot grids of every field point and wavelength: one pupil-box search, one trace
     grid_rays = pupil_grid_rays_many(lens, [(fp, w) for fp in fps for w in wls], n_grid, device)
     traced = iter(trace64_many(lens, [g for g in grid_rays if g is not None], device, clip=True, plane_z_mm=z))

@@ -34,10 +34,11 @@ from ...errors import LensrtError
 from ...prescription.model import Lens
 from ...trace import RayBatch
 from .aberrations import RayFan, SpotDiagram, fan_jobs, ray_fan, spot_diagrams, trace_fans
-from .distortion import DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion
+from .distortion import (DEFINITION_TEXT, DistortionCurve, GridDistortion, distortion_curve, grid_distortion,
+                         grid_object_values)
 from .focus import (BEST_FOCUS_DEFINITION, BestFocus, ChromaticFocalShift, FieldCurvature, FocalLength,
                     LongitudinalAberration, best_focus, chromatic_focal_shift, field_curvature, longitudinal_aberration,
-                    real_focal_lengths)
+                    real_focal_lengths, small_field_value)
 from .pupils import RealPupils, pupil_outlines, real_pupil_jobs, real_pupils
 from ..raysets import (FieldSpec, aim_batches, chief_batches, field_display, field_key, field_spec, lens_fields,
                        close_ray_batch, object_field_point, paraxial_chief, trace64, trace64_many)
@@ -229,7 +230,8 @@ def _aim_ahead(lens: Lens, fields: list[FieldSpec], wls, curve_fps: list, vhy: n
                device: str | None) -> None:
     """Every real ray that the analyses of :func:`compare_lens` aim with ``aim_batches``/``chief_batch`` -- the
     curves' and lateral colour's chief rays at every wavelength, the real pupils' chief and rim rays,
-    vignetting's mapping-factor chief rays, the fans -- in one Newton run. ``aim_batches`` keeps them, so each
+    vignetting's mapping-factor chief rays, the real focal lengths' small-field chief rays, the distortion grid's
+    chief rays, the fans -- in one Newton run. ``aim_batches`` keeps them, so each
     analysis then finds its rays aimed: the same bits (each ray's Newton run is its own), one run instead of
     one each."""
     primary = lens.wavelengths.primary_nm
@@ -237,6 +239,14 @@ def _aim_ahead(lens: Lens, fields: list[FieldSpec], wls, curve_fps: list, vhy: n
     jobs += real_pupil_jobs(lens, [f.hy for f in fields], primary)
     pts = mapping_points(lens, np.array([field_spec(lens, h).object_value for h in vhy]))[0]
     jobs += [(object_field_point(lens, float(v)), 0.0, 0.0, float(primary)) for v in pts]
+    small = small_field_value(lens)  # real_focal_lengths' small-field chief rays
+    if small is not None:
+        jobs += [(object_field_point(lens, small), 0.0, 0.0, float(w)) for w in wls]
+    try:  # grid_distortion's chief rays (its own error, if any, is raised and noted where it runs)
+        jobs += [(object_field_point(lens, float(v)), 0.0, 0.0, float(primary))
+                 for v in grid_object_values(lens, 11, primary)]
+    except LensrtError:
+        pass
     if fans:
         jobs += _fan_jobs_of(lens, fields, wls)[0]
     aim_batches(lens, jobs, "real", device)
@@ -286,12 +296,12 @@ def compare_lens(lens: Lens, *, wavelengths_nm: Sequence[float] | None = None,
     hy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, curve_points), [f.hy for f in fields]]), 12))
     index = [int(np.argmin(np.abs(hy - f.hy))) for f in fields]
     notes = []
-    focal = real_focal_lengths(lens, wls, device=dev)  # every wavelength's rays traced together
     # the chief rays of the curves' field points at every wavelength, aimed in one solve with the rays of the
     # other analyses (_aim_ahead)
     curve_fps = [object_field_point(lens, float(v)) for v in (field_spec(lens, h).object_value for h in hy)]
     vhy = np.unique(np.round(np.concatenate([np.linspace(0.0, top, 11), [f.hy for f in fields]]), 12))
     _aim_ahead(lens, fields, wls, curve_fps, vhy, fans, dev)
+    focal = real_focal_lengths(lens, wls, device=dev)  # every wavelength's rays traced together
     chiefs = dict(zip(wls, chief_batches(lens, curve_fps, wls, dev)))
     # every wavelength's chief rays (distortion) and close rays about them (field curvature) in one trace
     curve_rays = [chiefs[w] for w in wls] + [close_ray_batch(lens, chiefs[w], curve_fps) for w in wls]

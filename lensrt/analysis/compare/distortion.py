@@ -46,7 +46,7 @@ from ...trace import RayBatch
 from ..raysets import chief_batch, field_spec, object_field_point, paraxial_chief, trace64
 
 __all__ = ["DISTORTION_DEFINITIONS", "MAPPINGS", "DistortionCurve", "GridDistortion", "distortion_curve",
-           "grid_distortion", "mapping_height_mm", "DEFINITION_TEXT"]
+           "grid_distortion", "grid_object_values", "mapping_height_mm", "DEFINITION_TEXT"]
 
 DISTORTION_DEFINITIONS = ("paraxial", "codev")
 #: fisheye (and rectilinear) mappings: name -> height / f as a function of theta (rad)
@@ -236,23 +236,20 @@ class GridDistortion:
                 "max_abs_distortion_percent": self.max_abs_distortion_percent}
 
 
-def grid_distortion(lens: Lens, n: int = 11, wavelength_nm: float | None = None, device: str | None = None,
-                    mapping: str | None = None, plane: str = "paraxial") -> GridDistortion:
-    """Grid distortion: an n x n square of ideal image points whose corners reach the largest field.
+def grid_object_values(lens: Lens, n: int = 11, wavelength_nm: float | None = None,
+                       mapping: str | None = None) -> np.ndarray:
+    """The object-space field values (rad at infinity, else mm) whose real chief rays :func:`grid_distortion`
+    traces: one per distinct ideal radius of its n x n grid."""
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    return _grid(lens, n, wl, mapping)[-1]
 
-    ``mapping`` is the undistorted reference ("rectilinear" = the paraxial image,
-    or a fisheye mapping of :data:`MAPPINGS`; default rectilinear, equidistant
-    when the largest field angle exceeds 60 deg). Real points are on the paraxial
-    image plane (``plane="paraxial"``) or the image surface (``"image"``). The
-    lens is rotationally symmetric, so the chief rays are traced once per distinct
-    radius along +y and rotated to each point's azimuth.
-    """
+
+def _grid(lens: Lens, n: int, wl: float, mapping: str | None) -> tuple:
+    """(first order, mapping, gx, gy, r, index of each point's radius, object value of each radius) of
+    :func:`grid_distortion`'s grid."""
     from ...paraxial import first_order
     if n < 2:
         raise LensrtError("a distortion grid needs at least 2 x 2 points")
-    if plane not in ("paraxial", "image"):
-        raise LensrtError(f"unknown plane {plane!r}", hint="use 'paraxial' or 'image'")
-    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
     fo = first_order(lens, wl)
     infinite = fo.object_distance_mm is None
     obj_max = field_spec(lens, 1.0).object_value
@@ -282,6 +279,24 @@ def grid_distortion(lens: Lens, n: int = 11, wavelength_nm: float | None = None,
     else:
         m = paraxial_chief(lens, fo, 1.0)[0]  # image height per mm of object height
         obj = radii / abs(m)
+    return fo, mapping, gx, gy, r, inv, obj
+
+
+def grid_distortion(lens: Lens, n: int = 11, wavelength_nm: float | None = None, device: str | None = None,
+                    mapping: str | None = None, plane: str = "paraxial") -> GridDistortion:
+    """Grid distortion: an n x n square of ideal image points whose corners reach the largest field.
+
+    ``mapping`` is the undistorted reference ("rectilinear" = the paraxial image,
+    or a fisheye mapping of :data:`MAPPINGS`; default rectilinear, equidistant
+    when the largest field angle exceeds 60 deg). Real points are on the paraxial
+    image plane (``plane="paraxial"``) or the image surface (``"image"``). The
+    lens is rotationally symmetric, so the chief rays are traced once per distinct
+    radius along +y and rotated to each point's azimuth.
+    """
+    if plane not in ("paraxial", "image"):
+        raise LensrtError(f"unknown plane {plane!r}", hint="use 'paraxial' or 'image'")
+    wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    fo, mapping, gx, gy, r, inv, obj = _grid(lens, n, wl, mapping)
     curve = distortion_curve(lens, wavelength_nm=wl, device=device, object_values=obj)
     h_real = curve.real_height_mm if plane == "paraxial" else curve.real_height_image_mm
     h_real = np.abs(h_real)

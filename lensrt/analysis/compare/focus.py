@@ -43,7 +43,7 @@ from ..raysets import (aim_batch, axis_crossing_z, chief_batch, close_ray_batch,
 __all__ = ["FocalLength", "real_focal_length", "real_focal_lengths", "LongitudinalAberration",
            "longitudinal_aberration", "BestFocus",
            "best_focus", "ChromaticFocalShift", "chromatic_focal_shift", "FieldCurvature", "field_curvature",
-           "BEST_FOCUS_DEFINITION", "correction_name"]
+           "BEST_FOCUS_DEFINITION", "correction_name", "small_field_value"]
 
 
 
@@ -96,6 +96,14 @@ def real_focal_length(lens: Lens, wavelength_nm: float | None = None, heights_mm
     return real_focal_lengths(lens, [wl], heights_mm, near_axis_fraction, small_angle_fraction, device)[0]
 
 
+def small_field_value(lens: Lens, small_angle_fraction: float = 1e-3) -> float | None:
+    """The small field (object-space value: rad at infinity, else mm) whose real chief ray
+    :func:`real_focal_lengths` traces for the equivalent focal length; None for a lens without a field."""
+    if lens.fields.max_radial <= 0:
+        return None
+    return small_angle_fraction * max(field_spec(lens, 1.0).object_value, 1e-3)
+
+
 def real_focal_lengths(lens: Lens, wavelengths_nm: Sequence[float], heights_mm: Sequence[float] | None = None,
                        near_axis_fraction: float = 1e-3, small_angle_fraction: float = 1e-3,
                        device: str | None = None) -> list[FocalLength]:
@@ -118,8 +126,7 @@ def real_focal_lengths(lens: Lens, wavelengths_nm: Sequence[float], heights_mm: 
         batches.append(RayBatch(np.column_stack([np.zeros(n), h_all, np.zeros(n)]), np.tile([0.0, 0.0, 1.0], (n, 1)),
                                 wl))
     parallel = trace64_many(lens, batches, device)
-    small = small_angle_fraction * max(field_spec(lens, 1.0).object_value, 1e-3) if lens.fields.max_radial > 0 \
-        else None
+    small = small_field_value(lens, small_angle_fraction)
     chiefs = chief_batches(lens, [object_field_point(lens, small)], wls, device) if small is not None else []
     out = []
     for k, (wl, fo, (h, h_all), res) in enumerate(zip(wls, fos, heights, parallel)):

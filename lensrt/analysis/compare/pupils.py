@@ -40,7 +40,7 @@ from ...prescription.frames import travel_signs
 from ...prescription.model import Iris, Lens
 from ...trace import RayBatch, trace
 from ...trace.aiming import FieldPoint, beam_basis, pupil_geometry, ray_through_point
-from ..raysets import (aim_batch, aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64,
+from ..raysets import (aim_batches, exit_pupil_point_z_mm, field_spec, object_field_point, trace64,
                       trace64_many)
 
 __all__ = ["PupilOutline", "pupil_outline", "pupil_outlines", "RealPupils", "real_pupils", "real_pupil_jobs",
@@ -454,12 +454,12 @@ class RealPupils:
 
 
 def real_pupil_jobs(lens: Lens, hy: Sequence[float], wavelength_nm: float) -> list[tuple]:
-    """The rays :func:`real_pupils` aims together (jobs for :func:`~lensrt.analysis.raysets.aim_batches`): per
-    field the chief ray and the four stop-rim rays (+-y, +-x)."""
+    """The rays :func:`real_pupils` aims (jobs for :func:`~lensrt.analysis.raysets.aim_batches`): per field the
+    chief ray and the four stop-rim rays (+-y, +-x), then the axial marginal ray."""
     pup = np.array([[0.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 0.0], [-1.0, 0.0]])
     wl = float(wavelength_nm)
     fps = [object_field_point(lens, field_spec(lens, h).object_value) for h in hy]
-    return [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps]
+    return [(fp, pup[:, 0], pup[:, 1], wl) for fp in fps] + [(object_field_point(lens, 0.0), 0.0, 1.0, wl)]
 
 
 def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = None, *, outlines: bool = True,
@@ -477,10 +477,11 @@ def real_pupils(lens: Lens, hy: Sequence[float], wavelength_nm: float | None = N
     ent_t, ent_s, ex_t, ex_s = (np.full(n, np.nan) for _ in range(4))
     outs = []
     fps = [object_field_point(lens, spec.object_value) for spec in specs]
+    # every field's chief and stop-rim rays and the real axial marginal ray (for the real working f-number)
+    # aimed in one solve (aim_many: the rays aim_rays gives one field point at a time, bit for bit) and traced
+    # in one trace
     aimed = aim_batches(lens, real_pupil_jobs(lens, hy, wl), "real", device)
-    # the real axial marginal ray (for the real working f-number) aimed, and traced with every field's rays
-    marginal = aim_batch(lens, object_field_point(lens, 0.0), 0.0, 1.0, wl, "real", device)
-    *traced, m = trace64_many(lens, list(aimed) + [marginal], device)
+    *traced, m = trace64_many(lens, aimed, device)
     for k, spec in enumerate(specs):
         fp, rays, r = fps[k], aimed[k], traced[k]
         good = r.ok & rays.aimed

@@ -111,3 +111,29 @@ def test_compare_aims_the_analyses_rays_ahead_in_one_run():
         aimed = _aim_fans(lens, fields, wls, "cpu")
         chief_batches(lens, curve_fps, wls, "cpu")
     assert rec.launches == 2 and all(a is not None for a in aimed)
+
+
+def test_spot_diagram_runs_share_one_stream_launch(dg):
+    """The per-wavelength and polychromatic Monte Carlo runs of spot_diagrams in one stream launch: wavelength i's
+    estimates are those of spot_diagrams at that wavelength alone with seed + i (its run's seed)."""
+    from lensrt.analysis.compare.aberrations import spot_diagrams
+    from lensrt.trace import stream as stream_module
+    wls, hy, seed = list(dg.wavelengths.nm), [0.0, 0.8], 7
+    calls = []
+    real = stream_module.stream
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+    stream_module.stream = counting
+    try:
+        both = spot_diagrams(dg, hy, wls, rays=2048, batches=8, seed=seed, device="cpu")
+    finally:
+        stream_module.stream = real
+    assert len(calls) == 1  # was one per wavelength and one more
+    for i, w in enumerate(wls):
+        alone = spot_diagrams(dg, hy, [w], rays=2048, batches=8, seed=seed + i, device="cpu")
+        for a, b in zip(both, alone):
+            for key, e in b.per_wavelength[w].items():
+                assert (a.per_wavelength[w][key].value, a.per_wavelength[w][key].stderr) == (e.value, e.stderr), key
+    assert all(s.estimates["rms_radius_mm"].value > 0 for s in both)
