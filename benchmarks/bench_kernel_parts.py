@@ -33,7 +33,7 @@ from lensrt.device import describe_device, resolve_device, warp  # noqa: E402
 from lensrt.io.table import format_table  # noqa: E402
 from lensrt.prescription.model import Iris  # noqa: E402
 from lensrt.trace import specialised  # noqa: E402
-from lensrt.trace.kernels import get_kernels, module_name  # noqa: E402
+from lensrt.trace.kernels import get_kernels, module_names  # noqa: E402
 from lensrt.trace.pack import pack_lens  # noqa: E402
 from lensrt.trace.kernels.generic import sample_unit_square  # noqa: E402
 from lensrt.trace.sampling import SAMPLERS, spectrum_continuous  # noqa: E402
@@ -107,7 +107,7 @@ def modules_for(cfg: dict) -> list[str]:
     prec = cfg["precision"]
     get_kernels(prec)
     get_kernels("float64")
-    names = [module_name(prec), module_name("float64")]
+    names = module_names(prec) + module_names("float64")
     if cfg["kernel"] == "specialised":
         lens = lens_for(cfg)
         packed = pack_lens(lens, prec, "cpu")

@@ -6,10 +6,11 @@ Usage (from the repository root)::
     PYTHONPATH=. python benchmarks/bench_report.py --device cuda               # the issue's case (normal)
     PYTHONPATH=. python benchmarks/bench_report.py --device cuda --json > report_bench.json
     PYTHONPATH=. python benchmarks/bench_report.py --device cpu --ray-fraction 0.015625 --no-warmup  # launch plan
+    WARP_CACHE_PATH=$(mktemp -d) PYTHONPATH=. python benchmarks/bench_report.py --device cuda --no-warmup  # cold cache
 
 It runs :func:`lensrt.report.build_report` on a lens (default: the built-in 50 mm f/2 double Gauss, as
 ``lensrt report`` does) into a temporary folder, after a warm-up run that compiles the Warp kernels
-(``--no-warmup`` to time a cold cache; the warm-up also fills the analyses' in-process caches -- pupil
+(``--no-warmup`` to time a cold cache -- with an empty one: ``WARP_CACHE_PATH=$(mktemp -d)``; the warm-up also fills the analyses' in-process caches -- pupil
 outlines, focus moments and the like -- so the measured run launches fewer kernels than ``lensrt report`` in a
 fresh process: count launches with ``--no-warmup``), and prints the :mod:`lensrt.core.telemetry` record of each
 section: ``wall s``, ``kernel s`` (CUDA events on a GPU; on the CPU the wall time of the launch calls,
@@ -72,13 +73,26 @@ def main(argv: list[str] | None = None) -> int:
     report = run_report(args.lens, args.device, args.quality, args.skip, args.ray_fraction)
     rows = rows_of(report)
     if args.json:
-        print(json.dumps({"device": report.device_name, "quality": args.quality, "rows": rows}, indent=1))
+        print(json.dumps({"device": report.device_name, "quality": args.quality, "rows": rows,
+                          "kernel_modules": report.kernel_modules}, indent=1))
         return 0
     fraction = f" x {args.ray_fraction:g} rays" if args.ray_fraction != 1.0 else ""
     print(f"lensrt report {report.lens_name}, quality {args.quality}{fraction}, on {report.device_name} "
           f"({platform.processor() or platform.machine()}, python {platform.python_version()})")
     print(table(rows))
+    if report.kernel_modules:
+        print(modules_table(report.kernel_modules))
     return 0
+
+
+def modules_table(modules: list[dict]) -> str:
+    """The kernel modules the report planned and loaded in the background (lensrt.report.kernel_plan):
+    load seconds (compilation included when the kernel cache lacked them) and how long launches waited."""
+    out = ["| planned kernel module | for | load s | launches waited s |", "|---|---|---:|---:|"]
+    for m in modules:
+        state = " (loaded already)" if m["skipped"] else (f" (failed: {m['error'][:60]})" if m["error"] else "")
+        out.append(f"| {m['module']}{state} | {m['why']} | {m['seconds']:.2f} | {m['waited_s']:.2f} |")
+    return "\n".join(out)
 
 
 if __name__ == "__main__":

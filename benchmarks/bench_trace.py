@@ -50,7 +50,7 @@ from lensrt.loading import load_lens  # noqa: E402
 from lensrt.prescription.materials import AIR, ConstantIndex  # noqa: E402
 from lensrt.prescription.model import Aperture, Fields, Iris, Lens, Surface, Wavelengths  # noqa: E402
 from lensrt.trace import specialised  # noqa: E402
-from lensrt.trace.kernels import RAY_IN_COLS, get_kernels, lens_variant, module_name  # noqa: E402
+from lensrt.trace.kernels import RAY_IN_COLS, get_kernels, lens_variant, module_names  # noqa: E402
 from lensrt.trace.pack import pack_lens  # noqa: E402
 from lensrt.trace.sampling import SAMPLERS, spectrum_continuous  # noqa: E402
 from lensrt.trace.specialised import StreamOptions, store_kernel, stream_kernel  # noqa: E402
@@ -189,12 +189,12 @@ def time_optiland(lens: Lens, rays: int, hy: float) -> tuple[float, float] | Non
 
 def aot_modules(lens: Lens, precisions: list[str], scaling: bool) -> list[str]:
     """Every Warp module a GPU run of this script loads (for --aot)."""
-    names = [module_name("float64")]
+    names = module_names("float64")
     lenses = [lens] + ([stack_lens(ns) for ns in SURFACE_COUNTS] if scaling else [])
     for prec in precisions:
         get_kernels(prec)
         get_kernels("float64")
-        names.append(module_name(prec))
+        names.extend(module_names(prec))
         for ln in lenses:
             shape, _ = shape_and_constants(pack_lens(ln, prec, "cpu"))
             tuning = specialised.GPU_TUNING[prec]

@@ -163,6 +163,8 @@ class Report:
     key_numbers: list[dict[str, Any]] = field(default_factory=list)
     #: the whole report's {wall_s, kernel_s, launches, copies} (lensrt.core.telemetry)
     telemetry: dict[str, Any] = field(default_factory=dict)
+    #: the Warp modules the report planned and loaded up front (lensrt.report.kernel_plan)
+    kernel_modules: list[dict[str, Any]] = field(default_factory=list)
     html_path: Path | None = None
     json_path: Path | None = None
 

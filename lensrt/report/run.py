@@ -17,6 +17,7 @@ from ..io.paths import output_dir
 from ..prescription.configurations import MultiConfigLens
 from ..views.plots.figure import deferred_figures
 from .model import Report, ReportContext, Section
+from .kernel_plan import start_preload
 from .options import ReportOptions, prepare_lens
 
 __all__ = ["SECTIONS", "Report", "build_report", "section_keys"]
@@ -114,6 +115,7 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
     with measure() as total:
         report = _run(lens, out_dir, options, skip, stream, quiet)
     report.telemetry = total.to_dict()
+    report.telemetry["kernel_modules"] = report.kernel_modules
     report.json_path.write_text(dumps_json(report.to_dict()) + "\n")
     write_html(report, report.html_path)
     return report
@@ -130,6 +132,16 @@ def _figure_errors(outcomes, sections: list[Section]) -> None:
                                   "(a bug in lensrt; set LENSRT_FIGURE_WORKERS=0 to draw figures in this process)")
 
 
+def _module_loads(plan, loading) -> list[dict[str, Any]]:
+    """The planned kernel modules and their loads (name, why, seconds, waited_s, error, skipped)."""
+    if loading is None:
+        return []
+    loading.cancel()  # loads not started by now are of modules the report did not launch
+    loads = loading.wait()
+    return [{"module": p.name, "why": p.why, "seconds": ld.seconds, "waited_s": ld.waited_s, "error": ld.error,
+             "skipped": ld.skipped} for p, ld in zip(plan, loads)]
+
+
 def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str], stream, quiet: bool) -> Report:
     """Run the sections (each one measured) and gather the report; :func:`build_report` writes it."""
     from ..views.progress import StepProgress
@@ -141,6 +153,7 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
     analysed, notes = prepare_lens(lens, options)
     device = resolve_device(options.device)
     out = output_dir(out_dir)
+    plan, loading = start_preload(analysed, options, device, skip)  # compile the kernels side by side, from now
     ctx = ReportContext(analysed, lens, options, out, device, notes)
     if family is not None:
         ctx.cache["configurations"] = family
@@ -176,6 +189,7 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
             steps.finish(sec.ok, note)
         if renderer is not None:  # figures drawn by worker processes: their files exist from here on
             _figure_errors(renderer.wait(), sections)
+    modules = _module_loads(plan, loading)
     env = _environment(options.command_line)
     report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
                     0.0, env, notes, _lens_summary(analysed))
@@ -188,6 +202,7 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
     report.summary["lens_file"] = _lens_file_text(lens.path)
     report.summary["source"] = lens.source
     report.seconds = time.perf_counter() - t0
+    report.kernel_modules = modules
     report.json_path = out / "report.json"
     report.html_path = out / "index.html"
     return report

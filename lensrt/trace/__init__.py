@@ -3,7 +3,8 @@
 See :mod:`lensrt.trace.api` (store: every ray's end state), :mod:`lensrt.trace.stream`
 (stream: rays generated, traced and accumulated in the kernel), :mod:`lensrt.trace.aiming`
 (rays named by field and pupil coordinates), :mod:`lensrt.trace.reference` (the float64
-oracle) and :mod:`lensrt.trace.status` (ray status codes).
+oracle), :mod:`lensrt.trace.status` (ray status codes) and :mod:`lensrt.trace.preload` (the
+Warp modules a job's calls will launch, compiled up front and side by side).
 """
 from __future__ import annotations
 

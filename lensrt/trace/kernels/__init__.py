@@ -1,8 +1,8 @@
 """The trace kernels: one generic source, instantiated per precision (Warp ``wp.overload``).
 
 Kernel variants (the complete list, to keep Warp compile time bounded): for
-each precision in (float64, float32) one overload of each kernel of :mod:`.generic` (one
-Warp module, ``lensrt.trace.kernels.generic``), and of the store and stream kernels one per
+each precision in (float64, float32) one overload of each kernel of :mod:`.generic` (a small
+Warp module per instance, :func:`module_names`), and of the store and stream kernels one per
 lens variant -- :class:`~.surfaces.SymmetricLens` (coaxial refracting surfaces: the code for
 mirrors, frames and surface apertures is left out at compile time) and
 :class:`~.surfaces.GeneralLens`; :func:`lens_variant` picks by ``PackedLens.general``
@@ -53,7 +53,7 @@ from types import SimpleNamespace
 
 from ..status import STATUS_NAMES
 
-__all__ = ["get_kernels", "lens_variant", "module_name", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "SRC_INT", "SRC_INT_COLS", "N_STATS",
+__all__ = ["get_kernels", "lens_variant", "module_names", "FIXED_POINT_BITS", "SRC", "SRC_COLS", "SRC_INT", "SRC_INT_COLS", "N_STATS",
            "STAT_NAMES", "N_COUNTS", "COUNT_NAMES", "RAY_IN_COLS", "RAY_OUT_COLS", "N_RECORD", "NEWTON_TOL_F32_MM",
            "NEWTON_TOL_F64_MM"]
 
@@ -89,9 +89,11 @@ COUNT_NAMES = STATUS_NAMES + ("OUTSIDE_GRID", "GRAZING")
 N_COUNTS = len(COUNT_NAMES)
 
 
-def module_name(precision: str) -> str:
-    """The Warp module holding the generic kernels (both precisions: one module, one overload each)."""
-    return "lensrt.trace.kernels.generic"
+def module_names(precision: str, *, store: bool = True, stream: bool = True, general: bool = True) -> list[str]:
+    """The Warp modules holding the generic kernels of one precision (:func:`.generic.module_names`)."""
+    get_kernels(precision)
+    from .generic import module_names as names
+    return names(precision, store=store, stream=stream, general=general)
 
 
 @lru_cache(maxsize=None)

@@ -3,6 +3,12 @@
 Kernels take ``typing.Any`` arrays and scalars (Warp generics); :func:`overloads` gives the
 float32 or float64 instances, registered at import. The contracts (slots, determinism) are in
 the package docstring.
+
+Each (kernel, precision, lens variant) instance lives in its own small Warp module (a module
+is Warp's unit of compilation and caching), named by :func:`module_names`: a job compiles only
+the instances it launches, and several compile side by side (:mod:`lensrt.trace.preload`).
+One module holding all of them took 11-12 s of NVRTC time on an H200 (38 s on a 2-core CPU),
+on the critical path of a cold ``lensrt report``, which launches 3 of its 11 kernels.
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations as objects.
 
@@ -19,12 +25,8 @@ from .stream_body import (SOURCE, Histogram, Slots, SlotSums, accumulate, batch_
 from .surfaces import GeneralLens, SymmetricLens, trace_ray, write_ray
 
 __all__ = ["trace_store", "trace_stream", "generic_samples", "fold_slots", "sum_replicas", "sample_square", "overloads",
-           "sample_unit_square"]
+           "module_names", "sample_unit_square"]
 
-wp.set_module_options({"enable_backward": False})
-
-
-@wp.kernel
 def trace_store(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: wp.array(dtype=Any),
                 n_surfaces: int, rays: wp.array2d(dtype=Any), end: int, clip: int, plane_dz: Any,
                 record: int, index_table: wp.array2d(dtype=Any), ray_base: int,
@@ -57,7 +59,6 @@ def generic_samples(sampler: int, i: int, sl: Slots, bseed: wp.uint32, wseed: wp
     return u0, u1, uw
 
 
-@wp.kernel
 def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris: wp.array(dtype=Any),
                  n_surfaces: int, clip: int, sources: wp.array(dtype=Any), src_int: wp.array2d(dtype=wp.int32),
                  spec_nm: wp.array(dtype=Any), spec_cdf: wp.array(dtype=Any), use_table: int,
@@ -91,7 +92,6 @@ def trace_stream(surf: wp.array2d(dtype=Any), media: wp.array2d(dtype=Any), iris
     store_slot(stats, counts, tid, sums)
 
 
-@wp.kernel
 def fold_slots(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.int64), n_slots: int,
                out_stats: wp.array2d(dtype=wp.float64), out_counts: wp.array2d(dtype=wp.int64)):
     # one thread per (source-batch g, column j): add the launch's slots to the running total one
@@ -112,7 +112,6 @@ def fold_slots(stats: wp.array2d(dtype=wp.float64), counts: wp.array2d(dtype=wp.
         out_counts[g, j - N_STATS] = cnt
 
 
-@wp.kernel
 def sum_replicas(hist: wp.array(dtype=wp.int64), n_rep: int, length: int, out: wp.array(dtype=wp.int64)):
     # the histogram replicas added on the device (integers: exact), so one copy comes to the host
     i = wp.tid()
@@ -122,7 +121,6 @@ def sum_replicas(hist: wp.array(dtype=wp.int64), n_rep: int, length: int, out: w
     out[i] = acc
 
 
-@wp.kernel
 def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=Any)):
     i = wp.tid()
     bseed = hash_u32(wp.uint32(seed))
@@ -133,11 +131,25 @@ def sample_square(kind: int, n_strata: int, seed: int, out: wp.array2d(dtype=Any
 
 
 _REAL = {"float64": wp.float64, "float32": wp.float32}
+#: the module of the kernels every stream call launches (whatever the precision) and of the sampler test kernel
+_UTIL = f"{__name__}.util"
+
+
+def _module(kind: str, precision: str, suffix: str) -> str:
+    """Warp module of one (kernel, precision, lens variant) instance, e.g. ``...generic.stream_float32``."""
+    return f"{__name__}.{kind}_{precision}{suffix}"
+
+
+def _kernel(fn, module: str):
+    """``fn`` as a Warp kernel of ``module`` (no adjoint code)."""
+    wp.set_module_options({"enable_backward": False}, module=module)
+    return wp.kernel(fn, module=module)
 
 
 def _register(precision: str) -> SimpleNamespace:
     """The ``wp.overload`` s of the generic kernels for one precision: store and stream kernels per
-    lens variant (``*_general`` for :class:`~.surfaces.GeneralLens`; :func:`lens_variant` picks)."""
+    lens variant (``*_general`` for :class:`~.surfaces.GeneralLens`; :func:`lens_variant` picks),
+    each in its own Warp module (module docstring)."""
     real = _REAL[precision]
     a1, a2, a3 = wp.array(dtype=real), wp.array2d(dtype=real), wp.array3d(dtype=real)
     sources = wp.array(dtype=SOURCE[precision])
@@ -147,13 +159,25 @@ def _register(precision: str) -> SimpleNamespace:
                     "index_table": a2, "chan": a2, "chan_nm0": real, "chan_dnm": real, "rec": a3}
     kern = {}
     for suffix, variant in (("", SymmetricLens), ("_general", GeneralLens)):
-        kern["trace_store" + suffix] = wp.overload(trace_store, {**store_types, "variant": variant})
-        kern["trace_stream" + suffix] = wp.overload(trace_stream, {**stream_types, "variant": variant})
-    square = wp.overload(sample_square, {"out": a2})
-    return SimpleNamespace(**kern, fold_slots=fold_slots, sum_replicas=sum_replicas, sample_square=square,
-                           real=real, module="lensrt.trace.kernels.generic")
+        for kind, fn, types in (("store", trace_store, store_types), ("stream", trace_stream, stream_types)):
+            kern[f"trace_{kind}{suffix}"] = wp.overload(_kernel(fn, _module(kind, precision, suffix)),
+                                                         {**types, "variant": variant})
+    square = wp.overload(_SQUARE, {"out": a2})
+    return SimpleNamespace(**kern, fold_slots=_FOLD, sum_replicas=_SUM, sample_square=square, real=real,
+                           modules=module_names(precision))
 
 
+def module_names(precision: str, *, store: bool = True, stream: bool = True, general: bool = True) -> list[str]:
+    """The Warp modules of the generic kernels of one precision: store and stream instances (symmetric
+    lens variant, and with ``general`` the general one), then the shared one (fold, replica sums)."""
+    kinds = [k for k, on in (("store", store), ("stream", stream)) if on]
+    suffixes = ["", "_general"] if general else [""]
+    return [_module(k, precision, s) for s in suffixes for k in kinds] + [_UTIL]
+
+
+_FOLD = _kernel(fold_slots, _UTIL)
+_SUM = _kernel(sum_replicas, _UTIL)
+_SQUARE = _kernel(sample_square, _UTIL)
 _OVERLOADS = {precision: _register(precision) for precision in _REAL}
 
 

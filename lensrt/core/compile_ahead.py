@@ -1,0 +1,188 @@
+"""Compile Warp modules before their first launch, several side by side, in background threads.
+
+Warp compiles a module (its unit of compilation and caching) the first time one of its kernels
+is launched, on the launching thread, one module after another. :func:`start` loads a list of
+modules on a device in a pool of worker threads instead. A load is Warp's Python code generation
+(serialised by Warp's codegen lock and the GIL: the short part) followed by the native compiler --
+NVRTC for CUDA, LLVM/Clang for the CPU -- called through ``ctypes.CDLL``, which releases the GIL,
+so the compiles of several modules run on several cores at once while the caller goes on with
+its own work. Warp builds each module in a folder of its own (process and thread id) and moves
+the result into its kernel cache, so concurrent loads are safe; its own ``wp.force_load`` offers
+a thread pool too (``max_workers``), but blocks until every module is loaded.
+
+:func:`wait_for` -- called by :func:`lensrt.core.telemetry.launch` before every launch -- makes a
+launch whose module is still loading wait for that load instead of compiling the module a second
+time on its own thread. A load that fails is recorded (:attr:`ModuleLoad.error`) and otherwise
+forgotten: the kernel then compiles on its first launch exactly as without preloading, and raises
+there whatever it raises. Preloading a module that is loaded, or already being loaded, is a no-op.
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+__all__ = ["ModuleLoad", "Preload", "start", "wait_for", "pending", "default_workers"]
+
+_LOCK = threading.RLock()
+#: loads not finished yet: (id of the Warp module, device alias) -> (future, its ModuleLoad)
+_PENDING: dict[tuple[int, str], tuple[Future, "ModuleLoad"]] = {}
+
+
+@dataclass
+class ModuleLoad:
+    """One module's load in a :class:`Preload`.
+
+    name : str
+        Warp module name.
+    device : str
+        Device alias (``cpu``, ``cuda:0``).
+    seconds : float
+        Wall time of the load in its worker thread (code generation, compilation when the kernel cache
+        does not hold it, loading), s; 0 until it ends.
+    waited_s : float
+        Time launches on other threads spent waiting for this load, s.
+    error : str or None
+        Why the load failed (the kernel then compiles on its first launch).
+    skipped : bool
+        The module was loaded already, or another preload was loading it.
+    """
+
+    name: str
+    device: str
+    seconds: float = 0.0
+    waited_s: float = 0.0
+    error: str | None = None
+    skipped: bool = False
+
+
+class Preload:
+    """Module loads running in background threads (:func:`start`)."""
+
+    def __init__(self, loads: list[ModuleLoad], futures: list[Future | None], pool: ThreadPoolExecutor | None,
+                 started: float):
+        self.loads = loads
+        self._futures = futures
+        self._pool = pool
+        self._t0 = started
+
+    @property
+    def done(self) -> bool:
+        """True when every load has ended."""
+        return all(f is None or f.done() for f in self._futures)
+
+    def wait(self) -> list[ModuleLoad]:
+        """Wait for every load to end (failures included; nothing raises); returns :attr:`loads`."""
+        for f in self._futures:
+            if f is not None:
+                try:
+                    f.result()
+                except BaseException:  # noqa: BLE001 - recorded in the ModuleLoad by _load
+                    pass
+        return self.loads
+
+    def cancel(self) -> None:
+        """Drop the loads that have not started (those running finish in the background)."""
+        for f in self._futures:
+            if f is not None:
+                f.cancel()
+
+    @property
+    def wall_s(self) -> float:
+        """Seconds from :func:`start` to now or to the end of the last load."""
+        return time.perf_counter() - self._t0
+
+
+def default_workers() -> int:
+    """Worker threads of a preload: ``LENSRT_COMPILE_WORKERS``, else the cores this process may use, at most 8."""
+    raw = os.environ.get("LENSRT_COMPILE_WORKERS", "")
+    if raw.strip():
+        try:
+            return max(1, int(raw))
+        except ValueError:
+            from ..errors import LensrtError
+            raise LensrtError(f"LENSRT_COMPILE_WORKERS={raw!r} is not a whole number",
+                              hint="set it to e.g. 4, or unset it") from None
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(8, cores))
+
+
+def _device_key(wp: Any, device: Any) -> str:
+    return wp.get_device(device).alias
+
+
+def _load(wp: Any, module: Any, device: str, rec: ModuleLoad) -> None:
+    """Load ``module`` on ``device`` (as its first launch would: Warp's ``force_load``), timing it."""
+    t0 = time.perf_counter()
+    try:
+        wp.force_load(device=device, modules=[module], max_workers=0)
+    except BaseException as err:  # noqa: BLE001 - a failed preload only means compile-on-use
+        rec.error = f"{type(err).__name__}: {err}"
+    finally:
+        rec.seconds = time.perf_counter() - t0
+
+
+def start(modules: Sequence[Any], device: Any, workers: int | None = None) -> Preload:
+    """Load ``modules`` (Warp ``Module`` objects, in the order they are needed) on ``device`` in
+    ``workers`` background threads (default :func:`default_workers`); returns at once."""
+    import warp as wp
+    dev = _device_key(wp, device)
+    context = wp.get_device(dev).context
+    t0 = time.perf_counter()
+    modules = list(dict.fromkeys(modules))
+    pool = ThreadPoolExecutor(max_workers=max(1, min(len(modules), workers or default_workers())),
+                              thread_name_prefix="lensrt-compile")
+    loads, futures = [], []
+    with _LOCK:
+        for m in modules:
+            rec = ModuleLoad(m.name, dev)
+            loads.append(rec)
+            key = (id(m), dev)
+            if key in _PENDING or any(ctx == context for ctx, _ in list(m.execs)):
+                rec.skipped = True
+                futures.append(None)
+                continue
+            fut = pool.submit(_load, wp, m, dev, rec)
+            _PENDING[key] = (fut, rec)
+            fut.add_done_callback(lambda f, key=key: _forget(key))
+            futures.append(fut)
+    pool.shutdown(wait=False)
+    return Preload(loads, futures, pool, t0)
+
+
+def _forget(key: tuple[int, str]) -> None:
+    with _LOCK:
+        _PENDING.pop(key, None)
+
+
+def pending() -> list[str]:
+    """Names of the modules being loaded now (``name@device``)."""
+    with _LOCK:
+        return [f"{rec.name}@{rec.device}" for _, rec in _PENDING.values()]
+
+
+def wait_for(kernel: Any, device: Any = None) -> None:
+    """Block until ``kernel``'s module, if a preload is loading it on ``device``, has loaded (or failed)."""
+    if not _PENDING:
+        return
+    import warp as wp
+    key = (id(getattr(kernel, "module", None)), _device_key(wp, device))
+    with _LOCK:
+        hit = _PENDING.get(key)
+    if hit is None:
+        return
+    fut, rec = hit
+    t0 = time.perf_counter()
+    try:
+        fut.result()
+    except BaseException:  # noqa: BLE001 - cancelled: the launch compiles the module itself
+        pass
+    dt = time.perf_counter() - t0
+    with _LOCK:
+        rec.waited_s += dt

@@ -1,0 +1,82 @@
+"""The report's kernel plan: which Warp modules its sections will launch, compiled up front.
+
+With an empty Warp kernel cache every module compiles on its first launch, one after another on
+the report's critical path (on one H200: 12 of the lens section's 12.7 s, 24.5 s for the report
+against 7.4-8.3 s warm). :func:`report_needs` lists the report's trace calls from its options --
+the same ray counts, precisions and stream options the sections pass --, and
+:func:`start_preload` plans them for the lens and device (:func:`lensrt.trace.preload.plan_modules`)
+and starts compiling them in background threads as the report begins, so that they compile side by
+side while the first sections run. A module the plan misses still compiles on first use.
+``LENSRT_PRELOAD=0`` turns the plan off (every module then compiles on first use, as before).
+"""
+from __future__ import annotations
+
+import os
+from typing import Any, Sequence
+
+from ..trace.preload import KernelNeed, PlannedModule, host_packed, plan_modules, preload
+from .options import ReportOptions
+
+__all__ = ["report_needs", "report_plan", "start_preload", "preload_enabled", "BOKEH_SOURCES_PER_CALL"]
+
+#: sources per stream call of the bokeh map (``bokeh_near_far``'s ``sources_per_item``)
+BOKEH_SOURCES_PER_CALL = 32
+#: sections that trace rays (aiming, pupil boxes, compare): every one needs the float64 store and stream kernels
+_TRACING = ("lens", "first_order", "aberrations", "image_quality", "zoom", "psf", "mtf", "bokeh")
+
+
+def preload_enabled() -> bool:
+    """False when ``LENSRT_PRELOAD`` is ``0``/``off``/``no``/``false``."""
+    return os.environ.get("LENSRT_PRELOAD", "1").strip().lower() not in ("0", "off", "no", "false")
+
+
+def _bokeh_needs(q: Any, precision: str) -> list[KernelNeed]:
+    """The bokeh map's streams: a near and a far source per grid cell, in calls of 32 sources."""
+    total = 2 * q.bokeh_grid[0] * q.bokeh_grid[1]
+    sizes = {min(BOKEH_SOURCES_PER_CALL, total - k) for k in range(0, total, BOKEH_SOURCES_PER_CALL)}
+    return [KernelNeed("stream", precision, n * q.bokeh_rays, channels=True, why=f"bokeh map ({n} sources a call)")
+            for n in sorted(sizes, reverse=True)]
+
+
+def report_needs(options: ReportOptions, skip: Sequence[str] = (), symmetric: bool = True) -> list[KernelNeed]:
+    """The trace calls of a report with ``options`` (``symmetric``: the lens takes the pupil-box pass on
+    the device), in the order the sections first make them."""
+    q = options.preset
+    p = options.precision
+    runs = [k for k in _TRACING if k not in skip]
+    needs: list[KernelNeed] = []
+    if runs:
+        needs.append(KernelNeed("store", "float64", 1, why="aiming, layout, compare"))
+        if symmetric:
+            needs.append(KernelNeed("boxes", why="pupil boxes"))
+        # compare: relative illumination and spot diagrams, a dozen field points / runs (far below the size
+        # that takes the specialised kernel on a GPU in every preset)
+        needs.append(KernelNeed("stream", "float64", 12 * q.compare_rays, table=True, why="compare: illumination"))
+        needs.append(KernelNeed("stream", "float64", 12 * q.spot_rays, table=True, why="compare: spot diagrams"))
+    if "psf" not in skip:
+        n = q.psf_grid[0] * q.psf_grid[1]
+        needs.append(KernelNeed("stream", p, n * q.psf_rays, table=True, why=f"PSF map ({n} fields)"))
+    if "mtf" not in skip and q.mtf_method in ("geometric", "auto"):
+        needs.append(KernelNeed("stream", p, q.mtf_fields * q.mtf_rays, table=True,
+                                why=f"MTF, geometric ({q.mtf_fields} fields)"))
+    if "bokeh" not in skip:
+        needs.extend(_bokeh_needs(q, p))
+    return needs
+
+
+def report_plan(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = ()) -> list[PlannedModule]:
+    """The Warp modules a report on ``lens`` with ``options`` launches on ``device``."""
+    symmetric = not host_packed(lens).general
+    return plan_modules(lens, device, report_needs(options, skip, symmetric))
+
+
+def start_preload(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = ()):
+    """Start compiling the report's plan in the background; returns ``(plan, Preload)``, or
+    ``([], None)`` when preloading is off or the plan cannot be made (the report then compiles on use)."""
+    if not preload_enabled():
+        return [], None
+    try:
+        plan = report_plan(lens, options, device, skip)
+        return plan, preload(plan, device)
+    except Exception:  # noqa: BLE001 - a plan is an optimisation: any failure means compile-on-use
+        return [], None

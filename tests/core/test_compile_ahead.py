@@ -1,0 +1,113 @@
+"""Warp modules compiled ahead of their first launch in background threads (lensrt.core.compile_ahead).
+
+Each test makes a kernel in a fresh Warp module (``module="unique"`` inside the test), so that the
+module starts unloaded in this process; the kernel's output is the oracle that the launch ran the
+right code, whoever compiled it.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from lensrt.core import compile_ahead
+from lensrt.core.telemetry import launch
+from lensrt.device import warp
+
+
+def _fresh_kernel(scale: float):
+    """A kernel ``out[i] = scale * i`` in a Warp module of its own (not loaded yet)."""
+    wp = warp()
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def times_index(out: wp.array(dtype=wp.float64)):
+        i = wp.tid()
+        out[i] = wp.float64(scale) * wp.float64(i)
+
+    return times_index
+
+
+def _run(kernel, n: int = 5) -> np.ndarray:
+    wp = warp()
+    out = wp.zeros(n, dtype=wp.float64, device="cpu")
+    launch(kernel, dim=n, inputs=[out], device="cpu")
+    return out.numpy()
+
+
+def test_a_preloaded_module_is_loaded_before_its_first_launch_and_runs_right():
+    k = _fresh_kernel(3.0)
+    job = compile_ahead.start([k.module], "cpu")
+    loads = job.wait()
+    assert [(ld.name, ld.device, ld.error, ld.skipped) for ld in loads] == [(k.module.name, "cpu", None, False)]
+    assert any(ctx is None for ctx, _ in k.module.execs)  # loaded on the CPU by the preload
+    assert job.done and compile_ahead.pending() == []
+    np.testing.assert_array_equal(_run(k), 3.0 * np.arange(5))
+
+
+def test_preloading_twice_is_harmless():
+    k = _fresh_kernel(2.0)
+    first = compile_ahead.start([k.module, k.module], "cpu")  # a module listed twice loads once
+    second = compile_ahead.start([k.module], "cpu")  # while the first may still be loading
+    assert len(first.loads) == 1
+    first.wait()
+    second.wait()
+    assert second.loads[0].skipped and second.loads[0].error is None
+    third = compile_ahead.start([k.module], "cpu")  # loaded: nothing to do
+    assert third.wait()[0].skipped
+    np.testing.assert_array_equal(_run(k), 2.0 * np.arange(5))
+
+
+def test_a_failed_preload_falls_back_to_compiling_on_first_use(monkeypatch):
+    wp = warp()
+    k = _fresh_kernel(5.0)
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no compiler today")
+
+    monkeypatch.setattr(wp, "force_load", broken)
+    loads = compile_ahead.start([k.module], "cpu").wait()
+    assert "no compiler today" in loads[0].error
+    assert not k.module.execs  # nothing loaded by the failed preload
+    monkeypatch.undo()
+    np.testing.assert_array_equal(_run(k), 5.0 * np.arange(5))  # compiled by the launch itself
+
+
+def test_a_launch_waits_for_its_module_still_loading_instead_of_compiling_it_again(monkeypatch):
+    wp = warp()
+    k = _fresh_kernel(7.0)
+    events: list[str] = []
+    real_force_load, real_launch = wp.force_load, wp.launch
+    started = threading.Event()
+
+    def slow_force_load(*args, **kwargs):
+        started.set()
+        time.sleep(0.5)  # the launch below comes while this load is under way
+        real_force_load(*args, **kwargs)
+        events.append("preload done")
+
+    def spy_launch(kernel, *args, **kwargs):
+        events.append("launch")
+        return real_launch(kernel, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "force_load", slow_force_load)
+    monkeypatch.setattr(wp, "launch", spy_launch)
+    job = compile_ahead.start([k.module], "cpu")
+    assert started.wait(30)
+    values = _run(k)
+    job.wait()
+    assert events == ["preload done", "launch"]
+    assert job.loads[0].waited_s > 0.0  # the launch did wait (how long is not asserted)
+    np.testing.assert_array_equal(values, 7.0 * np.arange(5))
+
+
+def test_the_worker_count_can_be_set_and_is_checked(monkeypatch):
+    from lensrt.errors import LensrtError
+    monkeypatch.setenv("LENSRT_COMPILE_WORKERS", "3")
+    assert compile_ahead.default_workers() == 3
+    monkeypatch.setenv("LENSRT_COMPILE_WORKERS", "three")
+    with pytest.raises(LensrtError, match="LENSRT_COMPILE_WORKERS"):
+        compile_ahead.default_workers()
+    monkeypatch.delenv("LENSRT_COMPILE_WORKERS")
+    assert 1 <= compile_ahead.default_workers() <= 8

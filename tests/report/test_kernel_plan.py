@@ -1,0 +1,128 @@
+"""The report's kernel plan (lensrt.report.kernel_plan, lensrt.trace.preload): the Warp modules it
+lists are the ones the report launches.
+
+Oracle of the slow test: a small report on the CPU with spies on ``warp.launch`` (the modules
+Warp actually loads and launches) and on the kernel choice of every trace and stream call (what
+each call asks for: precision, rays, sampler, spectrum table, channels).
+"""
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from lensrt import load_lens
+from lensrt.errors import LensrtError
+from lensrt.report import ReportOptions
+from lensrt.report.kernel_plan import report_needs, report_plan, start_preload
+from lensrt.trace.preload import KernelNeed, plan_modules
+from lensrt.trace.variants import GPU_MIN_RAYS
+
+
+@pytest.fixture(scope="module")
+def dg():
+    return load_lens(None)
+
+
+def test_the_cpu_plan_lists_the_generic_instances_of_the_lens_variant_only(dg):
+    names = [p.name for p in report_plan(dg, ReportOptions(device="cpu", ray_fraction=1 / 64), "cpu")]
+    assert len(names) == len(set(names))
+    assert not any(n.endswith("_general") for n in names)  # a rotationally symmetric lens
+    assert "lensrt.trace.kernels.boxes" in names
+    # float64 aiming/compare and the float32 Monte Carlo streams; no float32 store kernel is launched
+    assert not any("store_float32" in n for n in names)
+
+
+def test_on_a_gpu_the_big_streams_plan_the_specialised_kernel_and_small_runs_the_generic_one(dg):
+    full = report_needs(ReportOptions(device="cuda"))
+    psf = [n for n in full if n.why.startswith("PSF map")][0]
+    assert psf.rays >= GPU_MIN_RAYS  # 49 fields x 2^18 rays
+    big = [p.name for p in report_plan(dg, ReportOptions(device="cuda"), "cuda:0")]
+    small = [p.name for p in report_plan(dg, ReportOptions(device="cuda", ray_fraction=1 / 64), "cuda:0")]
+    assert any(n.startswith("lensrt_fast_stream_float32") for n in big)
+    assert "lensrt.trace.kernels.generic.stream_float32" not in big
+    assert not any(n.startswith("lensrt_fast") for n in small)
+    assert "lensrt.trace.kernels.generic.stream_float32" in small
+
+
+def test_skipped_sections_leave_their_kernels_out(dg):
+    opts = ReportOptions(device="cpu")
+    assert report_needs(opts, skip=["lens", "first_order", "aberrations", "image_quality", "zoom", "psf", "mtf",
+                                    "bokeh"]) == []
+    f32 = [n for n in report_needs(opts, skip=["psf", "mtf", "bokeh"]) if n.precision == "float32"]
+    assert f32 == []
+
+
+def test_a_bad_need_is_one_clear_error_and_a_failed_plan_means_compile_on_use(dg, monkeypatch):
+    with pytest.raises(LensrtError, match="unknown kernel need"):
+        plan_modules(dg, "cpu", [KernelNeed("splat")])
+    import lensrt.report.kernel_plan as kp
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("planner bug")
+
+    monkeypatch.setattr(kp, "report_plan", broken)
+    assert start_preload(dg, ReportOptions(device="cpu"), "cpu") == ([], None)
+    monkeypatch.setenv("LENSRT_PRELOAD", "0")
+    assert start_preload(dg, ReportOptions(device="cpu"), "cpu") == ([], None)
+
+
+def _spy_calls(monkeypatch) -> tuple[list[dict], set[str]]:
+    """Record every trace/stream call's kernel request and every launched kernel's module."""
+    import lensrt.trace.api as api
+    import lensrt.trace.stream as st
+    import lensrt.trace.variants as va
+    wp = sys.modules["warp"]
+    calls: list[dict] = []
+    launched: set[str] = set()
+    real_choose, real_launch = va.choose_kernel, wp.launch
+
+    def choose(kernel, device, shape, rays, *, possible=True):
+        loc = sys._getframe(1).f_locals  # the calling trace() or stream(): what it asks for
+        call = {"fn": sys._getframe(1).f_code.co_name, "precision": loc["precision"], "rays": rays,
+                "clip": bool(loc["clip"])}
+        if call["fn"] == "stream":
+            spectra = st._spectra_of(loc["lens"], loc["spectrum"], loc["sources"])
+            call.update(sampler=loc["code"], histogram=bool(loc["histogram"]), channels=loc["channels"] is not None,
+                        table=st._spectrum_tables(loc["lens"], spectra)[0] == st.SPECTRUM_DISCRETE)
+        calls.append(call)
+        return real_choose(kernel, device, shape, rays, possible=possible)
+
+    def spy_launch(kernel, *args, **kwargs):
+        launched.add(kernel.module.name)
+        return real_launch(kernel, *args, **kwargs)
+
+    monkeypatch.setattr(st, "choose_kernel", choose)
+    monkeypatch.setattr(api, "choose_kernel", choose)
+    monkeypatch.setattr(wp, "launch", spy_launch)
+    return calls, launched
+
+
+@pytest.mark.slow
+def test_the_plan_is_what_a_small_report_launches(dg, tmp_path, monkeypatch):
+    from lensrt.report import build_report
+    from lensrt.trace.sampling import sampler_code
+    opts = ReportOptions(device="cpu", ray_fraction=1 / 64)
+    calls, launched = _spy_calls(monkeypatch)
+    rep = build_report(dg, tmp_path, opts, quiet=True)
+    assert not rep.failed
+    plan = [p.name for p in report_plan(dg, opts, "cpu")]
+    assert set(plan) == launched  # exactly the modules Warp loaded and launched, no more, no fewer
+    assert [m["module"] for m in rep.kernel_modules] == plan
+    assert all(m["error"] is None for m in rep.kernel_modules)
+    # every stream call is one of the plan's needs (same precision, sampler, spectrum table, channels, and
+    # the same kernel choice on a GPU at the preset's full ray counts), and every planned stream is made
+    needs = [n for n in report_needs(opts) if n.kind == "stream"]
+    big = lambda rays: rays / opts.ray_fraction >= GPU_MIN_RAYS  # noqa: E731 - Monte Carlo counts scale
+    matched = set()
+    for c in (c for c in calls if c["fn"] == "stream"):
+        hits = [i for i, n in enumerate(needs)
+                if (n.precision, sampler_code(n.sampler), n.table, n.channels, n.histogram, n.clip)
+                == (c["precision"], c["sampler"], c["table"], c["channels"], c["histogram"], c["clip"])
+                and big(n.rays) == big(c["rays"])]
+        assert hits, f"a stream call the plan does not describe: {c}"
+        matched.update(hits)
+    assert matched == set(range(len(needs)))
+    # store traces are float64 and too small for the specialised kernel on a GPU (the plan's generic one)
+    stores = [c for c in calls if c["fn"] == "trace"]
+    assert stores and all(c["precision"] == "float64" and c["rays"] < GPU_MIN_RAYS for c in stores)
