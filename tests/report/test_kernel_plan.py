@@ -126,3 +126,24 @@ def test_the_plan_is_what_a_small_report_launches(dg, tmp_path, monkeypatch):
     # store traces are float64 and too small for the specialised kernel on a GPU (the plan's generic one)
     stores = [c for c in calls if c["fn"] == "trace"]
     assert stores and all(c["precision"] == "float64" and c["rays"] < GPU_MIN_RAYS for c in stores)
+
+
+@pytest.mark.slow
+def test_a_planned_specialised_module_is_the_one_the_stream_call_launches(dg, monkeypatch):
+    """The GPU plan's float32 stream module for a discrete spectrum (PSF map, MTF) is the very Warp module a
+    stream call with those options launches. Run on the CPU with ``kernel="specialised"``: for float32 the GPU
+    tuning is the default one, so the CPU builds the same module."""
+    from lensrt.analysis.raysets import object_field_point
+    from lensrt.trace.sampling import spectrum_discrete
+    from lensrt.trace.specialised import DEFAULT_TUNING, GPU_TUNING
+    from lensrt.trace.stream import Grid, stream, stream_sources
+    assert GPU_TUNING["float32"] == DEFAULT_TUNING
+    need = KernelNeed("stream", "float32", GPU_MIN_RAYS, table=True, why="PSF-like")
+    (planned, util) = plan_modules(dg, "cuda:0", [need])
+    assert planned.name.startswith("lensrt_fast_stream_float32")
+    sources = stream_sources(dg, [object_field_point(dg, 0.0)], wavelengths_nm=[587.56], device="cpu")
+    _, launched = _spy_calls(monkeypatch)  # the stream call's launches only
+    res = stream(dg, sources, Grid(8, 8, 0.01), 4096, spectrum=spectrum_discrete([587.56], [1.0]), sampler="sobol",
+                 batches=2, precision="float32", device="cpu", kernel="specialised")
+    assert res.extra["kernel"] == "specialised"
+    assert launched == {planned.name, util.name}
