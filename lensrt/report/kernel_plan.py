@@ -7,13 +7,15 @@ the same ray counts, precisions and stream options the sections pass --, and
 :func:`start_preload` plans them for the lens and device (:func:`lensrt.trace.preload.plan_modules`)
 and starts compiling them in background threads as the report begins, so that they compile side by
 side while the first sections run. A module the plan misses still compiles on first use.
-``LENSRT_PRELOAD=0`` turns the plan off (every module then compiles on first use, as before).
+``LENSRT_PRELOAD=0`` turns the plan off (every module then compiles on first use, as before);
+``LENSRT_COMPILE_WORKERS`` sets the number of compiling threads.
 """
 from __future__ import annotations
 
 import os
 from typing import Any, Sequence
 
+from ..core.compile_ahead import default_workers
 from ..trace.preload import KernelNeed, PlannedModule, host_packed, plan_modules, preload
 from .options import ReportOptions
 
@@ -75,8 +77,9 @@ def start_preload(lens: Any, options: ReportOptions, device: str, skip: Sequence
     ``([], None)`` when preloading is off or the plan cannot be made (the report then compiles on use)."""
     if not preload_enabled():
         return [], None
+    workers = default_workers()  # a bad LENSRT_COMPILE_WORKERS is the user's error: LensrtError, said once
     try:
         plan = report_plan(lens, options, device, skip)
-        return plan, preload(plan, device)
+        return plan, preload(plan, device, workers)
     except Exception:  # noqa: BLE001 - a plan is an optimisation: any failure means compile-on-use
         return [], None

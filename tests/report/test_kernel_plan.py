@@ -63,6 +63,9 @@ def test_a_bad_need_is_one_clear_error_and_a_failed_plan_means_compile_on_use(dg
 
     monkeypatch.setattr(kp, "report_plan", broken)
     assert start_preload(dg, ReportOptions(device="cpu"), "cpu") == ([], None)
+    monkeypatch.setenv("LENSRT_COMPILE_WORKERS", "many")  # bad input: one clear error, not a silent fallback
+    with pytest.raises(LensrtError, match="LENSRT_COMPILE_WORKERS"):
+        start_preload(dg, ReportOptions(device="cpu"), "cpu")
     monkeypatch.setenv("LENSRT_PRELOAD", "0")
     assert start_preload(dg, ReportOptions(device="cpu"), "cpu") == ([], None)
 
