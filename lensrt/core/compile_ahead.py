@@ -12,7 +12,8 @@ a thread pool too (``max_workers``), but blocks until every module is loaded.
 
 :func:`wait_for` -- called by :func:`lensrt.core.telemetry.launch` before every launch -- makes a
 launch whose module is still loading wait for that load instead of compiling the module a second
-time on its own thread. A load that fails is recorded (:attr:`ModuleLoad.error`) and otherwise
+time on its own thread; without a preload, the first launch of a module loads it under a lock, so
+that the slices of one launch on several CPU threads compile it once, not once per thread. A load that fails is recorded (:attr:`ModuleLoad.error`) and otherwise
 forgotten: the kernel then compiles on its first launch exactly as without preloading, and raises
 there whatever it raises. Preloading a module that is loaded, or already being loaded, is a no-op.
 """
@@ -30,6 +31,8 @@ __all__ = ["ModuleLoad", "Preload", "start", "wait_for", "pending", "default_wor
 _LOCK = threading.RLock()
 #: loads not finished yet: (id of the Warp module, device alias) -> (future, its ModuleLoad)
 _PENDING: dict[tuple[int, str], tuple[Future, "ModuleLoad"]] = {}
+#: one lock per (module, device) for the first load on use (wait_for)
+_FIRST_LOAD: dict[tuple[int, str], threading.Lock] = {}
 
 
 @dataclass
@@ -144,7 +147,7 @@ def start(modules: Sequence[Any], device: Any, workers: int | None = None) -> Pr
             rec = ModuleLoad(m.name, dev)
             loads.append(rec)
             key = (id(m), dev)
-            if key in _PENDING or any(ctx == context for ctx, _ in list(m.execs)):
+            if key in _PENDING or _loaded(m, context):
                 rec.skipped = True
                 futures.append(None)
                 continue
@@ -167,22 +170,43 @@ def pending() -> list[str]:
         return [f"{rec.name}@{rec.device}" for _, rec in _PENDING.values()]
 
 
+def _loaded(module: Any, context: Any) -> bool:
+    return any(ctx == context for ctx, _ in list(module.execs))
+
+
 def wait_for(kernel: Any, device: Any = None) -> None:
-    """Block until ``kernel``'s module, if a preload is loading it on ``device``, has loaded (or failed)."""
-    if not _PENDING:
+    """Make sure ``kernel``'s module is loaded on ``device`` before a launch, compiling it once.
+
+    If a preload is loading the module, wait for it. Otherwise the first caller loads it (Warp's
+    ``force_load``, as the launch would) while other threads launching kernels of the same module wait,
+    so that the slices of one launch on several CPU threads do not each compile it. A load that fails
+    is left to the launch, which compiles (and raises) as it would have. Loaded modules cost a look-up.
+    """
+    module = getattr(kernel, "module", None)
+    if module is None:
         return
     import warp as wp
-    key = (id(getattr(kernel, "module", None)), _device_key(wp, device))
+    dev = wp.get_device(device)
+    if not _PENDING and _loaded(module, dev.context):
+        return
+    key = (id(module), dev.alias)
     with _LOCK:
         hit = _PENDING.get(key)
-    if hit is None:
+        lock = _FIRST_LOAD.setdefault(key, threading.Lock()) if hit is None else None
+    if hit is not None:
+        fut, rec = hit
+        t0 = time.perf_counter()
+        try:
+            fut.result()
+        except BaseException:  # noqa: BLE001 - cancelled: the launch compiles the module itself
+            pass
+        dt = time.perf_counter() - t0
+        with _LOCK:
+            rec.waited_s += dt
         return
-    fut, rec = hit
-    t0 = time.perf_counter()
-    try:
-        fut.result()
-    except BaseException:  # noqa: BLE001 - cancelled: the launch compiles the module itself
-        pass
-    dt = time.perf_counter() - t0
-    with _LOCK:
-        rec.waited_s += dt
+    with lock:
+        if not _loaded(module, dev.context):
+            try:
+                wp.force_load(device=dev, modules=[module], max_workers=0)
+            except Exception:  # noqa: BLE001 - the launch itself compiles and raises what it raises
+                pass

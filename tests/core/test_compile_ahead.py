@@ -111,3 +111,33 @@ def test_the_worker_count_can_be_set_and_is_checked(monkeypatch):
         compile_ahead.default_workers()
     monkeypatch.delenv("LENSRT_COMPILE_WORKERS")
     assert 1 <= compile_ahead.default_workers() <= 8
+
+
+def test_slices_launched_on_several_threads_compile_their_module_once(monkeypatch):
+    """Without a preload, the first launch loads the module under a lock: the slices of one launch on
+    several CPU threads (the stream and pupil-box kernels) wait for it instead of each compiling it."""
+    wp = warp()
+    k = _fresh_kernel(11.0)
+    loads: list[str] = []
+    real_force_load = wp.force_load
+
+    def slow_force_load(*args, **kwargs):
+        loads.append("load")
+        time.sleep(0.5)  # the other threads arrive while this one loads
+        real_force_load(*args, **kwargs)
+
+    monkeypatch.setattr(wp, "force_load", slow_force_load)
+    out = wp.zeros(8, dtype=wp.float64, device="cpu")
+    gate = threading.Barrier(4)
+
+    def slice_launch(w: int) -> None:
+        gate.wait()
+        launch(k, dim=8, inputs=[out], device="cpu", slice_of=w)  # as lensrt's CPU slices do (each writes all)
+
+    threads = [threading.Thread(target=slice_launch, args=(w,)) for w in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert loads == ["load"]
+    np.testing.assert_array_equal(out.numpy(), 11.0 * np.arange(8))
