@@ -4,7 +4,8 @@
 (B, rows, cols) on the host; for that the stream must download them -- B x rows x cols int64 per field,
 340 MB for a 9 x 9 map of 128^2 px and 32 batches -- and NumPy must walk them several times. Here the
 histograms stay where the stream kernel left them (``stream(..., batch_histograms="device")``) and
-three launches per group of fields make the same passes, all fields at once, in float64:
+two launches per group of fields (1 and 2 below share one) make the same passes, all fields at once,
+in float64:
 
 1. per pixel (fields x pixels threads): the all-batch histogram ``H`` (int64 sums: exact), the batches
    that lit it, and the sum of squared deviations from the batch mean (summed over the batches in
@@ -48,12 +49,11 @@ __all__ = ["device_field_sums", "DeviceHistograms"]
 wp.set_module_options({"enable_backward": False})
 
 
-@wp.kernel
+@wp.func
 def _pixel_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, nb: int, ny: int,
                 nx: int, unit: wp.float64, H: wp.array2d(dtype=wp.float64), lit: wp.array2d(dtype=wp.int32),
-                ss: wp.array2d(dtype=wp.float64)):
+                ss: wp.array2d(dtype=wp.float64), f: int, p: int):
     """All-batch histogram, lit batches and summed squared deviation of pixel p (host rows: top row first)."""
-    f, p = wp.tid()
     r = p // nx
     c = p - r * nx
     i0 = base[f] + (ny - 1 - r) * nx + c
@@ -75,16 +75,15 @@ def _pixel_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), 
     ss[f, p] = acc
 
 
-@wp.kernel
+@wp.func
 def _batch_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, ny: int, nx: int,
                 unit: wp.float64, xs: wp.array2d(dtype=wp.float64), ys: wp.array2d(dtype=wp.float64),
                 ex_re: wp.array3d(dtype=wp.float64), ex_im: wp.array3d(dtype=wp.float64),
                 ey_re: wp.array3d(dtype=wp.float64), ey_im: wp.array3d(dtype=wp.float64),
                 nk: wp.array(dtype=wp.int32), sums: wp.array3d(dtype=wp.float64),
-                otf: wp.array4d(dtype=wp.float64)):
+                otf: wp.array4d(dtype=wp.float64), f: int, b: int, k: int):
     """Thread (f, b, k): the Fourier sum of batch b at frequency k of field f; k = K: the batch's weight and
     first moments (x, y of the pixel centres, mm)."""
-    f, b, k = wp.tid()
     nkmax = ex_re.shape[1]
     i0 = base[f] + b * stride
     if k == nkmax:
@@ -125,6 +124,31 @@ def _batch_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), 
         acc_im = acc_im + (a_re * e_im + a_im * e_re)
     otf[f, b, k, 0] = acc_re
     otf[f, b, k, 1] = acc_im
+
+
+@wp.kernel
+def _first_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, nb: int, ny: int,
+                nx: int, unit: wp.float64, H: wp.array2d(dtype=wp.float64), lit: wp.array2d(dtype=wp.int32),
+                ss: wp.array2d(dtype=wp.float64), xs: wp.array2d(dtype=wp.float64), ys: wp.array2d(dtype=wp.float64),
+                ex_re: wp.array3d(dtype=wp.float64), ex_im: wp.array3d(dtype=wp.float64),
+                ey_re: wp.array3d(dtype=wp.float64), ey_im: wp.array3d(dtype=wp.float64),
+                nk: wp.array(dtype=wp.int32), sums: wp.array3d(dtype=wp.float64),
+                otf: wp.array4d(dtype=wp.float64)):
+    """Passes 1 and 2 of the module docstring in one launch: the first F x pixels threads are per pixel, the
+    rest per (field, batch, frequency or moments)."""
+    t = wp.tid()
+    n_f = H.shape[0]
+    n_p = H.shape[1]
+    if t < n_f * n_p:
+        _pixel_pass(hist, base, stride, nb, ny, nx, unit, H, lit, ss, t // n_p, t - (t // n_p) * n_p)
+        return
+    t = t - n_f * n_p
+    per_f = nb * (ex_re.shape[1] + 1)
+    f = t // per_f
+    t = t - f * per_f
+    b = t // (ex_re.shape[1] + 1)
+    _batch_pass(hist, base, stride, ny, nx, unit, xs, ys, ex_re, ex_im, ey_re, ey_im, nk, sums, otf, f, b,
+                t - b * (ex_re.shape[1] + 1))
 
 
 @wp.func
@@ -287,15 +311,13 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
     H_d = wp.empty((n, P), dtype=wp.float64, device=dev)
     lit_d = wp.empty((n, P), dtype=wp.int32, device=dev)
     ss_d = wp.empty((n, P), dtype=wp.float64, device=dev)
-    launch(_pixel_pass, dim=(n, P), device=dev,
-           inputs=[dh.array, base, dh.stride, nb, ny, nx, unit, H_d, lit_d, ss_d])
     requests = [mtf_requests(g, r, setup.mtf_freqs_cpmm, setup.mtf_curve_cpmm) for g, r in zip(grids, references_mm)]
     ex, ey, counts = _fourier_tables(grids, requests)
     kmax = ex.shape[1]
     sums_d = wp.zeros((n, nb, 3), dtype=wp.float64, device=dev)
     otf_d = wp.zeros((n, nb, kmax, 2), dtype=wp.float64, device=dev)
-    launch(_batch_pass, dim=(n, nb, kmax + 1), device=dev,
-           inputs=[dh.array, base, dh.stride, ny, nx, unit, xs, ys, _up(ex.real, wp.float64, dev),
+    launch(_first_pass, dim=n * P + n * nb * (kmax + 1), device=dev,
+           inputs=[dh.array, base, dh.stride, nb, ny, nx, unit, H_d, lit_d, ss_d, xs, ys, _up(ex.real, wp.float64, dev),
                    _up(ex.imag, wp.float64, dev), _up(ey.real, wp.float64, dev), _up(ey.imag, wp.float64, dev),
                    _up(counts, wp.int32, dev), sums_d, otf_d])
     H, ss, bsums, otf = download(H_d), download(ss_d), download(sums_d), download(otf_d)
