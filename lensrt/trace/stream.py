@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -412,11 +412,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         Ignored (kept for compatibility): the slots are always added on the device, in slot order.
     batch_histograms : bool or 'device'
         Keep one histogram per batch (``StreamResult.batch_histograms``, for per-pixel standard
-        errors); memory grows by the number of batches. ``'device'``: keep them on the device, not
-        downloaded: ``extra["device_histograms"]`` holds the flat int64 Warp array (layers, batches,
-        channels, ny, nx; row 0 = lowest y), its ``shape`` and the fixed-point ``unit``; the result's
-        ``histogram`` is then empty (for analyses that run on the device,
-        :mod:`lensrt.analysis.psf.device_sums`).
+        errors); memory grows by the number of batches. ``'device'``: not downloaded -- see :func:`_histograms`.
     kernel : {'auto', 'generic', 'specialised'}
         Kernel variant (:mod:`lensrt.trace.variants`); ``extra["kernel"]`` says which ran.
     histogram : bool
@@ -436,8 +432,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         raise LensrtError("a stream needs at least one source")
     if batches < 2:
         raise LensrtError("a stream needs at least 2 batches (for the standard error)")
-    if batch_histograms not in (True, False, "device"):
-        raise LensrtError(f"batch_histograms={batch_histograms!r} is not one of True, False, 'device'")
+    _check_keep(batch_histograms)
     code = sampler_code(sampler)
     packed = pack_lens(lens, precision, device, iris, stop_radius_mm)
     dev, k = packed.device, get_kernels(precision)
@@ -471,13 +466,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     out, launches, kernel_seconds = launch_all(wp, dev, plan, t, grid.nx, grid.ny, strata(n_b, spectra), kern,
                                                head, after, k.fold_slots, k.sum_replicas)
     unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
-    on_device = batch_histograms == "device"
-    if on_device:  # left where they are (no copy): the caller's kernels read them
-        h = np.zeros((plan.layers, 1, plan.n_chan, 0, 0), dtype=np.int64)
-    else:
-        h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
-    if not histogram:
-        h[...] = 0
+    h = _histograms(out, plan, grid, batch_histograms == "device", histogram)
     extra = {"threads_per_batch": plan.n_slots, "slot_rays": plan.slot_rays, "replicas": plan.replicas,
              "cpu_workers": 1 if plan.is_gpu else plan.replicas, "kernel": variant, "shape": describe(shape),
              "layers_of_sources": [s.layer for s in sources], "stat_names": STAT_NAMES,
@@ -485,7 +474,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
              "spectrum_totals": [spectra[s.spectrum].total * 1.0 for s in sources]}
     if any(s.pixel_mm is not None for s in sources):
         extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
-    if on_device:
+    if batch_histograms == "device":
         extra["device_histograms"] = {"array": out, "shape": (plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx),
                                       "unit": unit}
     return StreamResult((h.sum(axis=1) if plan.hb > 1 else h[:, 0]) * unit, n_b * B, B,
@@ -493,7 +482,27 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                         np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid,
                         time.perf_counter() - t_call, precision, dev, sampler, int(seed), launches,
-                        h * unit if (batch_histograms and not on_device) else None, extra)
+                        h * unit if (batch_histograms and batch_histograms != "device") else None, extra)
+
+
+def _check_keep(batch_histograms: bool | str) -> None:
+    if batch_histograms not in (True, False, "device"):
+        raise LensrtError(f"batch_histograms={batch_histograms!r} is not one of True, False, 'device'")
+
+
+def _histograms(out: Any, plan: Any, grid: Grid, on_device: bool, histogram: bool) -> np.ndarray:
+    """The histogram array downloaded (layers, batches, channels, ny, nx), zeroed without ``histogram``.
+
+    ``stream(..., batch_histograms="device")`` (``on_device``): the per-batch histograms are not downloaded
+    (analyses that run on the device read them, :mod:`lensrt.analysis.psf.device_sums`):
+    ``extra["device_histograms"]`` holds the flat int64 Warp array (layers, batches, channels, ny, nx; row
+    0 = lowest y), its ``shape`` and the fixed-point ``unit``; the result's ``histogram`` is empty."""
+    if on_device:
+        return np.zeros((plan.layers, 1, plan.n_chan, 0, 0), dtype=np.int64)
+    h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
+    if not histogram:
+        h[...] = 0
+    return h
 
 
 def _spectra_of(lens: Lens, spectrum: Spectrum | Sequence[Spectrum] | None,
