@@ -57,13 +57,13 @@ class FieldSums:
         :func:`mtf_requests`' frequency sets.
     complete : bool
         Made on the histograms' device (:mod:`lensrt.analysis.psf.device_sums`): the fields below hold
-        what would otherwise need the per-batch histograms, which the host does not have (``lit_n`` is None).
+        what would otherwise need the per-batch histograms, which the host does not have (``lit_n`` and
+        ``rings`` are None).
     geometric_radius : (float, float) or None
         The geometric radius and its jackknife error (device sums).
-    ee_batch : dict or None
-        Encircled-energy fraction -> (radius mm, per-batch light inside it (B,)) (device sums).
-    ee_profiles : tuple or None
-        The radial profiles the radii were bracketed with (device sums).
+    ee_radii : dict or None
+        Encircled-energy fraction -> (radius mm, jackknife error) (device sums; fractions the grid cannot
+        hold left out).
     """
 
     H: np.ndarray
@@ -72,12 +72,11 @@ class FieldSums:
     sy_b: np.ndarray
     lit_n: np.ndarray | None
     psf_stderr: np.ndarray
-    rings: Rings
+    rings: Rings | None
     otf: dict
     complete: bool = False
     geometric_radius: tuple[float, float] | None = None
-    ee_batch: dict | None = None
-    ee_profiles: tuple | None = None
+    ee_radii: dict | None = None
 
 
 def analysis_on_device(device: str) -> bool:

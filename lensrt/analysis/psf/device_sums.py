@@ -155,7 +155,8 @@ def _first_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), 
 def _pixel_fraction(ax: wp.float64, ay: wp.float64, h: wp.float64, rad: wp.float64, off: wp.array2d(dtype=wp.float64),
                     f: int) -> wp.float64:
     """Fraction of a pixel (centre |dx|, |dy| from the circle's centre, half-width h) inside radius rad:
-    1 when its farthest point is, else the share of its s x s sub-pixel centres (``Rings.fractions``)."""
+    1 when its farthest point is, 0 when its nearest point is not, else the share of its s x s sub-pixel
+    centres (``Rings.fractions``: the same sixteenths)."""
     dmax = wp.sqrt((ax + h) * (ax + h) + (ay + h) * (ay + h))
     if dmax <= rad:
         return wp.float64(1.0)
@@ -174,62 +175,244 @@ def _pixel_fraction(ax: wp.float64, ay: wp.float64, h: wp.float64, rad: wp.float
     return wp.float64(n) / wp.float64(s * s)
 
 
-@wp.kernel
-def _radius_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, ny: int, nx: int,
-                 unit: wp.float64, xs: wp.array2d(dtype=wp.float64), ys: wp.array2d(dtype=wp.float64),
-                 half: wp.array(dtype=wp.float64), off: wp.array2d(dtype=wp.float64),
-                 radius: wp.array2d(dtype=wp.float64), centre: wp.array2d(dtype=wp.float64),
-                 lit: wp.array2d(dtype=wp.int32), geo_c: wp.array2d(dtype=wp.float64),
-                 loo_c: wp.array3d(dtype=wp.float64),
-                 e_b: wp.array3d(dtype=wp.float64), loo: wp.array2d(dtype=wp.float64),
-                 full: wp.array(dtype=wp.float64)):
-    """Thread (f, b, j): the light of batch b inside field f's j-th encircled-energy circle (radius < 0: none);
-    j = J: the geometric radius without batch b (from its left-out centroid ``loo_c``) and, for b = 0, with
-    all batches (about the centroid ``geo_c``, from the per-batch moments as the host finds it)."""
-    f, b, j = wp.tid()
-    nj = radius.shape[1]
-    i0 = base[f] + b * stride
+@wp.func
+def _block_sum(v: wp.float64) -> wp.float64:
+    """The sum of ``v`` over the block's lanes, on every lane (block-wide reductions below keep the lanes of a
+    block in step: every loop they run is uniform across the block)."""
+    return wp.tile_sum(wp.tile(v))[0]
+
+
+@wp.func
+def _energy(H: wp.array2d(dtype=wp.float64), f: int, xs: wp.array2d(dtype=wp.float64),
+            ys: wp.array2d(dtype=wp.float64), cx: wp.float64, cy: wp.float64, h: wp.float64,
+            off: wp.array2d(dtype=wp.float64), rad: wp.float64, lane: int) -> wp.float64:
+    """The light of field f's all-batch histogram inside radius rad about (cx, cy) (``Rings.energy``; sums of
+    fixed-point weights times sixteenths: exact in any order), the block's lanes sharing the pixels."""
+    nx = xs.shape[1]
+    acc = wp.float64(0.0)
+    p = lane
+    while p < H.shape[1]:
+        v = H[f, p]
+        if v != wp.float64(0.0):
+            r = p // nx
+            ay = wp.abs(ys[f, r] - cy)
+            if ay - h < rad:
+                acc = acc + v * _pixel_fraction(wp.abs(xs[f, p - r * nx] - cx), ay, h, rad, off, f)
+        p = p + wp.block_dim()
+    return _block_sum(acc)
+
+
+@wp.func
+def _profile_scan(H: wp.array2d(dtype=wp.float64), f: int, xs: wp.array2d(dtype=wp.float64),
+                  ys: wp.array2d(dtype=wp.float64), cx: wp.float64, cy: wp.float64, h: wp.float64, far: int,
+                  mid: wp.float64, lane: int) -> wp.vec3d:
+    """Over the lit pixels' farthest (``far``) or nearest points' distances d: (the light of those with d <= mid,
+    the largest d <= mid (-1 if none), the smallest d > mid (1e300 if none))."""
+    nx = xs.shape[1]
+    acc = wp.float64(0.0)
+    below = wp.float64(-1.0)
+    above = wp.float64(1.0e300)
+    p = lane
+    while p < H.shape[1]:
+        v = H[f, p]
+        if v > wp.float64(0.0):
+            r = p // nx
+            ax = wp.abs(xs[f, p - r * nx] - cx)
+            ay = wp.abs(ys[f, r] - cy)
+            d = wp.float64(0.0)
+            if far == 1:
+                d = wp.sqrt((ax + h) * (ax + h) + (ay + h) * (ay + h))
+            else:
+                gx = wp.max(ax - h, wp.float64(0.0))
+                gy = wp.max(ay - h, wp.float64(0.0))
+                d = wp.sqrt(gx * gx + gy * gy)
+            if d <= mid:
+                acc = acc + v
+                below = wp.max(below, d)
+            else:
+                above = wp.min(above, d)
+        p = p + wp.block_dim()
+    return wp.vec3d(_block_sum(acc), wp.tile_max(wp.tile(below))[0], wp.tile_min(wp.tile(above))[0])
+
+
+@wp.func
+def _profile_value(H: wp.array2d(dtype=wp.float64), f: int, xs: wp.array2d(dtype=wp.float64),
+                   ys: wp.array2d(dtype=wp.float64), cx: wp.float64, cy: wp.float64, h: wp.float64, far: int,
+                   v: wp.float64, lane: int) -> wp.float64:
+    """The smallest distance d of the lit pixels (farthest or nearest points) whose cumulative light (pixels
+    with distances <= d) reaches v, the largest if none does: ``d[searchsorted(cumsum(h[argsort(d)]), v)]``
+    (index clamped) of ``jackknife._radius_bisect``, found without sorting -- by bisection on the value, each
+    step one pass, until one distinct value is left in the bracket (lo, hi] (C(lo) < v <= C(hi))."""
+    top = _profile_scan(H, f, xs, ys, cx, cy, h, far, wp.float64(1.0e300), lane)
+    hi = top[1]
+    first = _profile_scan(H, f, xs, ys, cx, cy, h, far, wp.float64(-1.0), lane)
+    if top[0] < v:
+        return hi
+    if v <= wp.float64(0.0):
+        return first[2]
+    lo = wp.float64(-1.0)
+    next_above = first[2]
+    steps = int(0)
+    while next_above < hi and steps < 400:
+        mid = lo + wp.float64(0.5) * (hi - lo)
+        if mid <= lo or mid >= hi:
+            mid = next_above
+        s = _profile_scan(H, f, xs, ys, cx, cy, h, far, mid, lane)
+        if s[0] >= v:
+            hi = s[1]
+        else:
+            lo = mid
+            next_above = s[2]
+        steps = steps + 1
+    return hi
+
+
+@wp.func
+def _ee_radius(H: wp.array2d(dtype=wp.float64), f: int, xs: wp.array2d(dtype=wp.float64),
+               ys: wp.array2d(dtype=wp.float64), cx: wp.float64, cy: wp.float64, h: wp.float64,
+               off: wp.array2d(dtype=wp.float64), target: wp.float64, tol: wp.float64, lane: int) -> wp.float64:
+    """``jackknife._radius_bisect``: the radius whose light reaches ``target``, bracketed by the radial profiles,
+    bisected to ``tol`` (the same brackets, midpoints and comparisons)."""
+    one = wp.float64(1.0)
+    hi = _profile_value(H, f, xs, ys, cx, cy, h, 1, target * (one - wp.float64(1e-12)), lane) + wp.float64(1e-12)
+    lo = wp.max(_profile_value(H, f, xs, ys, cx, cy, h, 0, target, lane) - wp.float64(1e-12), wp.float64(0.0))
+    e_lo = _energy(H, f, xs, ys, cx, cy, h, off, lo, lane)
+    e_hi = _energy(H, f, xs, ys, cx, cy, h, off, hi, lane)
+    if not (e_lo < target and target <= e_hi):
+        lo = wp.float64(0.0)
+        far = wp.float64(0.0)
+        p = lane
+        while p < H.shape[1]:  # the farthest point of any pixel
+            r = p // xs.shape[1]
+            ax = wp.abs(xs[f, p - r * xs.shape[1]] - cx) + h
+            ay = wp.abs(ys[f, r] - cy) + h
+            far = wp.max(far, wp.sqrt(ax * ax + ay * ay))
+            p = p + wp.block_dim()
+        hi = wp.tile_max(wp.tile(far))[0]
+    while hi - lo > tol:
+        mid = wp.float64(0.5) * (lo + hi)
+        if _energy(H, f, xs, ys, cx, cy, h, off, mid, lane) < target:
+            lo = mid
+        else:
+            hi = mid
+    return wp.float64(0.5) * (lo + hi)
+
+
+@wp.func
+def _ee_block(hist: wp.array(dtype=wp.int64), i0: int, stride: int, nb: int, ny: int, unit: wp.float64,
+              H: wp.array2d(dtype=wp.float64), f: int, j: int, xs: wp.array2d(dtype=wp.float64),
+              ys: wp.array2d(dtype=wp.float64), half: wp.array(dtype=wp.float64),
+              off: wp.array2d(dtype=wp.float64), ee_in: wp.array3d(dtype=wp.float64),
+              centre: wp.array2d(dtype=wp.float64), ee_out: wp.array3d(dtype=wp.float64),
+              e_b: wp.array3d(dtype=wp.float64), lane: int):
+    """Encircled-energy fraction j of field f: radius, light inside it, dE/dr, the gradient of the light in the
+    centre (x, y), and each batch's light inside it (``jackknife.ee_radii_jackknife``'s inputs)."""
+    target = ee_in[f, j, 0]
+    if target < wp.float64(0.0):
+        return
+    tol = ee_in[f, j, 1]
+    d = ee_in[f, j, 2]
     cx = centre[f, 0]
     cy = centre[f, 1]
-    if j < nj:
-        rad = radius[f, j]
-        if rad < wp.float64(0.0):
-            return
-        h = half[f]
+    h = half[f]
+    full = _ee_radius(H, f, xs, ys, cx, cy, h, off, target, tol, lane)
+    nx = xs.shape[1]
+    lo = wp.max(full - d, wp.float64(0.0))
+    e_full = wp.float64(0.0)
+    slope = wp.float64(0.0)
+    g_x = wp.float64(0.0)
+    g_y = wp.float64(0.0)
+    p = lane
+    while p < H.shape[1]:
+        v = H[f, p]
+        if v != wp.float64(0.0):
+            r = p // nx
+            x = xs[f, p - r * nx]
+            y = ys[f, r]
+            ax = wp.abs(x - cx)
+            ay = wp.abs(y - cy)
+            e_full = e_full + v * _pixel_fraction(ax, ay, h, full, off, f)
+            slope = slope + v * (_pixel_fraction(ax, ay, h, full + d, off, f) - _pixel_fraction(ax, ay, h, lo, off, f))
+            g_x = g_x + v * (_pixel_fraction(wp.abs(x - (cx + d)), ay, h, full, off, f)
+                             - _pixel_fraction(wp.abs(x - (cx - d)), ay, h, full, off, f))
+            g_y = g_y + v * (_pixel_fraction(ax, wp.abs(y - (cy + d)), h, full, off, f)
+                             - _pixel_fraction(ax, wp.abs(y - (cy - d)), h, full, off, f))
+        p = p + wp.block_dim()
+    e_full = _block_sum(e_full)
+    slope = _block_sum(slope)
+    g_x = _block_sum(g_x)
+    g_y = _block_sum(g_y)
+    if lane == 0:
+        ee_out[f, j, 0] = full
+        ee_out[f, j, 1] = e_full
+        ee_out[f, j, 2] = slope / (full + d - lo)
+        ee_out[f, j, 3] = g_x / (wp.float64(2.0) * d)
+        ee_out[f, j, 4] = g_y / (wp.float64(2.0) * d)
+    for b in range(nb):
         acc = wp.float64(0.0)
-        for r in range(ny):
-            row = i0 + (ny - 1 - r) * nx
+        p = lane
+        while p < H.shape[1]:
+            r = p // nx
             ay = wp.abs(ys[f, r] - cy)
-            for c in range(nx):
-                v = hist[row + c]
-                if v != wp.int64(0):
-                    w = _pixel_fraction(wp.abs(xs[f, c] - cx), ay, h, rad, off, f)
-                    acc = acc + wp.float64(v) * unit * w
-        e_b[f, j, b] = acc
+            if ay - h < full:
+                k = hist[i0 + b * stride + (ny - 1 - r) * nx + p - r * nx]
+                if k != wp.int64(0):
+                    acc = acc + wp.float64(k) * unit * _pixel_fraction(wp.abs(xs[f, p - r * nx] - cx), ay, h, full,
+                                                                       off, f)
+            p = p + wp.block_dim()
+        acc = _block_sum(acc)
+        if lane == 0:
+            e_b[f, j, b] = acc
+
+
+@wp.kernel
+def _second_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, nb: int, ny: int,
+                 unit: wp.float64, H: wp.array2d(dtype=wp.float64), xs: wp.array2d(dtype=wp.float64),
+                 ys: wp.array2d(dtype=wp.float64), half: wp.array(dtype=wp.float64),
+                 off: wp.array2d(dtype=wp.float64), ee_in: wp.array3d(dtype=wp.float64),
+                 centre: wp.array2d(dtype=wp.float64), lit: wp.array2d(dtype=wp.int32),
+                 geo_c: wp.array2d(dtype=wp.float64), loo_c: wp.array3d(dtype=wp.float64),
+                 ee_out: wp.array3d(dtype=wp.float64), e_b: wp.array3d(dtype=wp.float64),
+                 loo: wp.array2d(dtype=wp.float64), full: wp.array(dtype=wp.float64)):
+    """Block (f, t), its lanes sharing the pixels: t < J, encircled-energy fraction t of field f
+    (:func:`_ee_block`); else batch b = t - J: the geometric radius without batch b (the farthest bin still lit,
+    from the left-out centroid ``loo_c``) and, for b = 0, with all batches (about the centroid ``geo_c``, from
+    the per-batch moments as the host finds it)."""
+    f, t, lane = wp.tid()
+    nj = ee_in.shape[1]
+    nx = xs.shape[1]
+    if t < nj:
+        _ee_block(hist, base[f], stride, nb, ny, unit, H, f, t, xs, ys, half, off, ee_in, centre, ee_out, e_b, lane)
         return
+    b = t - nj
+    i0 = base[f] + b * stride
     ix = loo_c[f, b, 0]
     iy = loo_c[f, b, 1]
     best = wp.float64(-1.0)
     best_all = wp.float64(-1.0)
-    for r in range(ny):
-        row = i0 + (ny - 1 - r) * nx
-        for c in range(nx):
-            n = lit[f, r * nx + c]
-            if n > 0:
-                mine = int(0)
-                if hist[row + c] > wp.int64(0):
-                    mine = 1
-                if n - mine > 0:
-                    dx = xs[f, c] - ix
-                    dy = ys[f, r] - iy
-                    best = wp.max(best, wp.sqrt(dx * dx + dy * dy))
-                if b == 0:
-                    dx0 = xs[f, c] - geo_c[f, 0]
-                    dy0 = ys[f, r] - geo_c[f, 1]
-                    best_all = wp.max(best_all, wp.sqrt(dx0 * dx0 + dy0 * dy0))
-    loo[f, b] = best
-    if b == 0:
-        full[f] = best_all
+    p = lane
+    while p < H.shape[1]:
+        n = lit[f, p]
+        if n > 0:
+            r = p // nx
+            c = p - r * nx
+            mine = int(0)
+            if hist[i0 + (ny - 1 - r) * nx + c] > wp.int64(0):
+                mine = 1
+            if n - mine > 0:
+                dx = xs[f, c] - ix
+                dy = ys[f, r] - iy
+                best = wp.max(best, wp.sqrt(dx * dx + dy * dy))
+            dx0 = xs[f, c] - geo_c[f, 0]
+            dy0 = ys[f, r] - geo_c[f, 1]
+            best_all = wp.max(best_all, wp.sqrt(dx0 * dx0 + dy0 * dy0))
+        p = p + wp.block_dim()
+    best = wp.tile_max(wp.tile(best))[0]
+    best_all = wp.tile_max(wp.tile(best_all))[0]
+    if lane == 0:
+        loo[f, b] = best
+        if b == 0:
+            full[f] = best_all
 
 
 class DeviceHistograms:
@@ -294,8 +477,7 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
         As for :func:`~lensrt.analysis.psf.bulk.field_sums`; every grid has shape (dh.ny, dh.nx).
     """
     from .bulk import FieldSums, mtf_requests
-    from .energy import Rings
-    from .jackknife import ee_radii_full, jackknife_se
+    from .jackknife import jackknife_se
     n, nb, ny, nx, dev = len(grids), dh.batches, dh.ny, dh.nx, dh.device
     if n == 0:
         return []
@@ -323,55 +505,104 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
     H, ss, bsums, otf = download(H_d), download(ss_d), download(sums_d), download(otf_d)
     s_b, sx_b, sy_b = bsums[:, :, 0], bsums[:, :, 1], bsums[:, :, 2]
     # the host's small steps, as bulk._chunk_sums and the jackknife functions take them
-    total = (s_b + off).sum(axis=1)
+    total = np.array([float((s_b[k] + off[k]).sum()) for k in range(n)])
     area = np.array([g.pixel_area_mm2 for g in grids])
     se = (np.sqrt(ss / (nb - 1)) * (nb / (total * area) / math.sqrt(nb))[:, None]).reshape(n, ny, nx)
-    centres, hs_all = [], H.sum(axis=1)
-    for k, g in enumerate(grids):
-        gx, gy = (m.ravel() for m in g.mesh_mm())
-        hs = hs_all[k]
-        centres.append((float(np.einsum("i,i->", H[k], gx)) / hs, float(np.einsum("i,i->", H[k], gy)) / hs)
-                       if hs > 0 else g.centre_mm)
-    rings = Rings.many(grids, np.array(centres), 4)
+    hs_all = H.sum(axis=1)
+    # the encircled-energy circles' targets and centres (as ee_radii_jackknife takes them), the left-out centroids
     fractions = [float(v) for v in setup.ee_fractions]
-    radii = np.full((n, max(1, len(fractions))), -1.0)
-    ee_full, profiles = [], []
-    for k, g in enumerate(grids):
-        full, prof = ee_radii_full(H[k], float(total[k]), g, rings[k], fractions) if hs_all[k] > 0 else ({}, None)
-        ee_full.append(full)
-        profiles.append(prof)
-        for j, frac in enumerate(fractions):
-            radii[k, j] = full.get(frac, -1.0)
-    # pass 2: each batch's light inside the circles, the geometric radius without each batch
+    ee_in, centres, totals, rest = _ee_inputs(H, s_b, off, grids, fractions)
     sx, sy = sx_b.sum(axis=1), sy_b.sum(axis=1)
-    rest = hs_all[:, None] - s_b
     cxy = np.array([[sx[k] / hs_all[k], sy[k] / hs_all[k]] if hs_all[k] > 0 else [0.0, 0.0] for k in range(n)])
     with np.errstate(divide="ignore", invalid="ignore"):
         loo_c = np.stack([np.where(rest > 0, (sx[:, None] - sx_b) / rest, cxy[:, :1]),
                           np.where(rest > 0, (sy[:, None] - sy_b) / rest, cxy[:, 1:])], axis=2)
-    half = np.array([r.h for r in rings])
-    offs = np.stack([np.unique(r.ox) for r in rings])
-    e_d = wp.zeros((n, radii.shape[1], nb), dtype=wp.float64, device=dev)
+    half = np.array([0.5 * g.pitch_mm for g in grids])
+    offs = np.stack([((np.arange(_SUPERSAMPLE) + 0.5) / _SUPERSAMPLE - 0.5) * 2.0 * h for h in half])
+    # pass 3: the radii, their derivatives and each batch's light inside them; the geometric radius without
+    # each batch
+    nj = ee_in.shape[1]
+    ee_d = wp.zeros((n, nj, 5), dtype=wp.float64, device=dev)
+    e_d = wp.zeros((n, nj, nb), dtype=wp.float64, device=dev)
     loo_d = wp.zeros((n, nb), dtype=wp.float64, device=dev)
     full_d = wp.zeros(n, dtype=wp.float64, device=dev)
-    launch(_radius_pass, dim=(n, nb, radii.shape[1] + 1), device=dev,
-           inputs=[dh.array, base, dh.stride, ny, nx, unit, xs, ys, _up(half, wp.float64, dev),
-                   _up(offs, wp.float64, dev), _up(radii, wp.float64, dev), _up(np.array(centres), wp.float64, dev),
-                   lit_d, _up(cxy, wp.float64, dev), _up(loo_c, wp.float64, dev), e_d, loo_d, full_d])
-    e_b, loo, geo_full = download(e_d), download(loo_d), download(full_d)
+    block = _BLOCK if str(dev).startswith("cuda") else 1  # Warp's CPU runs blocks of one lane
+    launch(_second_pass, dim=(n, nj + nb, block), block_dim=block, device=dev,
+           inputs=[dh.array, base, dh.stride, nb, ny, unit, H_d, xs, ys, _up(half, wp.float64, dev),
+                   _up(offs, wp.float64, dev), _up(ee_in, wp.float64, dev), _up(centres, wp.float64, dev), lit_d,
+                   _up(cxy, wp.float64, dev), _up(loo_c, wp.float64, dev), ee_d, e_d, loo_d, full_d])
+    ee_out, e_b, loo, geo_full = download(ee_d), download(e_d), download(loo_d), download(full_d)
     out = []
     for k, g in enumerate(grids):
         geo = (0.0, 0.0)
         if hs_all[k] > 0:
             lk = np.where(rest[k] > 0, np.maximum(loo[k], 0.0), 0.0)
             geo = (float(geo_full[k]), float(jackknife_se(lk)))
-        ee = {frac: (ee_full[k][frac], e_b[k, j]) for j, frac in enumerate(fractions) if frac in ee_full[k]}
+        tot_b = s_b[k] + off[k]
+        ee = _ee_jackknife(ee_in[k], ee_out[k], e_b[k], centres[k], H[k], g, s_b[k], sx_b[k], sy_b[k], tot_b,
+                           totals[k], fractions)
         fs = {}
         a = 0
         for fx, fy in requests[k]:
             b = a + fx.size
             fs[(fx.tobytes(), fy.tobytes())] = otf[k, :, a:b, 0] + 1j * otf[k, :, a:b, 1]
             a = b
-        out.append(FieldSums(H[k], s_b[k], sx_b[k], sy_b[k], None, se[k], rings[k], fs, complete=True,
-                             geometric_radius=geo, ee_batch=ee, ee_profiles=profiles[k]))
+        out.append(FieldSums(H[k], s_b[k], sx_b[k], sy_b[k], None, se[k], None, fs, complete=True,
+                             geometric_radius=geo, ee_radii=ee))
+    return out
+
+
+#: lanes of a block of the second pass (one block per field and encircled energy, or field and batch)
+_BLOCK = 128
+#: sub-pixels per side where a circle cuts a pixel (``Rings``' supersample of the jackknife's radii)
+_SUPERSAMPLE = 4
+
+
+def _ee_inputs(H: np.ndarray, s_b: np.ndarray, off: np.ndarray, grids: Sequence[ImageGrid],
+               fractions: Sequence[float]) -> tuple[np.ndarray, ...]:
+    """Per field and fraction (target light or -1 where the grid cannot hold it, bisection tolerance, centre
+    shift: ``ee_radii_jackknife``'s), the centroids (F, 2) the circles are about, each field's total light and
+    light on the grid less each batch's (F, B)."""
+    n = len(grids)
+    ee_in = np.full((n, max(1, len(fractions)), 3), -1.0)
+    centres = np.zeros((n, 2))
+    totals = np.zeros(n)
+    hs_all = H.sum(axis=1)
+    for k, g in enumerate(grids):
+        totals[k] = float((s_b[k] + off[k]).sum())
+        gx, gy = (m.ravel() for m in g.mesh_mm())
+        hs = hs_all[k]
+        if not hs > 0:
+            continue
+        centres[k] = (float(np.einsum("i,i->", H[k], gx)) / hs, float(np.einsum("i,i->", H[k], gy)) / hs)
+        for j, frac in enumerate(fractions):
+            if not hs < frac * totals[k]:
+                ee_in[k, j] = (frac * totals[k], 1e-3 * g.pitch_mm, 0.25 * g.pitch_mm)
+    return ee_in, centres, totals, hs_all[:, None] - s_b
+
+
+def _ee_jackknife(ee_in: np.ndarray, ee_out: np.ndarray, e_b: np.ndarray, c: np.ndarray, H: np.ndarray,
+                  grid: ImageGrid, s_b: np.ndarray, sx_b: np.ndarray, sy_b: np.ndarray, tot_b: np.ndarray,
+                  total: float, fractions: Sequence[float]) -> dict[float, tuple[float, float]]:
+    """One field's encircled-energy radii and their linearised jackknife errors from the device's radius, light,
+    dE/dr, centre gradient and per-batch light (the last lines of ``ee_radii_jackknife``, same operations)."""
+    from .jackknife import jackknife_se
+    out: dict[float, tuple[float, float]] = {}
+    hs = H.sum()
+    gx, gy = (m.ravel() for m in grid.mesh_mm())
+    sx, sy = float(np.einsum("i,i->", H, gx)), float(np.einsum("i,i->", H, gy))
+    rest = hs - s_b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx_i = (sx - sx_b) / rest
+        cy_i = (sy - sy_b) / rest
+    for j, frac in enumerate(fractions):
+        if ee_in[j, 0] < 0:
+            continue
+        full, e_full, dedr, g_x, g_y = (float(v) for v in ee_out[j])
+        if not dedr > 0:
+            out[frac] = (full, 0.0)
+            continue
+        e = e_full - e_b[j] + g_x * (cx_i - c[0]) + g_y * (cy_i - c[1])
+        loo = np.where(rest > 0, full + (frac * (total - tot_b) - e) / dedr, full)
+        out[frac] = (full, float(jackknife_se(loo)))
     return out

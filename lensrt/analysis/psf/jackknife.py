@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from .bulk import FieldSums
 
 __all__ = ["jackknife_se", "moment_jackknife", "mtf_jackknife", "geometric_radius_jackknife",
-           "ee_radii_jackknife", "ee_radii_full"]
+           "ee_radii_jackknife"]
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -212,20 +212,6 @@ def _radius_bisect(rings, H: np.ndarray, target: float, tol: float, profiles: tu
     return 0.5 * (lo + hi)
 
 
-def ee_radii_full(H: np.ndarray, total: float, grid: ImageGrid, rings, fractions: Sequence[float]
-                  ) -> tuple[dict[float, float], tuple]:
-    """The radii about the rings' centre holding ``fractions`` of ``total`` (the bisection of
-    :func:`ee_radii_jackknife`; fractions the grid cannot hold left out) and the radial profiles it used."""
-    profiles = _radial_profiles(rings, H)
-    out: dict[float, float] = {}
-    hs = H.sum()
-    for frac in fractions:
-        if hs < frac * total:
-            continue
-        out[float(frac)] = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm, profiles)
-    return out, profiles
-
-
 def ee_centres_mm(c: tuple[float, float], grid: ImageGrid) -> list[tuple[float, float]]:
     """The centres of the encircled-energy rings: the centroid ``c``, then shifted by -+ a quarter pixel in x
     and in y (the centroid gradient of the energy, :func:`ee_radii_jackknife`)."""
@@ -238,10 +224,14 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     """Encircled-energy radii about the centroid holding ``fractions`` of all landed light (on and off the
     grid) and their linearised jackknife errors, as :func:`lensrt.analysis.psf.result._ee_radius_jackknife`
     computes them one fraction at a time; fractions the grid cannot hold are left out. ``sums``: the field's
-    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed."""
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed --
+    or the radii and errors themselves, when they were made on the device
+    (:mod:`lensrt.analysis.psf.device_sums`, the same steps)."""
     from .energy import Rings
+    if sums is not None and sums.ee_radii is not None:
+        return {frac: sums.ee_radii[float(frac)] for frac in fractions if float(frac) in sums.ee_radii}
     nb = hb.shape[0]
-    flat_b = hb.reshape(nb, -1) if sums is None or sums.ee_batch is None else None
+    flat_b = hb.reshape(nb, -1)
     gx, gy = (v.ravel() for v in grid.mesh_mm())
     if sums is None:
         H, s_b = flat_b.sum(axis=0), flat_b.sum(axis=1)
@@ -263,8 +253,7 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
         lit = np.nonzero(H)[0]
         rings, H_s = sums.rings, H[lit]
         shifted = [Rings(grid, cc, 4, lit) for cc in centres[1:]]
-    pre = sums.ee_batch if sums is not None else None  # device sums: radii and per-batch light made already
-    profiles = sums.ee_profiles if pre is not None else _radial_profiles(rings, H)
+    profiles = _radial_profiles(rings, H)
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
         cx_i = (sx - sx_b) / rest
@@ -273,10 +262,7 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     for frac in fractions:
         if hs < frac * total:
             continue
-        if pre is not None and float(frac) not in pre:
-            continue
-        full = pre[float(frac)][0] if pre is not None else _radius_bisect(rings, H, frac * total,
-                                                                           1e-3 * grid.pitch_mm, profiles)
+        full = _radius_bisect(rings, H, frac * total, 1e-3 * grid.pitch_mm, profiles)
         w = rings.fractions(full)
         lo = max(full - d, 0.0)
         dedr = float(_dot(H, rings.fractions(full + d) - rings.fractions(lo))) / (full + d - lo)
@@ -285,8 +271,7 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
             continue
         grad = [float(_dot(H_s, shifted[0].fractions(full) - shifted[1].fractions(full))) / (2 * d),
                 float(_dot(H_s, shifted[2].fractions(full) - shifted[3].fractions(full))) / (2 * d)]
-        e_b = pre[float(frac)][1] if pre is not None else np.einsum("bp,p->b", flat_b, w)
-        e = float(_dot(H, w)) - e_b + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
+        e = float(_dot(H, w)) - np.einsum("bp,p->b", flat_b, w) + grad[0] * (cx_i - c[0]) + grad[1] * (cy_i - c[1])
         loo = np.where(rest > 0, full + (frac * (total - tot_b) - e) / dedr, full)
         out[frac] = (full, float(jackknife_se(loo)))
     return out

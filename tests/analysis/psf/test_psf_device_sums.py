@@ -2,9 +2,11 @@
 
 The reference is the per-field host code without ``sums`` (``geometric_psf``, ``add_mtf_estimates`` on the
 downloaded histograms). The kernels run on every device the ``device`` fixture gives (Warp's CPU always).
-What they sum are fixed-point ray weights -- the all-batch histogram, per-batch weights, the light of each batch
-inside the encircled-energy circles -- exact in any order, so the PSF, the moments (from the stream's own
-sums), the encircled-energy radii and the off-grid fraction must be the same bits. Sums of products in
+What they sum are fixed-point ray weights -- the all-batch histogram, per-batch weights, the light inside the
+encircled-energy circles (all batches and each) -- exact in any order, so the PSF, the moments (from the
+stream's own sums), the encircled-energy radii (the same brackets and bisection on the device) and the off-grid
+fraction must be the same bits (the radii to 1e-12 on a GPU, whose compiler may fuse the multiply-adds of the
+brackets' distances: one ulp there moves every bisection midpoint by as much). Sums of products in
 another order than NumPy's (first moments, Fourier sums, distances; a GPU may fuse a multiply-add) agree to
 1e-12 relative; the jackknife errors that difference nearly equal sums of those (centroid left out batch by
 batch) to 1e-9 relative.
@@ -31,7 +33,7 @@ from lensrt.trace.stream import Grid, stream, stream_sources
 #: estimates summed in another order on the device: (value rtol, stderr rtol) (module docstring)
 REORDERED = {"mtf_sagittal": (1e-12, 1e-12), "mtf_tangential": (1e-12, 1e-12),
              "mtf_curve_sagittal": (1e-12, 1e-12), "mtf_curve_tangential": (1e-12, 1e-12),
-             "geometric_radius_mm": (1e-12, 1e-9), "ee50_radius_mm": (0.0, 1e-9), "ee80_radius_mm": (0.0, 1e-9)}
+             "geometric_radius_mm": (1e-12, 1e-9), "ee50_radius_mm": (1e-12, 1e-9), "ee80_radius_mm": (1e-12, 1e-9)}
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +88,7 @@ def test_device_sums_give_the_host_analysis(lens_and_setup, device, monkeypatch)
     sums = _device_sums(dev_res, grids, setup, device)
     compared = 0
     for j, (ref, g, s) in enumerate(zip(refs, grids, sums)):
-        assert s.complete and s.lit_n is None
+        assert s.complete and s.lit_n is None and s.rings is None
         inp = dict(dev_res.psf_inputs(j), hist=shape_only(setup.batches, *g.shape))
         new = _analyse(setup, inp, g, s)
         assert ref.estimates.keys() == new.estimates.keys()
@@ -94,6 +96,8 @@ def test_device_sums_give_the_host_analysis(lens_and_setup, device, monkeypatch)
             for i, part in enumerate(("value", "stderr")):
                 a, b = np.asarray(getattr(e, part), float), np.asarray(getattr(new.estimates[k], part), float)
                 rtol = REORDERED.get(k, (0.0, 0.0))[i]
+                if device == "cpu" and k.startswith("ee") and part == "value":
+                    rtol = 0.0  # no fused multiply-adds: the brackets' distances are the host's bits here
                 if rtol == 0.0:
                     assert np.array_equal(a, b), (j, k, part, a, b)
                 else:
@@ -118,9 +122,7 @@ def test_a_fields_device_sums_do_not_depend_on_the_group(lens_and_setup, device)
             assert np.array_equal(getattr(alone, name), getattr(together[k], name)), name
         assert alone.otf.keys() == together[k].otf.keys()
         assert all(np.array_equal(alone.otf[q], together[k].otf[q]) for q in alone.otf)
-        assert alone.ee_batch.keys() == together[k].ee_batch.keys()
-        assert all(alone.ee_batch[q][0] == together[k].ee_batch[q][0] and
-                   np.array_equal(alone.ee_batch[q][1], together[k].ee_batch[q][1]) for q in alone.ee_batch)
+        assert alone.ee_radii == together[k].ee_radii
 
 
 def test_the_choice_of_analysis_device(monkeypatch):
