@@ -99,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
 
     def on_device() -> list:
         sums = device_field_sums(dh, range(len(kept)), offs, [k[0] for k in kept], [k[1] for k in kept], setup)
-        return [one(g, ref, type(tot)(shape, tot.moments, tot.off_grid), sums=s) for (g, ref, tot), s in zip(kept, sums)]
+        return [one(g, ref, type(tot)(shape, tot.moments, tot.off_grid), sums=s)
+                for (g, ref, tot), s in zip(kept, sums)]
 
     ways = (("per-field reference", reference), ("bulk", batched), ("device sums", on_device))
     times: dict[str, list] = {name: [] for name, _ in ways}

@@ -447,8 +447,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     chan_mode, chan, nm0, dnm = _channel_table(channels)
     _check_grid(grid, sources)
     plan = plan_slots(S, B, n_b, grid.nx * grid.ny, max(s.layer for s in sources) + 1, chan.shape[0],
-                      dev.startswith("cuda"), batch_histograms=bool(batch_histograms), threads_per_batch=threads_per_batch,
-                      replicas=replicas, cpu_workers=cpu_workers, rays_per_launch=rays_per_launch)
+                      dev.startswith("cuda"), batch_histograms=bool(batch_histograms),
+                      threads_per_batch=threads_per_batch, replicas=replicas, cpu_workers=cpu_workers,
+                      rays_per_launch=rays_per_launch)
     src_int, seeds = _source_ints(sources, seed, spec_off, spec_n)
     t = device_tables(wp, dev, precision, plan, _source_rows(lens, sources, grid), src_int, nm, cdf, table, chan)
     use_table = int(mode == SPECTRUM_DISCRETE)
@@ -475,8 +476,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if any(s.pixel_mm is not None for s in sources):
         extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
     if batch_histograms == "device":
-        extra["device_histograms"] = {"array": out, "shape": (plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx),
-                                      "unit": unit}
+        extra["device_histograms"] = dict(array=out, shape=h.shape[:3] + (grid.ny, grid.nx), unit=unit)
     return StreamResult((h.sum(axis=1) if plan.hb > 1 else h[:, 0]) * unit, n_b * B, B,
                         download(t.tot_stats).reshape(S, B, N_STATS), download(t.tot_counts).reshape(S, B, N_COUNTS),
                         np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
@@ -498,7 +498,7 @@ def _histograms(out: Any, plan: Any, grid: Grid, on_device: bool, histogram: boo
     ``extra["device_histograms"]`` holds the flat int64 Warp array (layers, batches, channels, ny, nx; row
     0 = lowest y), its ``shape`` and the fixed-point ``unit``; the result's ``histogram`` is empty."""
     if on_device:
-        return np.zeros((plan.layers, 1, plan.n_chan, 0, 0), dtype=np.int64)
+        return np.zeros((plan.layers, plan.hb, plan.n_chan, 0, 0), dtype=np.int64)
     h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
     if not histogram:
         h[...] = 0

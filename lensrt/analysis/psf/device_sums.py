@@ -511,7 +511,7 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
     hs_all = H.sum(axis=1)
     # the encircled-energy circles' targets and centres (as ee_radii_jackknife takes them), the left-out centroids
     fractions = [float(v) for v in setup.ee_fractions]
-    ee_in, centres, totals, rest = _ee_inputs(H, s_b, off, grids, fractions)
+    ee_in, centres, hxy, totals, rest = _ee_inputs(H, s_b, off, grids, fractions)
     sx, sy = sx_b.sum(axis=1), sy_b.sum(axis=1)
     cxy = np.array([[sx[k] / hs_all[k], sy[k] / hs_all[k]] if hs_all[k] > 0 else [0.0, 0.0] for k in range(n)])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -539,7 +539,7 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
             lk = np.where(rest[k] > 0, np.maximum(loo[k], 0.0), 0.0)
             geo = (float(geo_full[k]), float(jackknife_se(lk)))
         tot_b = s_b[k] + off[k]
-        ee = _ee_jackknife(ee_in[k], ee_out[k], e_b[k], centres[k], H[k], g, s_b[k], sx_b[k], sy_b[k], tot_b,
+        ee = _ee_jackknife(ee_in[k], ee_out[k], e_b[k], centres[k], hs_all[k], hxy[k], s_b[k], sx_b[k], sy_b[k], tot_b,
                            totals[k], fractions)
         fs = {}
         a = 0
@@ -561,11 +561,13 @@ _SUPERSAMPLE = 4
 def _ee_inputs(H: np.ndarray, s_b: np.ndarray, off: np.ndarray, grids: Sequence[ImageGrid],
                fractions: Sequence[float]) -> tuple[np.ndarray, ...]:
     """Per field and fraction (target light or -1 where the grid cannot hold it, bisection tolerance, centre
-    shift: ``ee_radii_jackknife``'s), the centroids (F, 2) the circles are about, each field's total light and
-    light on the grid less each batch's (F, B)."""
+    shift: ``ee_radii_jackknife``'s), the centroids (F, 2) the circles are about and the sums of x and y over the
+    all-batch histogram they come from (F, 2), each field's total light and light on the grid less each
+    batch's (F, B)."""
     n = len(grids)
     ee_in = np.full((n, max(1, len(fractions)), 3), -1.0)
     centres = np.zeros((n, 2))
+    hxy = np.zeros((n, 2))
     totals = np.zeros(n)
     hs_all = H.sum(axis=1)
     for k, g in enumerate(grids):
@@ -574,23 +576,22 @@ def _ee_inputs(H: np.ndarray, s_b: np.ndarray, off: np.ndarray, grids: Sequence[
         hs = hs_all[k]
         if not hs > 0:
             continue
-        centres[k] = (float(np.einsum("i,i->", H[k], gx)) / hs, float(np.einsum("i,i->", H[k], gy)) / hs)
+        hxy[k] = (float(np.einsum("i,i->", H[k], gx)), float(np.einsum("i,i->", H[k], gy)))
+        centres[k] = (hxy[k, 0] / hs, hxy[k, 1] / hs)
         for j, frac in enumerate(fractions):
             if not hs < frac * totals[k]:
                 ee_in[k, j] = (frac * totals[k], 1e-3 * g.pitch_mm, 0.25 * g.pitch_mm)
-    return ee_in, centres, totals, hs_all[:, None] - s_b
+    return ee_in, centres, hxy, totals, hs_all[:, None] - s_b
 
 
-def _ee_jackknife(ee_in: np.ndarray, ee_out: np.ndarray, e_b: np.ndarray, c: np.ndarray, H: np.ndarray,
-                  grid: ImageGrid, s_b: np.ndarray, sx_b: np.ndarray, sy_b: np.ndarray, tot_b: np.ndarray,
+def _ee_jackknife(ee_in: np.ndarray, ee_out: np.ndarray, e_b: np.ndarray, c: np.ndarray, hs: float,
+                  hxy: np.ndarray, s_b: np.ndarray, sx_b: np.ndarray, sy_b: np.ndarray, tot_b: np.ndarray,
                   total: float, fractions: Sequence[float]) -> dict[float, tuple[float, float]]:
     """One field's encircled-energy radii and their linearised jackknife errors from the device's radius, light,
     dE/dr, centre gradient and per-batch light (the last lines of ``ee_radii_jackknife``, same operations)."""
     from .jackknife import jackknife_se
     out: dict[float, tuple[float, float]] = {}
-    hs = H.sum()
-    gx, gy = (m.ravel() for m in grid.mesh_mm())
-    sx, sy = float(np.einsum("i,i->", H, gx)), float(np.einsum("i,i->", H, gy))
+    sx, sy = float(hxy[0]), float(hxy[1])
     rest = hs - s_b
     with np.errstate(divide="ignore", invalid="ignore"):
         cx_i = (sx - sx_b) / rest
