@@ -142,3 +142,23 @@ def test_stream_refuses_an_unknown_histogram_keeping(lens_and_setup):
     srcs = stream_sources(lens, [(0.0, 0.0)], device="cpu")
     with pytest.raises(LensrtError, match="batch_histograms"):
         stream(lens, srcs, Grid(8, 8, 0.003), 64, batches=2, batch_histograms="gpu", device="cpu")
+
+
+def test_a_map_gives_the_same_psfs_with_either_analysis(lens_and_setup, device, monkeypatch):
+    """geometric_psfs end to end (the map's path): the device path against the host path on the same device."""
+    from lensrt.analysis.fields import FieldSpec
+    from lensrt.analysis.psf.groups import geometric_psfs
+    lens, setup = lens_and_setup
+    fields = [FieldSpec(0.0, 0.0, "axis"), FieldSpec(0.3, 0.9, "corner")]
+    out = {}
+    for mode in ("host", "device"):
+        monkeypatch.setenv("LENSRT_PSF_ANALYSIS", mode)
+        out[mode] = geometric_psfs(setup, fields, [11, 12], device)
+    for a, b in zip(out["host"], out["device"]):
+        assert a.metadata["analysis_device"] == "host" and b.metadata["analysis_device"] == device
+        assert np.array_equal(a.psf, b.psf) and a.estimates.keys() == b.estimates.keys()
+        np.testing.assert_allclose(b.psf_stderr, a.psf_stderr, rtol=1e-12, atol=0)
+        for k, e in a.estimates.items():
+            for i, part in enumerate(("value", "stderr")):
+                u, v = np.asarray(getattr(e, part), float), np.asarray(getattr(b.estimates[k], part), float)
+                np.testing.assert_allclose(v, u, rtol=REORDERED.get(k, (0.0, 0.0))[i], atol=0, err_msg=f"{k} {part}")
