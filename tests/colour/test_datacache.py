@@ -158,3 +158,29 @@ def test_a_warm_process_reads_the_tables_without_importing_colour_science(cache)
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["codes"] == srgb_encode8([0.0, 0.18, 1.0]).tolist()
     assert not seen["colour"] and not seen["pandas"]
+
+
+def test_charts_reflectance_basis_and_camera_sensitivities_equal_colour_science(cache):
+    from lensrt.colour.charts import chart_names, colorchecker_names, colorchecker_reflectances
+    from lensrt.colour.reflectance import mallett2019_basis
+    from lensrt.colour.wavelengths import WavelengthGrid
+    from lensrt.sensor.spectral import CAMERA_DATASETS, camera_response
+    for _ in range(2):  # built from colour-science, then read from the files
+        datacache.clear_memo()
+        assert chart_names() == tuple(colour.SDS_COLOURCHECKERS)
+        grid = WavelengthGrid(360.0, 800.0, 2.0)  # beyond the tables: edge values held
+        for chart in chart_names():
+            sds = colour.SDS_COLOURCHECKERS[chart]
+            assert colorchecker_names(chart) == tuple(sds.keys())
+            want = np.stack([np.interp(grid.nm, sd.wavelengths, sd.values) for sd in sds.values()])
+            assert _same(colorchecker_reflectances(grid, chart), want)
+        assert colorchecker_names("colorchecker n ohta") == colorchecker_names("ColorChecker N Ohta")
+        basis = colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019
+        want = np.stack([np.interp(grid.nm, basis.wavelengths, basis.values[:, i]) for i in range(3)])
+        assert _same(mallett2019_basis(WavelengthGrid(360.0, 800.0, 2.0)), want)
+        for key, full in CAMERA_DATASETS.items():
+            msds = colour.MSDS_CAMERA_SENSITIVITIES[full]
+            got = camera_response(key)
+            assert _same(got.wavelength_nm, msds.wavelengths)
+            assert _same(got.relative, np.clip(msds.values, 0.0, None) / msds.values.max(axis=0))
+        assert len(list(cache.glob("*.npz"))) >= 3
