@@ -28,7 +28,7 @@ from .aiming import AIM_MODES, aim_many, field_point, pupil_geometry
 from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels, lens_variant
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
-from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
+from .specialised import DEFAULT_TUNING, GPU_TUNING, ready, store_kernel
 from .kernels import N_RECORD
 from .variants import choose_kernel, params, shape_and_constants
 from ..core.telemetry import download, launch, upload
@@ -202,6 +202,7 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     store, _, lens_arg = lens_variant(k, packed.general)
     if variant == "specialised":
         sk = store_kernel(precision, shape, GPU_TUNING[precision] if dev.startswith("cuda") else DEFAULT_TUNING)
+        ready(sk, dev)
         common = [params(sk, consts, dev), arr, real(plane_dz), table]
     else:
         common = [packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz), int(record),
