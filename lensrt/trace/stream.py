@@ -51,7 +51,7 @@ from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
 from .shape import describe
-from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
+from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, ready, stream_kernel
 from ..core.telemetry import download
 from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables, launch_all, plan_slots, slot_layout
 from .variants import choose_kernel, params, shape_and_constants
@@ -457,6 +457,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if variant == "specialised":
         spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, bool(histogram)),
                              GPU_TUNING[precision] if plan.is_gpu else DEFAULT_TUNING)
+        ready(spec, dev)
         kern, after = spec.kernel, []
         head = [params(spec, consts, dev), t.src, t.src_int, t.spec_nm, t.spec_cdf, t.table] + chan_args
     else:
