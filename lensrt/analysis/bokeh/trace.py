@@ -1,18 +1,18 @@
 """Bokeh sources through the real lens: placement by the real chief ray, pupil boxes, windows, streaming.
 
 Used by :mod:`lensrt.analysis.bokeh.entry`; everything here works on many sources at
-once (vectorised float64 host work and batched store-kernel traces), so that a
-map of hundreds of sources costs a handful of kernel launches before the
-stream launch.
+once (kernels over all sources, vectorised float64 host work), so that a map of
+hundreds of sources costs a handful of kernel launches before the stream launch.
 
 * :func:`object_heights_for_image` -- where to put a point source at depth s
   so that its real chief ray (through the centre of the real stop, primary
   wavelength) meets the sensor plane at a given height: Newton on the aim
   point for the chief ray inside a secant iteration on the object height
   (steps into heights that have no chief ray are halved back toward the axis:
-  strongly distorting lenses), vectorised over heights and depths. A
-  rotationally symmetric lens maps azimuths one to one, so one radial solve
-  serves every azimuth.
+  strongly distorting lenses), for every height and depth in one kernel
+  launch (one thread each; general lenses: on the host, a batched trace per
+  step). A rotationally symmetric lens maps azimuths one to one, so one
+  radial solve serves every azimuth.
 * :func:`pupil_boxes` -- the box of each source's *real* (vignetted) entrance
   pupil and its *footprint* on the sensor plane (the bounding box of its blur
   spot): :func:`lensrt.trace.stream.pupil_boxes` (maps use grids of 64 and 48;
@@ -93,19 +93,72 @@ def _trace(lens: Lens, o: np.ndarray, d: np.ndarray, wl: float, device: str | No
 
 
 def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm, wavelength_nm: float,
-                             device: str | None = None, tol_mm: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+                             device: str | None = None, tol_mm: float = 1e-7,
+                             on_device: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Object heights y (object points (0, y, -depth)) whose real chief rays meet the plane z =
     ``plane_z_mm`` at (0, r); ``depth_mm`` and ``image_r_mm`` broadcast together. Also a mask of
     converged solves.
 
-    y is negative for a lens that inverts the image. Rays are traced without clipping.
+    y is negative for a lens that inverts the image. Rays are traced without clipping. For a
+    rotationally symmetric lens the whole search runs in one kernel launch, one thread per height
+    (:func:`lensrt.trace.kernels.boxes.chief_heights`: the host search's arithmetic, operation for
+    operation -- the same bits on the CPU); ``on_device=False``, or a general lens, runs it on the host
+    (a batched trace per Newton step of every secant step).
     """
     from ...trace.aiming import pupil_geometry
+    from ...trace.pack import pack_lens
     depth, r = np.broadcast_arrays(np.asarray(depth_mm, dtype=np.float64), np.asarray(image_r_mm, dtype=np.float64))
     depth, r = depth.ravel().copy(), r.ravel().copy()
+    y = np.zeros_like(r)
+    ok = np.ones(len(r), dtype=bool)
+    todo = r != 0.0
+    if not todo.any():
+        return y, ok
     geom = pupil_geometry(lens)
-    stop, z_ep = lens.stop_index, geom.ep_z_mm
-    h_fd = 1e-6 * max(geom.ep_radius_mm, 1.0)
+    args = (lens, r[todo], depth[todo], geom.ep_z_mm, 1e-6 * max(geom.ep_radius_mm, 1.0), float(plane_z_mm),
+            float(wavelength_nm), device, float(tol_mm))
+    if on_device is not False and not pack_lens(lens, "float64", device).general:
+        y[todo], ok[todo] = _heights_device(*args)
+    else:
+        y[todo], ok[todo] = _heights_host(*args)
+    return y, ok
+
+
+def _no_chief_ray(depth_mm: float) -> LensrtError:
+    return LensrtError(f"no real chief ray from a point {depth_mm:g} mm in front of the lens reaches the sensor plane")
+
+
+def _heights_device(lens: Lens, rt: np.ndarray, st: np.ndarray, z_ep: float, h_fd: float, plane_z_mm: float,
+                    wavelength_nm: float, device: str | None, tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_heights_for_image`'s search for image heights ``rt`` at depths ``st`` in one launch."""
+    from ...core.telemetry import download, launch, upload
+    from ...device import warp
+    from ...trace.kernels import N_RECORD
+    from ...trace.kernels.boxes import CHIEF_CONVERGED, CHIEF_NO_PROBE, chief_heights_symmetric
+    from ...trace.kernels.surfaces import SymmetricLens
+    from ...trace.pack import pack_lens
+    wp = warp()
+    packed = pack_lens(lens, "float64", device)
+    dev, n = packed.device, len(rt)
+    y_out = wp.zeros(n, dtype=wp.float64, device=dev)
+    flags = wp.zeros(n, dtype=wp.int32, device=dev)
+    launch(chief_heights_symmetric, dim=n, device=dev,
+           inputs=[packed.surf, packed.media, packed.iris, lens.n_surfaces, lens.stop_index, float(z_ep), float(h_fd),
+                   float(wavelength_nm), float(plane_z_mm) - lens.image_z_mm, float(tol_mm),
+                   upload(rt, wp.float64, dev), upload(st, wp.float64, dev),
+                   wp.zeros((1, 1), dtype=wp.float64, device=dev),
+                   wp.zeros((1, 1, N_RECORD), dtype=wp.float64, device=dev), SymmetricLens(), y_out, flags])
+    y, f = download(y_out), download(flags)
+    if np.any(f == CHIEF_NO_PROBE):
+        raise _no_chief_ray(float(st[np.argmax(f == CHIEF_NO_PROBE)]))
+    return y, (f & CHIEF_CONVERGED) != 0
+
+
+def _heights_host(lens: Lens, rt: np.ndarray, st: np.ndarray, z_ep: float, h_fd: float, plane_z_mm: float,
+                  wavelength_nm: float, device: str | None, tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_heights_for_image`'s search on the host: Newton on the aim point for the chief ray
+    inside a secant iteration on the object height, every step one batched trace of all heights."""
+    stop = lens.stop_index
 
     def chief(y: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Image height of the real chief ray of each object point (0, y, -s), and whether it was found."""
@@ -138,18 +191,11 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, plane_z_mm=plane_z_mm)
         return res.position_mm[:, 1], ok & res.ok
 
-    y = np.zeros_like(r)
-    ok = np.ones(len(r), dtype=bool)
-    todo = r != 0.0
-    if not todo.any():
-        return y, ok
-    rt, st = r[todo], depth[todo]
     # a probe near the axis gives each depth's scale; then secant steps on every height at once
     probe = 1e-3 * (st + abs(z_ep))
     hp, okp = chief(-probe, st)
     if not np.all(okp & (hp != 0.0)):
-        bad = float(st[~(okp & (hp != 0.0))][0])
-        raise LensrtError(f"no real chief ray from a point {bad:g} mm in front of the lens reaches the sensor plane")
+        raise _no_chief_ray(float(st[~(okp & (hp != 0.0))][0]))
     y0 = rt * (-probe / hp)
     h0, ok0 = chief(y0, st)
     for _ in range(20):  # a paraxial start with no chief ray (strong distortion): move it toward the axis
@@ -177,9 +223,7 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         y0, h0, ok0 = np.where(good, y1, y0), np.where(good, h1, h0), np.where(good, ok1, ok0)
         y1, h1, ok1 = np.where(good, y2, y1), np.where(good, h2, h1), np.where(good, ok2, ok1)
         conv |= ok1 & (np.abs(h1 - rt) <= tol_mm)
-    y[todo] = y1
-    ok[todo] = conv
-    return y, ok
+    return y1, conv
 
 
 # ---- pupil boxes of many sources ------------------------------------------------------------

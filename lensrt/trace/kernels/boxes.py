@@ -11,6 +11,13 @@ ray into its field point's bounds with atomic min/max (order-free: the same boun
 thread order; on the CPU, where Warp's atomics are plain adds, each worker thread launches a
 slice of the threads into its own bounds, folded with min/max on the host). Rotationally symmetric lenses only (the footprint is read in the image
 surface's frame); the caller keeps the host pass for the others.
+
+:func:`chief_heights` is the other search over many field points that the bokeh map used to run on the
+host: for each (image height, depth) the object height whose real chief ray meets the sensor at that
+height -- Newton on the aim point inside a secant on the object height, one thread per point, every
+trace the shared ``trace_ray`` -- in one launch instead of a launch per Newton step of every secant
+step (:func:`lensrt.analysis.bokeh.trace.object_heights_for_image` documents the algorithm, which the
+host version there runs for general lenses; the arithmetic is the host's, operation for operation).
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations as objects.
 
@@ -21,7 +28,8 @@ import warp as wp
 from ..status import OK
 from .surfaces import SymmetricLens, trace_ray
 
-__all__ = ["box_grid_pass", "box_grid_pass_symmetric", "BOX_FIELD_COLS"]
+__all__ = ["box_grid_pass", "box_grid_pass_symmetric", "BOX_FIELD_COLS", "chief_heights", "chief_heights_symmetric",
+           "CHIEF_CONVERGED", "CHIEF_NO_PROBE"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -95,3 +103,125 @@ def box_grid_pass(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp
 
 #: the instance the host calls (rotationally symmetric lenses)
 box_grid_pass_symmetric = wp.overload(box_grid_pass, {"variant": SymmetricLens})
+
+
+#: chief_heights flags: the solve met its tolerance; the near-axis probe found no chief ray (nothing else ran)
+CHIEF_CONVERGED = 1
+CHIEF_NO_PROBE = 2
+
+
+@wp.func
+def _height_on(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
+               iris: wp.array(dtype=wp.float64), n_surfaces: int, y_obj: wp.float64, depth: wp.float64,
+               b: wp.float64, z_ep: wp.float64, w2: wp.float64, end: int, plane_dz: wp.float64,
+               table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any):
+    """y where the ray from the object point (0, y_obj, -depth) through the aim point (0, b, z_ep) meets
+    surface ``end`` (unclipped; the plane when end = n_surfaces), and whether it got there. The ray starts
+    on the sphere through the first vertex centred on the object point, as the host's
+    ``_rays_from_points`` makes it (the same operations in the same order)."""
+    vy = b - y_obj
+    vz = z_ep - (-depth)
+    dist = wp.sqrt((wp.float64(0.0) + vy * vy) + vz * vz)
+    dx = wp.float64(0.0) / dist
+    dy = vy / dist
+    dz = vz / dist
+    r0 = wp.sqrt((wp.float64(0.0) + y_obj * y_obj) + depth * depth)
+    dot = (wp.float64(0.0) + b * (b - wp.float64(2.0) * y_obj)) + z_ep * (z_ep - wp.float64(2.0) * (-depth))
+    back = dot / (dist + r0)
+    st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
+        surf, media, iris, n_surfaces, wp.float64(0.0) - back * dx, b - back * dy, z_ep - back * dz, dx, dy, dz,
+        w2, table, -1, end, 0, plane_dz, 0, rec, 0, variant)
+    return y, st == int(OK)
+
+
+@wp.func
+def _chief_on_plane(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
+                    iris: wp.array(dtype=wp.float64), n_surfaces: int, stop: int, y_obj: wp.float64,
+                    depth: wp.float64, z_ep: wp.float64, h_fd: wp.float64, w2: wp.float64, plane_dz: wp.float64,
+                    table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any):
+    """Image height (on the plane) of the real chief ray of the object point (0, y_obj, -depth) and whether
+    it was found: Newton on the aim point b until the ray crosses the stop's centre (finite-difference
+    slope, at most 30 steps, |y_stop| < 1e-11 mm; found when < 1e-8 mm)."""
+    b = wp.float64(0.0)
+    f0, ok = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, stop, wp.float64(0.0), table, rec,
+                        variant)
+    f1, ok1 = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b + h_fd, z_ep, w2, stop, wp.float64(0.0),
+                         table, rec, variant)
+    it = int(0)
+    while it < 30 and ok and wp.abs(f0) >= wp.float64(1e-11):
+        slope = (f1 - f0) / h_fd
+        if not ok1 or slope == wp.float64(0.0):
+            break  # no step: the host loop would trace the same aim point again until its last round
+        b = b - f0 / slope
+        f0, ok_new = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, stop, wp.float64(0.0),
+                                table, rec, variant)
+        f1, ok1 = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b + h_fd, z_ep, w2, stop,
+                             wp.float64(0.0), table, rec, variant)
+        ok = ok and ok_new
+        it = it + 1
+    ok = ok and wp.abs(f0) < wp.float64(1e-8)
+    h, ok_plane = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, n_surfaces, plane_dz, table,
+                             rec, variant)
+    return h, ok and ok_plane
+
+
+@wp.kernel
+def chief_heights(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
+                  iris: wp.array(dtype=wp.float64), n_surfaces: int, stop: int, z_ep: wp.float64,
+                  h_fd: wp.float64, wavelength_nm: wp.float64, plane_dz: wp.float64, tol: wp.float64,
+                  image_r: wp.array(dtype=wp.float64), depths: wp.array(dtype=wp.float64),
+                  table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any,
+                  y_out: wp.array(dtype=wp.float64), flags: wp.array(dtype=wp.int32)):
+    # one thread per (image height r, depth s): a probe near the axis gives the scale, then secant
+    # steps on the object height (a start or a step into heights with no chief ray moves back toward
+    # the axis: strong distortion); each round of the host's loops is one iteration here
+    tid = wp.tid()
+    r = image_r[tid]
+    s = depths[tid]
+    w_um = wavelength_nm * wp.float64(1.0e-3)
+    w2 = w_um * w_um
+    probe = wp.float64(1e-3) * (s + wp.abs(z_ep))
+    hp, okp = _chief_on_plane(surf, media, iris, n_surfaces, stop, -probe, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                              variant)
+    if not okp or hp == wp.float64(0.0):
+        y_out[tid] = wp.float64(0.0)
+        flags[tid] = wp.int32(CHIEF_NO_PROBE)
+        return
+    y0 = r * (-probe / hp)
+    h0, ok0 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y0, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                              variant)
+    k = int(0)
+    while k < 20 and not ok0:
+        y0 = wp.float64(0.7) * y0
+        h0, ok0 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y0, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                                  variant)
+        k = k + 1
+    y1 = y0 * wp.float64(1.001)
+    h1, ok1 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y1, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                              variant)
+    conv = ok1 and wp.abs(h1 - r) <= tol
+    it = int(0)
+    while it < 40 and ok0 and ok1 and h1 != h0 and not conv:
+        y2 = y1 - (h1 - r) * (y1 - y0) / (h1 - h0)
+        h2, ok2 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y2, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                                  variant)
+        j = int(0)
+        while j < 12 and not ok2:
+            y2 = wp.float64(0.5) * (y1 + y2)
+            h2, ok2 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y2, s, z_ep, h_fd, w2, plane_dz, table,
+                                      rec, variant)
+            j = j + 1
+        y0 = y1
+        h0 = h1
+        ok0 = ok1
+        y1 = y2
+        h1 = h2
+        ok1 = ok2
+        conv = conv or (ok1 and wp.abs(h1 - r) <= tol)
+        it = it + 1
+    y_out[tid] = y1
+    flags[tid] = wp.where(conv, wp.int32(CHIEF_CONVERGED), wp.int32(0))
+
+
+#: the instance the host calls (rotationally symmetric lenses; general lenses keep the host search)
+chief_heights_symmetric = wp.overload(chief_heights, {"variant": SymmetricLens})
