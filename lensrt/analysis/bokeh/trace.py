@@ -47,7 +47,7 @@ from ...prescription.model import Iris, Lens
 from ...units import MM_PER_M
 
 __all__ = ["Frame", "object_heights_for_image", "pupil_boxes", "stream_windows", "SourceOut",
-           "WINDOW_MARGIN", "DISC_THRESHOLD", "disc_noise", "disc_noise_rms"]
+           "WINDOW_MARGIN", "DISC_THRESHOLD", "disc_noise", "disc_noise_rms", "stream_estimates"]
 
 #: windows extend the traced footprint by this fraction of its size on every side (plus 2 px)
 WINDOW_MARGIN = 0.04
@@ -280,27 +280,83 @@ def _window(foot: np.ndarray, frame: Frame) -> tuple[int, int, int, int] | None:
     return ix0, ix1, iy0, iy1
 
 
-def disc_noise(y: np.ndarray, var_y: np.ndarray) -> tuple[float, int]:
-    """Median per-pixel relative standard error of Y over the disc, and the disc's pixel count.
-
-    The disc: pixels at or above :data:`DISC_THRESHOLD` of the 99th percentile of the lit pixels.
-    """
+def _disc(y: np.ndarray) -> np.ndarray | None:
+    """The disc of :func:`disc_noise` (a mask of ``y``), None when no pixel is lit."""
     lit = y[y > 0]
     if lit.size == 0:
+        return None
+    return y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
+
+
+def disc_noise(y: np.ndarray, var_y: np.ndarray, disc: np.ndarray | None = None) -> tuple[float, int]:
+    """Median per-pixel relative standard error of Y over the disc, and the disc's pixel count.
+
+    The disc: pixels at or above :data:`DISC_THRESHOLD` of the 99th percentile of the lit pixels
+    (``disc``: that mask when already known).
+    """
+    disc = _disc(y) if disc is None else disc
+    if disc is None:
         return math.nan, 0
-    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
     rel = np.sqrt(np.maximum(var_y[disc], 0.0)) / y[disc]
     return float(np.median(rel)), int(disc.sum())
 
 
-def disc_noise_rms(y: np.ndarray, var_y: np.ndarray) -> float:
+def disc_noise_rms(y: np.ndarray, var_y: np.ndarray, disc: np.ndarray | None = None) -> float:
     """RMS over the disc (as :func:`disc_noise`) of the per-pixel relative standard error of Y: the
     error measure of a target error (what the RMS relative error against the truth estimates)."""
-    lit = y[y > 0]
-    if lit.size == 0:
+    disc = _disc(y) if disc is None else disc
+    if disc is None:
         return math.nan
-    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
     return float(np.sqrt(np.mean(np.maximum(var_y[disc], 0.0) / (y[disc] * y[disc]))))
+
+
+def _per_batch(fn, s: np.ndarray, pooled_n: int, batch_n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``StreamResult._estimate`` for every source of a stream at once: ``fn`` (whole arrays, per source
+    and batch) on the pooled sums (S, ...) and the standard error (S, ...) from the finite batch values."""
+    pooled = fn(s.sum(axis=1), pooled_n)
+    per = fn(s, batch_n)  # (S, B, ...)
+    good = np.all(np.isfinite(per.reshape(per.shape[0], per.shape[1], -1)), axis=2)
+    se = np.empty_like(pooled)
+    full = good.all(axis=1)
+    if full.any() and per.shape[1] > 1:
+        se[full] = per[full].std(axis=1, ddof=1) / math.sqrt(per.shape[1])
+    for k in np.nonzero(~full | (per.shape[1] < 2))[0]:  # a batch with a non-finite value is left out
+        v = per[k][good[k]]
+        se[k] = v.std(axis=0, ddof=1) / math.sqrt(len(v)) if len(v) > 1 else np.inf
+    return pooled, se
+
+
+def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return num / den
+
+
+def _transmission(v: np.ndarray, n: int) -> np.ndarray:
+    return v[..., 0] / n
+
+
+def _centroid(v: np.ndarray, n: int) -> np.ndarray:
+    c = np.stack([_ratio(v[..., 2], v[..., 1]), _ratio(v[..., 3], v[..., 1])], axis=-1)
+    return np.where((v[..., 1] > 0)[..., None], c, np.nan)
+
+
+def _rms(v: np.ndarray, n: int) -> np.ndarray:
+    mx, my = _ratio(v[..., 2], v[..., 1]), _ratio(v[..., 3], v[..., 1])
+    r = np.sqrt(np.maximum(_ratio(v[..., 4], v[..., 1]) - mx * mx + _ratio(v[..., 5], v[..., 1]) - my * my, 0.0))
+    return np.where(v[..., 1] > 0, r, np.nan)
+
+
+def stream_estimates(res) -> dict:
+    """Transmission, centroid (mm, on the plane) and RMS radius (mm) of every source of a stream result,
+    each with its standard error: what ``StreamResult.transmission`` / ``centroid`` / ``rms_radius`` give
+    one source at a time (the same formulas, sums and reductions), as (S,) and (S, 2) arrays."""
+    s, n = res.batch_stats, res.rays_per_source
+    n_b = n // res.batches
+    out = {}
+    for name, fn in (("transmission", _transmission), ("centroid", _centroid), ("rms_radius", _rms)):
+        out[name], out[name + "_se"] = _per_batch(fn, s, n, n_b)
+    out["centroid"] = out["centroid"] + res.centre_mm
+    return out
 
 
 def _merge_rounds(a, b):
@@ -395,8 +451,9 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
             if not progressive:
                 break
             if target_error is not None:
+                est = stream_estimates(res)
                 worst = max(_source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                        batch_noise, 0.0, source_seed(k, 0)).stats["noise_rms"]
+                                        batch_noise, 0.0, source_seed(k, 0), est).stats["noise_rms"]
                             for j, k in enumerate(members))
                 if worst <= target_error:
                     reason = "target_error"
@@ -412,9 +469,10 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                 reason = "rays"
                 break
         share = res.seconds / len(members)
+        est = stream_estimates(res)
         for j, k in enumerate(members):
             outs[k] = _source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                  batch_noise, share, source_seed(k, 0))
+                                  batch_noise, share, source_seed(k, 0), est)
             if progressive:
                 outs[k].stats.update({"rounds": r, "stop_reason": reason, "target_error": target_error,
                                       "time_budget_s": time_budget_s})
@@ -437,7 +495,9 @@ def poisson_var_y(y_raw: np.ndarray, rays_landed: int, kappa_y: float) -> np.nda
 
 
 def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.ndarray, box, frame: Frame,
-                light, intensity_cd: float, batch_noise: bool, seconds: float, seed: int) -> SourceOut:
+                light, intensity_cd: float, batch_noise: bool, seconds: float, seed: int, est: dict) -> SourceOut:
+    """Source ``k`` (layer ``j`` of ``res``; ``est``: :func:`stream_estimates` of ``res``) as a window in lux
+    with its statistics."""
     ix0, ix1, iy0, iy1 = win
     gy, gx = res.histogram.shape[2], res.histogram.shape[3]
     raw = res.histogram[j]  # (3, gy, gx)
@@ -454,11 +514,13 @@ def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.nda
         var_b = bh.shape[0] * bh[:, 1].var(axis=0, ddof=1) * scale * scale
         batch_xyz = (bh * (scale * bh.shape[0])).astype(np.float32)
     xyz = raw * scale
-    noise_p, disc_px = disc_noise(xyz[1], var_p)
-    trans, trans_se = res.transmission(j)
-    area, area_se = res.transmitted_area_mm2(j)
-    cen, cen_se = res.centroid(j)
-    rms, rms_se = res.rms_radius(j)
+    disc = _disc(xyz[1])
+    noise_p, disc_px = disc_noise(xyz[1], var_p, disc)
+    trans, trans_se = float(est["transmission"][j]), float(est["transmission_se"][j])
+    a = float(res.pupil_area_mm2[j])
+    area, area_se = trans * a, trans_se * a
+    cen, cen_se = est["centroid"][j], est["centroid_se"][j]
+    rms, rms_se = float(est["rms_radius"][j]), float(est["rms_radius_se"][j])
     sum_w = float(res.batch_stats[j][:, 1].sum())
     stats = {
         "rays": int(n), "reached_sensor": True, "seed": int(seed), "seconds": float(seconds),
@@ -476,12 +538,12 @@ def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.nda
         "disc_pixels": disc_px, "noise_poisson": noise_p, "status_counts": counts,
     }
     if var_b is not None:
-        stats["noise_batch"] = disc_noise(xyz[1], var_b)[0]
+        stats["noise_batch"] = disc_noise(xyz[1], var_b, disc)[0]
     stats["noise"] = stats["noise_batch"] if var_b is not None else noise_p
     stats["noise_method"] = (f"batch means over {res.batches} batches" if var_b is not None
                              else "Poisson estimate from the ray weights")
     var = var_b if var_b is not None else var_p
-    stats["noise_rms"] = disc_noise_rms(xyz[1], var)
+    stats["noise_rms"] = disc_noise_rms(xyz[1], var, disc)
     # the luminous flux in the window with its standard error: batch means over the batches' window
     # sums, else the Poisson variances of the pixels added up (independent counts)
     if batch_xyz is not None:
