@@ -141,28 +141,54 @@ def _chief_on_plane(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=
                     table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any):
     """Image height (on the plane) of the real chief ray of the object point (0, y_obj, -depth) and whether
     it was found: Newton on the aim point b until the ray crosses the stop's centre (finite-difference
-    slope, at most 30 steps, |y_stop| < 1e-11 mm; found when < 1e-8 mm)."""
+    slope, at most 30 steps, |y_stop| < 1e-11 mm; found when < 1e-8 mm).
+
+    Written as a loop with one trace per pass (the stop height at b, at b + h_fd, then the plane), so
+    that the kernel holds one copy of the tracer, not one per call site."""
     b = wp.float64(0.0)
-    f0, ok = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, stop, wp.float64(0.0), table, rec,
-                        variant)
-    f1, ok1 = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b + h_fd, z_ep, w2, stop, wp.float64(0.0),
-                         table, rec, variant)
+    f0 = wp.float64(0.0)
+    f1 = wp.float64(0.0)
+    ok = bool(False)
+    ok_new = bool(False)
+    ok1 = bool(False)
+    h = wp.float64(0.0)
+    found = bool(False)
+    first = bool(True)
     it = int(0)
-    while it < 30 and ok and wp.abs(f0) >= wp.float64(1e-11):
-        slope = (f1 - f0) / h_fd
-        if not ok1 or slope == wp.float64(0.0):
-            break  # no step: the host loop would trace the same aim point again until its last round
-        b = b - f0 / slope
-        f0, ok_new = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, stop, wp.float64(0.0),
-                                table, rec, variant)
-        f1, ok1 = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b + h_fd, z_ep, w2, stop,
-                             wp.float64(0.0), table, rec, variant)
-        ok = ok and ok_new
-        it = it + 1
-    ok = ok and wp.abs(f0) < wp.float64(1e-8)
-    h, ok_plane = _height_on(surf, media, iris, n_surfaces, y_obj, depth, b, z_ep, w2, n_surfaces, plane_dz, table,
-                             rec, variant)
-    return h, ok and ok_plane
+    phase = int(0)  # 0: stop height at b, 1: at b + h_fd, 2: the plane, 3: done
+    while phase != 3:
+        bb = b
+        end = stop
+        dz = wp.float64(0.0)
+        if phase == 1:
+            bb = b + h_fd
+        if phase == 2:
+            end = n_surfaces
+            dz = plane_dz
+        v, ok_v = _height_on(surf, media, iris, n_surfaces, y_obj, depth, bb, z_ep, w2, end, dz, table, rec, variant)
+        if phase == 0:
+            f0 = v
+            ok_new = ok_v
+            phase = 1
+        elif phase == 1:
+            f1 = v
+            ok1 = ok_v
+            ok = wp.where(first, ok_new, ok and ok_new)
+            first = False
+            phase = 2
+            if it < 30 and ok and wp.abs(f0) >= wp.float64(1e-11):
+                slope = (f1 - f0) / h_fd
+                if ok1 and slope != wp.float64(0.0):  # else no step: the host loop would retrace b until its end
+                    b = b - f0 / slope
+                    it = it + 1
+                    phase = 0
+            if phase == 2:
+                ok = ok and wp.abs(f0) < wp.float64(1e-8)
+        else:
+            h = v
+            found = ok and ok_v
+            phase = 3
+    return h, found
 
 
 @wp.kernel
@@ -172,55 +198,82 @@ def chief_heights(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp
                   image_r: wp.array(dtype=wp.float64), depths: wp.array(dtype=wp.float64),
                   table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any,
                   y_out: wp.array(dtype=wp.float64), flags: wp.array(dtype=wp.int32)):
-    # one thread per (image height r, depth s): a probe near the axis gives the scale, then secant
-    # steps on the object height (a start or a step into heights with no chief ray moves back toward
-    # the axis: strong distortion); each round of the host's loops is one iteration here
+    # one thread per (image height r, depth s): a probe near the axis gives the scale, then secant steps on
+    # the object height (a start or a step into heights with no chief ray moves back toward the axis: strong
+    # distortion). One chief ray per pass of the loop (one copy of the tracer); ``phase`` says which:
+    # 0 the probe, 1 the start y0 (shrunk by 0.7 up to 20 times), 2 y1 = 1.001 y0, 3 a secant step y2
+    # (halved back toward y1 up to 12 times), 4 done
     tid = wp.tid()
     r = image_r[tid]
     s = depths[tid]
     w_um = wavelength_nm * wp.float64(1.0e-3)
     w2 = w_um * w_um
     probe = wp.float64(1e-3) * (s + wp.abs(z_ep))
-    hp, okp = _chief_on_plane(surf, media, iris, n_surfaces, stop, -probe, s, z_ep, h_fd, w2, plane_dz, table, rec,
-                              variant)
-    if not okp or hp == wp.float64(0.0):
-        y_out[tid] = wp.float64(0.0)
-        flags[tid] = wp.int32(CHIEF_NO_PROBE)
-        return
-    y0 = r * (-probe / hp)
-    h0, ok0 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y0, s, z_ep, h_fd, w2, plane_dz, table, rec,
-                              variant)
-    k = int(0)
-    while k < 20 and not ok0:
-        y0 = wp.float64(0.7) * y0
-        h0, ok0 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y0, s, z_ep, h_fd, w2, plane_dz, table, rec,
-                                  variant)
-        k = k + 1
-    y1 = y0 * wp.float64(1.001)
-    h1, ok1 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y1, s, z_ep, h_fd, w2, plane_dz, table, rec,
-                              variant)
-    conv = ok1 and wp.abs(h1 - r) <= tol
+    y0 = wp.float64(0.0)
+    h0 = wp.float64(0.0)
+    ok0 = bool(False)
+    y1 = wp.float64(0.0)
+    h1 = wp.float64(0.0)
+    ok1 = bool(False)
+    y2 = wp.float64(0.0)
+    conv = bool(False)
+    flag = int(0)
+    shrink = int(0)
+    halve = int(0)
     it = int(0)
-    while it < 40 and ok0 and ok1 and h1 != h0 and not conv:
-        y2 = y1 - (h1 - r) * (y1 - y0) / (h1 - h0)
-        h2, ok2 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y2, s, z_ep, h_fd, w2, plane_dz, table, rec,
-                                  variant)
-        j = int(0)
-        while j < 12 and not ok2:
+    y = -probe
+    phase = int(0)
+    while phase != 4:
+        hv, ok_v = _chief_on_plane(surf, media, iris, n_surfaces, stop, y, s, z_ep, h_fd, w2, plane_dz, table, rec,
+                                   variant)
+        if phase == 0:
+            if not ok_v or hv == wp.float64(0.0):
+                flag = CHIEF_NO_PROBE
+                y1 = wp.float64(0.0)
+                phase = 4
+            else:
+                y0 = r * (-probe / hv)
+                y = y0
+                phase = 1
+        elif phase == 1:
+            h0 = hv
+            ok0 = ok_v
+            if not ok0 and shrink < 20:
+                y0 = wp.float64(0.7) * y0
+                y = y0
+                shrink = shrink + 1
+            else:
+                y1 = y0 * wp.float64(1.001)
+                y = y1
+                phase = 2
+        elif phase == 2 or (phase == 3 and (ok_v or halve >= 12)):
+            if phase == 2:
+                h1 = hv
+                ok1 = ok_v
+                conv = ok1 and wp.abs(h1 - r) <= tol
+            else:  # the secant step's point is settled: it becomes y1
+                y0 = y1
+                h0 = h1
+                ok0 = ok1
+                y1 = y2
+                h1 = hv
+                ok1 = ok_v
+                conv = conv or (ok1 and wp.abs(h1 - r) <= tol)
+                it = it + 1
+            phase = 4
+            if it < 40 and ok0 and ok1 and h1 != h0 and not conv:
+                y2 = y1 - (h1 - r) * (y1 - y0) / (h1 - h0)
+                y = y2
+                halve = 0
+                phase = 3
+        else:  # phase 3, a step into heights with no chief ray: halve it
             y2 = wp.float64(0.5) * (y1 + y2)
-            h2, ok2 = _chief_on_plane(surf, media, iris, n_surfaces, stop, y2, s, z_ep, h_fd, w2, plane_dz, table,
-                                      rec, variant)
-            j = j + 1
-        y0 = y1
-        h0 = h1
-        ok0 = ok1
-        y1 = y2
-        h1 = h2
-        ok1 = ok2
-        conv = conv or (ok1 and wp.abs(h1 - r) <= tol)
-        it = it + 1
+            y = y2
+            halve = halve + 1
+    if flag == 0 and conv:
+        flag = CHIEF_CONVERGED
     y_out[tid] = y1
-    flags[tid] = wp.where(conv, wp.int32(CHIEF_CONVERGED), wp.int32(0))
+    flags[tid] = wp.int32(flag)
 
 
 #: the instance the host calls (rotationally symmetric lenses; general lenses keep the host search)
