@@ -87,3 +87,15 @@ def test_no_chief_ray_is_one_clear_error_from_either_search():
         with pytest.raises(LensrtError, match="no real chief ray from a point -20 mm"):
             object_heights_for_image(lens, [1000.0, -20.0, -60.0], focus.sensor_z_mm, 10.0, focus.wavelength_nm,
                                      "cpu", on_device=on_device)
+
+
+def test_heights_beyond_the_image_circle_fail_alike_in_the_kernel(device):
+    # the 10 mm fisheye: targets from 2 mm to beyond its image circle -- secant steps into heights with no chief
+    # ray are halved hundreds of times and the far targets never converge; the kernel must say the same
+    lens = load_lens("fisheye_10mm_f4")
+    focus = focus_lens(lens, 1000.0)
+    radii = np.linspace(2.0, 30.0, 15)
+    (yh, okh, nh), (yk, okk, nk) = _both(lens, np.full(15, 1000.0), radii, focus, device)
+    assert nk == 1 and nh > 30
+    assert np.array_equal(okh, okk) and okk[0] and not okk[-1]
+    _same(yh, yk, device)
