@@ -47,12 +47,16 @@ from ...prescription.model import Iris, Lens
 from ...units import MM_PER_M
 
 __all__ = ["Frame", "object_heights_for_image", "pupil_boxes", "stream_windows", "SourceOut",
-           "WINDOW_MARGIN", "DISC_THRESHOLD", "disc_noise", "disc_noise_rms", "stream_estimates"]
+           "WINDOW_MARGIN", "DISC_THRESHOLD", "GROUP_HIST_BYTES", "disc_noise", "disc_noise_rms", "stream_estimates"]
 
 #: windows extend the traced footprint by this fraction of its size on every side (plus 2 px)
 WINDOW_MARGIN = 0.04
 #: "in the disc": pixels at or above this fraction of the 99th percentile of the source's lit pixels
 DISC_THRESHOLD = 0.1
+#: most bytes of one stream launch group's histogram: a GPU then keeps at least 8 histogram replicas against
+#: atomic contention (``LENSRT_REPLICA_MB``, 256 MiB, over this), as work items of 32 sources had when a map
+#: on one device ran several; a map of small discs (the report's: 4.4 MB for 108 sources) is one group
+GROUP_HIST_BYTES = 32 << 20
 
 
 @dataclass(frozen=True)
@@ -371,8 +375,9 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                    plane_z_mm: float, light, rays_per_source: int, *, intensity_cd=1.0,
                    iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
                    seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
-                   batch_noise: bool = False, hist_budget_bytes: int = 96 << 20, target_error: float | None = None,
-                   time_budget_s: float | None = None, source_ids: Sequence[int] | None = None) -> list[SourceOut]:
+                   batch_noise: bool = False, hist_budget_bytes: int = GROUP_HIST_BYTES,
+                   target_error: float | None = None, time_budget_s: float | None = None,
+                   source_ids: Sequence[int] | None = None) -> list[SourceOut]:
     """Stream every source into its own window of ``frame`` (module docstring); one record per source.
 
     Sources go into stream launches in groups whose histograms (3 channels per window, int64)
