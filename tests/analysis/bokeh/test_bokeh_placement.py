@@ -27,11 +27,12 @@ def _both(lens, depths, radii, focus, device):
     return out
 
 
-def _same(a: np.ndarray, b: np.ndarray, device: str) -> None:
+def _same(a: np.ndarray, b: np.ndarray, ok: np.ndarray, device: str) -> None:
     if device == "cpu":
         assert np.array_equal(a, b)
-    else:  # a GPU fuses multiply-adds in the kernel (not in NumPy): rounding, far inside the 1e-7 mm tolerance
-        assert np.allclose(a, b, rtol=0.0, atol=1e-9)
+    else:  # a GPU fuses multiply-adds in the kernel (not in NumPy): the secant may stop one step apart inside
+        # its 1e-7 mm image tolerance, i.e. object heights apart by that over the magnification (<~ 1e-5 mm)
+        assert np.allclose(a[ok], b[ok], rtol=1e-9, atol=1e-5)
 
 
 def test_report_placement_is_one_launch_and_the_host_search_bit_for_bit(device):
@@ -43,7 +44,7 @@ def test_report_placement_is_one_launch_and_the_host_search_bit_for_bit(device):
     (yh, okh, nh), (yk, okk, nk) = _both(lens, depths, radii, focus, device)
     assert nk == 1 and nh >= 20  # was a trace per Newton step of every secant step
     assert okk.all() and np.array_equal(okh, okk)
-    _same(yh, yk, device)
+    _same(yh, yk, okh, device)
     assert np.all(yk[radii == 0.0] == 0.0) and np.all(np.diff(yk[1:25]) < 0)  # inverted image, monotonic
 
 
@@ -57,7 +58,7 @@ def test_strong_distortion_steps_back_toward_the_axis_in_the_kernel(device):
     (yh, okh, nh), (yk, okk, nk) = _both(lens, depths, radii, focus, device)
     assert nk == 1 and nh > 30
     assert okk.all() and np.array_equal(okh, okk)
-    _same(yh, yk, device)
+    _same(yh, yk, okh, device)
 
 
 def test_solved_object_points_put_their_real_chief_rays_on_target(device):
@@ -98,4 +99,4 @@ def test_heights_beyond_the_image_circle_fail_alike_in_the_kernel(device):
     (yh, okh, nh), (yk, okk, nk) = _both(lens, np.full(15, 1000.0), radii, focus, device)
     assert nk == 1 and nh > 30
     assert np.array_equal(okh, okk) and okk[0] and not okk[-1]
-    _same(yh, yk, device)
+    _same(yh, yk, okh, device)
