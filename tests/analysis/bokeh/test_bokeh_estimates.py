@@ -58,3 +58,12 @@ def test_batches_with_no_light_are_left_out_as_the_per_source_methods_do():
     est = stream_estimates(res)
     assert np.isfinite(est["centroid_se"][1]).all() and np.isnan(est["centroid"][2]).all()
     assert np.isinf(est["rms_radius_se"][3]) and np.isinf(est["centroid_se"][3]).all()
+
+
+def test_the_discs_99th_percentile_is_numpys_bit_for_bit():
+    from lensrt.analysis.bokeh.trace import percentile99
+    rng = np.random.default_rng(7)
+    for n in list(range(1, 120)) + [1000, 1601, 4096]:
+        for x in (rng.uniform(0.0, 1.0, n), rng.exponential(3.0, n) ** 3, rng.integers(1, 4, n).astype(float),
+                  np.full(n, 0.7)):
+            assert percentile99(x.copy()) == np.percentile(x, 99.0)
