@@ -428,11 +428,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     from ..device import warp
     wp = warp()
     t_call = time.perf_counter()
-    if not sources:
-        raise LensrtError("a stream needs at least one source")
-    if batches < 2:
-        raise LensrtError("a stream needs at least 2 batches (for the standard error)")
-    _check_keep(batch_histograms)
+    _check_call(sources, batches, batch_histograms)
     code = sampler_code(sampler)
     packed = pack_lens(lens, precision, device, iris, stop_radius_mm)
     dev, k = packed.device, get_kernels(precision)
@@ -484,6 +480,15 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid,
                         time.perf_counter() - t_call, precision, dev, sampler, int(seed), launches,
                         h * unit if (batch_histograms and batch_histograms != "device") else None, extra)
+
+
+def _check_call(sources: Sequence[StreamSource], batches: int, batch_histograms: bool | str) -> None:
+    """The errors of a bad :func:`stream` call (no source, fewer than 2 batches, an unknown ``batch_histograms``)."""
+    if not sources:
+        raise LensrtError("a stream needs at least one source")
+    if batches < 2:
+        raise LensrtError("a stream needs at least 2 batches (for the standard error)")
+    _check_keep(batch_histograms)
 
 
 def _check_keep(batch_histograms: bool | str) -> None:
