@@ -120,20 +120,29 @@ def _device_key(wp: Any, device: Any) -> str:
     return wp.get_device(device).alias
 
 
-def _load(wp: Any, module: Any, device: str, rec: ModuleLoad) -> None:
-    """Load ``module`` on ``device`` (as its first launch would: Warp's ``force_load``), timing it."""
+def _load(wp: Any, module: Any, device: str, rec: ModuleLoad, loader: Any = None) -> None:
+    """Load ``module`` on ``device`` (as its first launch would: Warp's ``force_load``, or ``loader(device)``),
+    timing it."""
     t0 = time.perf_counter()
     try:
-        wp.force_load(device=device, modules=[module], max_workers=0)
+        if loader is not None:
+            loader(device)
+        else:
+            wp.force_load(device=device, modules=[module], max_workers=0)
     except BaseException as err:  # noqa: BLE001 - a failed preload only means compile-on-use
         rec.error = f"{type(err).__name__}: {err}"
     finally:
         rec.seconds = time.perf_counter() - t0
 
 
-def start(modules: Sequence[Any], device: Any, workers: int | None = None) -> Preload:
+def start(modules: Sequence[Any], device: Any, workers: int | None = None,
+          loaders: dict[Any, Any] | None = None) -> Preload:
     """Load ``modules`` (Warp ``Module`` objects, in the order they are needed) on ``device`` in
-    ``workers`` background threads (default :func:`default_workers`); returns at once."""
+    ``workers`` background threads (default :func:`default_workers`); returns at once.
+
+    ``loaders`` maps a module to a callable ``loader(device)`` that loads it the way its own code does
+    (e.g. a block size of its launches, or lensrt's keyed cache of specialised kernels) instead of
+    Warp's ``force_load`` with the module's default block size."""
     import warp as wp
     dev = _device_key(wp, device)
     context = wp.get_device(dev).context
@@ -151,7 +160,7 @@ def start(modules: Sequence[Any], device: Any, workers: int | None = None) -> Pr
                 rec.skipped = True
                 futures.append(None)
                 continue
-            fut = pool.submit(_load, wp, m, dev, rec)
+            fut = pool.submit(_load, wp, m, dev, rec, (loaders or {}).get(m))
             _PENDING[key] = (fut, rec)
             fut.add_done_callback(lambda f, key=key: _forget(key))
             futures.append(fut)

@@ -69,7 +69,32 @@ def report_needs(options: ReportOptions, skip: Sequence[str] = (), symmetric: bo
 def report_plan(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = ()) -> list[PlannedModule]:
     """The Warp modules a report on ``lens`` with ``options`` launches on ``device``."""
     symmetric = not host_packed(lens).general
-    return plan_modules(lens, device, report_needs(options, skip, symmetric))
+    plan = plan_modules(lens, device, report_needs(options, skip, symmetric))
+    from ..analysis.psf.bulk import analysis_on_device
+    if "psf" not in skip and analysis_on_device(device):
+        plan.append(_psf_device_sums(device))
+    return plan
+
+
+#: the block size of the PSF map's second analysis pass on a GPU (``lensrt.analysis.psf.device_sums``)
+PSF_SUMS_BLOCK = 128
+
+
+def _psf_device_sums(device: str) -> PlannedModule:
+    """The PSF map's analysis kernels on the device: two launches, the second with its own block size
+    (a second variant of the module on a GPU; Warp's CPU runs blocks of one lane)."""
+    from ..analysis.psf import device_sums
+    from ..device import warp
+    wp = warp()
+    module = device_sums.device_field_sums.__module__
+    m = wp.get_module(module)
+    blocks = [None, PSF_SUMS_BLOCK] if device.startswith("cuda") else [None]
+
+    def load(dev: str) -> None:
+        for b in blocks:
+            wp.force_load(device=dev, modules=[m], block_dim=b, max_workers=0)
+
+    return PlannedModule(m.name, "PSF map analysis on the device", m, load)
 
 
 def start_preload(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = ()):

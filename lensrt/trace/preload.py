@@ -16,6 +16,7 @@ one after another on the report's critical path (docs/guide/report-speed.md).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, Sequence
 
 from ..core.compile_ahead import Preload, start
@@ -62,11 +63,13 @@ class KernelNeed:
 
 @dataclass(frozen=True)
 class PlannedModule:
-    """A Warp module of a plan: its name, why it is there, and the Warp ``Module`` object."""
+    """A Warp module of a plan: its name, why it is there, the Warp ``Module`` object, and how to load it
+    when not with Warp's ``force_load`` (``loader(device)``; e.g. :func:`~.specialised.ready`)."""
 
     name: str
     why: str
     module: Any = field(compare=False, repr=False)
+    loader: Any = field(default=None, compare=False, repr=False)
 
 
 def host_packed(lens: Lens, precision: str = "float64") -> Any:
@@ -75,14 +78,14 @@ def host_packed(lens: Lens, precision: str = "float64") -> Any:
     return PackedLens(lens, precision, "host", None, None, None, *pack_arrays(lens, None, None))
 
 
-def _modules_of(lens: Lens, device: str, need: KernelNeed) -> list[Any]:
-    """The Warp modules that ``need``'s call launches on ``device``."""
+def _modules_of(lens: Lens, device: str, need: KernelNeed) -> list[tuple[Any, Any]]:
+    """The Warp modules that ``need``'s call launches on ``device``, each with its loader (None: Warp's)."""
     from .kernels import get_kernels, lens_variant
-    from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, store_kernel, stream_kernel
+    from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, ready, store_kernel, stream_kernel
     from .variants import choose_kernel, shape_and_constants
     if need.kind == "boxes":
         from .kernels.boxes import box_grid_pass_symmetric
-        return [box_grid_pass_symmetric.module]
+        return [(box_grid_pass_symmetric.module, None)]
     gpu = device.startswith("cuda")
     packed = host_packed(lens, need.precision)  # shape and variant do not depend on the device
     shape, _ = shape_and_constants(packed, need.clip)
@@ -91,14 +94,16 @@ def _modules_of(lens: Lens, device: str, need: KernelNeed) -> list[Any]:
     store, stream, _ = lens_variant(k, packed.general)
     if need.kind == "store":
         if choose_kernel("auto", device, shape, need.rays) == "specialised":
-            return [store_kernel(need.precision, shape, tuning).kernel.module]
-        return [store.module]
+            spec = store_kernel(need.precision, shape, tuning)
+            return [(spec.kernel.module, partial(ready, spec))]  # the way trace() loads it
+        return [(store.module, None)]
     opts = StreamOptions(sampler_code(need.sampler), bool(need.table), bool(need.channels), bool(need.histogram))
     if choose_kernel("auto", device, shape, need.rays) == "specialised":
-        main = stream_kernel(need.precision, shape, opts, tuning).kernel.module
+        spec = stream_kernel(need.precision, shape, opts, tuning)
+        main = (spec.kernel.module, partial(ready, spec))  # the way stream() loads it
     else:
-        main = stream.module
-    return [main, k.fold_slots.module]  # fold_slots and sum_replicas share a module
+        main = (stream.module, None)
+    return [main, (k.fold_slots.module, None)]  # fold_slots and sum_replicas share a module
 
 
 def plan_modules(lens: Lens, device: str, needs: Sequence[KernelNeed]) -> list[PlannedModule]:
@@ -109,12 +114,12 @@ def plan_modules(lens: Lens, device: str, needs: Sequence[KernelNeed]) -> list[P
     for need in needs:
         if need.kind not in KINDS:
             raise LensrtError(f"unknown kernel need {need.kind!r}", hint=f"use one of {', '.join(KINDS)}")
-        for m in _modules_of(lens, device, need):
-            out.setdefault(m.name, PlannedModule(m.name, need.why or need.kind, m))
+        for m, loader in _modules_of(lens, device, need):
+            out.setdefault(m.name, PlannedModule(m.name, need.why or need.kind, m, loader))
     return list(out.values())
 
 
 def preload(plan: Sequence[PlannedModule], device: str, workers: int | None = None) -> Preload:
     """Compile and load the plan's modules on ``device`` in background threads; returns at once
     (:class:`lensrt.core.compile_ahead.Preload`: ``wait()``, per-module ``loads``)."""
-    return start([p.module for p in plan], device, workers)
+    return start([p.module for p in plan], device, workers, {p.module: p.loader for p in plan if p.loader})

@@ -150,3 +150,13 @@ def test_a_planned_specialised_module_is_the_one_the_stream_call_launches(dg, mo
                  batches=2, precision="float32", device="cpu", kernel="specialised")
     assert res.extra["kernel"] == "specialised"
     assert launched == {planned.name, util.name}
+
+
+def test_the_psf_maps_device_analysis_is_planned_where_it_runs(dg, monkeypatch):
+    opts = ReportOptions(device="cpu", ray_fraction=1 / 64)
+    names = lambda dev: [p.name for p in report_plan(dg, opts, dev)]  # noqa: E731
+    assert "lensrt.analysis.psf.device_sums" in names("cuda:0")  # on a GPU the map's passes run there
+    assert "lensrt.analysis.psf.device_sums" not in names("cpu")  # on the CPU NumPy's do (the default)
+    assert "lensrt.analysis.psf.device_sums" not in [p.name for p in report_plan(dg, opts, "cuda:0", skip=["psf"])]
+    monkeypatch.setenv("LENSRT_PSF_ANALYSIS", "device")
+    assert "lensrt.analysis.psf.device_sums" in names("cpu")
