@@ -183,13 +183,14 @@ def _loaded(module: Any, context: Any) -> bool:
     return any(ctx == context for ctx, _ in list(module.execs))
 
 
-def wait_for(kernel: Any, device: Any = None) -> None:
+def wait_for(kernel: Any, device: Any = None, block_dim: int | None = None) -> None:
     """Make sure ``kernel``'s module is loaded on ``device`` before a launch, compiling it once.
 
     If a preload is loading the module, wait for it. Otherwise the first caller loads it (Warp's
     ``force_load``, as the launch would) while other threads launching kernels of the same module wait,
     so that the slices of one launch on several CPU threads do not each compile it. A load that fails
     is left to the launch, which compiles (and raises) as it would have. Loaded modules cost a look-up.
+    A launch with its own ``block_dim`` (a module variant of its own) only waits for a preload.
     """
     module = getattr(kernel, "module", None)
     if module is None:
@@ -212,6 +213,8 @@ def wait_for(kernel: Any, device: Any = None) -> None:
         dt = time.perf_counter() - t0
         with _LOCK:
             rec.waited_s += dt
+        return
+    if block_dim is not None:
         return
     with lock:
         if not _loaded(module, dev.context):

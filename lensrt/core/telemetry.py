@@ -121,7 +121,7 @@ def launch(kernel, dim, inputs=(), *, device=None, slice_of: int = 0, **kwargs) 
     CPU cores; only the slice that starts at 0 counts (a launch and its wall time), so that launch counts do not depend on the core count.
     """
     import warp as wp
-    wait_for(kernel, device)  # its module loaded once, or waited for while a preload loads it (compile_ahead)
+    wait_for(kernel, device, kwargs.get("block_dim"))  # its module loaded once (or by a preload): compile_ahead
     if not _OPEN or slice_of:
         wp.launch(kernel, dim=dim, inputs=list(inputs), device=device, **kwargs)
         return
