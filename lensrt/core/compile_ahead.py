@@ -100,7 +100,9 @@ class Preload:
 
 
 def default_workers() -> int:
-    """Worker threads of a preload: ``LENSRT_COMPILE_WORKERS``, else the cores this process may use, at most 8."""
+    """Worker threads of a preload: ``LENSRT_COMPILE_WORKERS``, else the cores this process may use less one
+    (the caller's own thread goes on), at least 1, at most 8. Each compiling thread builds Warp's precompiled
+    header for itself (a per-thread folder), so threads beyond the idle cores only add work."""
     raw = os.environ.get("LENSRT_COMPILE_WORKERS", "")
     if raw.strip():
         try:
@@ -113,7 +115,7 @@ def default_workers() -> int:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
         cores = os.cpu_count() or 1
-    return max(1, min(8, cores))
+    return max(1, min(8, cores - 1))
 
 
 def _device_key(wp: Any, device: Any) -> str:
