@@ -119,8 +119,9 @@ class RayWavefront:
     ``px, py`` (k,) normalised pupil positions of every placed ray, ``valid`` (k,) ray passed,
     ``opd_mm`` (k,) OPD (valid rays), ``amplitude`` (k,) relative amplitude (valid rays),
     ``spot_half_mm`` the largest |x|, |y| of a valid ray's landing point from Q (geometric spot),
-    ``na`` the grid scale, ``grid_shape`` the (m, m) ray grid and ``grid_index`` (k,) each ray's
-    flat index in it; ``sphere`` the reference sphere; ``ray_step_waves`` the largest OPD change
+    ``na`` the grid scale, ``grid_m`` the m of the m x m ray grid the rays were traced on and ``grid_index``
+    (k,) each ray's flat index in it (0 and None for rays not from a grid: they are then triangulated by
+    Delaunay); ``sphere`` the reference sphere; ``ray_step_waves`` the largest OPD change
     between neighbouring rays and ``interp_error_waves`` an estimate of the linear interpolation
     error (max |second difference| / 8).
     """
@@ -140,6 +141,13 @@ class RayWavefront:
     opd_pv_waves: float
     opd_rms_waves: float
     spot_half_mm: float
+    grid_m: int = 0
+    grid_index: np.ndarray | None = None
+
+    @property
+    def ray_grid(self) -> tuple[int, np.ndarray] | None:
+        """``(m, grid_index)`` for :func:`~lensrt.analysis.wave.pupil_grid.pupil_from_rays`, None off a grid."""
+        return None if self.grid_index is None or self.grid_m < 2 else (int(self.grid_m), self.grid_index)
 
 
 def _grid_stats(opd: np.ndarray, valid: np.ndarray, m: int, wavelength_mm: float) -> tuple[float, float]:
@@ -269,7 +277,8 @@ def _wavefronts_of(lens: Lens, rays: PupilRays, wls: list[float], chief_all, all
         o = opd[ok] / lam
         out.append(RayWavefront(wl, px[keep], py[keep], ok[keep], opd[keep], amp[keep], na, na_real, sphere,
                                 int(m * m), step, interp, float(o.max() - o.min()) if o.size else 0.0,
-                                float(np.sqrt(np.mean((o - o.mean()) ** 2))) if o.size else 0.0, half))
+                                float(np.sqrt(np.mean((o - o.mean()) ** 2))) if o.size else 0.0, half,
+                                int(m), np.nonzero(keep)[0]))
     return out
 
 
@@ -315,10 +324,16 @@ def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.wave.propagation.PupilFunction` of a traced wavefront on an n x n pupil grid."""
     from .propagation import PupilFunction
     from .pupil_grid import TriLinear
-    lin = TriLinear.of(wf.px, wf.py)
+    grid = wf.ray_grid  # rays from a regular grid are triangulated along it (ray_mesh), others by Delaunay
+    if grid is None:
+        lin = TriLinear.of(wf.px, wf.py)
+    else:
+        from .ray_mesh import GridLinear
+        lin = GridLinear.of(grid[0], grid[1], wf.px, wf.py)
     valid = wf.valid.astype(np.float64)
     mask, fine = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
-    amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)
+    amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude,
+                                     ray_grid=grid)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))
     a_cell = np.where(mask > 0, amp / np.where(mask > 0, mask, 1.0), 0.0)
