@@ -441,6 +441,8 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         a = np.ravel(np.asarray(amplitude, dtype=np.float64))[ok]
         grid_a = lin(a)
         hole = ~np.isfinite(grid_a)
+        grid_a[hole & (mask <= 0)] = 0.0   # dark cells: their amplitude is multiplied by 0 below
+        hole &= mask > 0
         if hole.any():
             grid_a[hole] = NearestNDInterpolator(pts, a)(gx[hole], gy[hole])
         mask = mask * np.clip(grid_a, 0.0, None)

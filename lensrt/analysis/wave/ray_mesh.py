@@ -190,22 +190,27 @@ class GridLinear:
         self.m, self.index, self.gx, self.gy, self.present = m, index, gx, gy, present
         self.triangles, self.cell = tris[good], cell[good]   # vertices as flat grid indices
         self._locator = None
-        self._found: tuple[bytes, np.ndarray] | None = None
+        self._found: dict[bytes, np.ndarray] = {}
+        self._found_lock = threading.Lock()
 
     def find(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
         """The triangle (row of :attr:`triangles`) holding each point of (qx, qy), flattened; -1 outside.
-        The answer for the last query points is kept (by content)."""
+        The answers for the last three sets of query points are kept (by content)."""
         from .point_location import BucketLocator
         qx = np.ravel(np.asarray(qx, dtype=np.float64))
         qy = np.ravel(np.asarray(qy, dtype=np.float64))
         key = _key(qx, qy)
-        found = self._found
-        if found is not None and found[0] == key:
-            return found[1]
-        if self._locator is None:
-            self._locator = BucketLocator(self.gx, self.gy, self.triangles)
+        with self._found_lock:   # a mesh from :meth:`of` may serve several analysis threads
+            hit = self._found.get(key)
+            if hit is not None:
+                return hit
+            if self._locator is None:
+                self._locator = BucketLocator(self.gx, self.gy, self.triangles)
         t = self._locator.find(qx, qy)
-        self._found = (key, t)
+        with self._found_lock:
+            self._found[key] = t
+            while len(self._found) > 3:
+                self._found.pop(next(iter(self._found)))
         return t
 
     def interp(self, values: np.ndarray, qx: np.ndarray, qy: np.ndarray, fill: float = np.nan,

@@ -290,7 +290,8 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> tuple[np.ndarray, n
     """(clear fraction of each pupil cell, the hard-edged fine mask for the OTF) where ``inside_value(px, py)
     >= 1/2``. The fractions sub-sample (s x s points) only the cells at the edge (where the value at the centres
     of the cell and its neighbours is not all 0 or 1); the fine mask has f x f sub-cells a cell
-    (f = OTF_FINE_CELLS // n, at least 1), the edge cells' sub-cells sampled at their centres."""
+    (f = OTF_FINE_CELLS // n, at least 1), the edge cells' sub-cells sampled at their centres -- the same
+    points as the fractions' when f = s, which are then not sampled again."""
     from .pupil_grid import pupil_coordinates
     gx, gy = pupil_coordinates(n)
     v = inside_value(gx, gy)
@@ -310,6 +311,9 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> tuple[np.ndarray, n
         rows = edge[0][:, None, None] * f + k[None, :, None]
         cols = edge[1][:, None, None] * f + k[None, None, :]
         fine[rows, cols] = inside_value(fx[rows, cols], fy[rows, cols]) >= 0.5
+        if f == supersample:  # the s x s sub-samples are the fine sub-cells' centres: already found
+            mask[edge] = np.mean(fine[rows, cols].reshape(-1, f * f), axis=1)
+            return mask, fine
     if edge[0].size and supersample > 1:
         s = int(supersample)
         off = ((np.arange(s) + 0.5) / s - 0.5) * (2.0 / n)
