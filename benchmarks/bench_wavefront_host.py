@@ -19,7 +19,8 @@ Then times, in this thread, ``--repeat`` times each and alternating, the host wo
 
 ``table`` is :func:`~lensrt.analysis.wave.metrics.wavefront_metrics` of the nine fields (what the report's
 table computes after tracing), ``mtf pupils`` the pupil functions of the nine fields at three wavelengths
-(what a diffraction MTF grids before its FFTs). Caches of triangulations are emptied before each run.
+(what a diffraction MTF grids before its FFTs). Caches of triangulations are emptied before each run
+(fresh copies of the wavefronts, which keep their ray mesh).
 It prints the least wall and CPU seconds of each and the largest differences of the table's numbers.
 """
 from __future__ import annotations
@@ -95,7 +96,8 @@ def main(argv: list[str] | None = None) -> int:
     results: dict = {}
     for _ in range(max(1, args.repeat)):
         for name, (fn, wfs) in jobs.items():
-            for path, ws in (("delaunay", [delaunay(w) for w in wfs]), ("grid", wfs)):
+            # fresh copies each time: a wavefront keeps its ray mesh once built
+            for path, ws in (("delaunay", [delaunay(w) for w in wfs]), ("grid", [dataclasses.replace(w) for w in wfs])):
                 wall, cpu, got = _timed(lambda: fn(ws))
                 key = (name, path)
                 prev = best.get(key, (np.inf, np.inf))

@@ -327,8 +327,8 @@ def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.nda
     return coef[:, 0]
 
 
-def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_grid: tuple[int, np.ndarray] | None,
-                           gx: np.ndarray, gy: np.ndarray):
+def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_grid, gx: np.ndarray,
+                           gy: np.ndarray):
     """``lin(values, fill=nan, every=False)``: values on the valid rays (all rays with ``every``) interpolated
     linearly at the grid points (gx, gy) -- on the valid rays' Delaunay triangulation (every ray's, with
     ``every``), or along the ray grid (:class:`~lensrt.analysis.wave.ray_mesh.GridLinear`, one point location
@@ -339,10 +339,15 @@ def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_g
             return tri.interp(values, gx, gy, fill=fill)
         return lin
     from .ray_mesh import GridLinear
-    index = np.ravel(np.asarray(ray_grid[1], dtype=np.int64))
-    if index.size != px.size:
-        raise LensrtError(f"{index.size} ray grid indices for {px.size} rays")
-    mesh = GridLinear.of(int(ray_grid[0]), index, px, py)
+    if isinstance(ray_grid, GridLinear):
+        mesh = ray_grid
+        if mesh.index.size != px.size:
+            raise LensrtError(f"a ray mesh of {mesh.index.size} rays for {px.size} rays")
+    else:
+        index = np.ravel(np.asarray(ray_grid[1], dtype=np.int64))
+        if index.size != px.size:
+            raise LensrtError(f"{index.size} ray grid indices for {px.size} rays")
+        mesh = GridLinear.of(int(ray_grid[0]), index, px, py)
 
     def lin(values: np.ndarray, fill: float = np.nan, every: bool = False) -> np.ndarray:
         if every:
@@ -356,7 +361,7 @@ def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_g
 def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: np.ndarray, n: int, *,
                     method: str = "linear", amplitude: np.ndarray | None = None,
                     aperture: np.ndarray | None = None, n_zernike: int = 36,
-                    ray_grid: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+                    ray_grid=None) -> tuple[np.ndarray, np.ndarray, dict]:
     """Grid scattered real-ray pupil data: the glue from the tracer's *store* output to the FFT.
 
     Parameters
@@ -387,10 +392,11 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         Known amplitude mask (e.g. :func:`aperture_from_iris`). Without it the
         mask comes from the rays: the validity of the rays, interpolated
         linearly and cut at 1/2 (edge placed midway between valid and invalid rays).
-    ray_grid : (m, index), optional
+    ray_grid : (m, index) or GridLinear, optional
         The rays were traced on an m x m grid, ray k at flat index ``index[k]``: the linear interpolation then
         runs on the grid's cells cut in two (:class:`~lensrt.analysis.wave.ray_mesh.GridLinear`) rather than on
         a Delaunay triangulation -- the same interpolant but for ties and the hull's slivers, without qhull.
+        A ``GridLinear`` given here must be the one of these rays (``GridLinear(m, index, px, py)``).
 
     Returns
     -------

@@ -45,6 +45,7 @@ weight, spread over the p-area each ray occupies, |a|^2 = w / |d(p)/d(a, b)|
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -148,6 +149,14 @@ class RayWavefront:
     def ray_grid(self) -> tuple[int, np.ndarray] | None:
         """``(m, grid_index)`` for :func:`~lensrt.analysis.wave.pupil_grid.pupil_from_rays`, None off a grid."""
         return None if self.grid_index is None or self.grid_m < 2 else (int(self.grid_m), self.grid_index)
+
+    @functools.cached_property
+    def mesh(self):
+        """The rays' :class:`~lensrt.analysis.wave.ray_mesh.GridLinear` (built once per wavefront; a pupil
+        function at any size uses it), None off a grid."""
+        from .ray_mesh import GridLinear
+        grid = self.ray_grid
+        return None if grid is None else GridLinear(grid[0], grid[1], self.px, self.py)
 
 
 def _grid_stats(opd: np.ndarray, valid: np.ndarray, m: int, wavelength_mm: float) -> tuple[float, float]:
@@ -328,16 +337,12 @@ def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.wave.propagation.PupilFunction` of a traced wavefront on an n x n pupil grid."""
     from .propagation import PupilFunction
     from .pupil_grid import TriLinear
-    grid = wf.ray_grid  # rays from a regular grid are triangulated along it (ray_mesh), others by Delaunay
-    if grid is None:
-        lin = TriLinear.of(wf.px, wf.py)
-    else:
-        from .ray_mesh import GridLinear
-        lin = GridLinear.of(grid[0], grid[1], wf.px, wf.py)
+    mesh = wf.mesh  # rays from a regular grid are triangulated along it (ray_mesh), others by Delaunay
+    lin = TriLinear.of(wf.px, wf.py) if mesh is None else mesh
     valid = wf.valid.astype(np.float64)
     mask, fine = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
     amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude,
-                                     ray_grid=grid)
+                                     ray_grid=mesh)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))
     a_cell = np.where(mask > 0, amp / np.where(mask > 0, mask, 1.0), 0.0)
