@@ -193,6 +193,16 @@ class GridLinear:
         self._found: dict[bytes, np.ndarray] = {}
         self._found_lock = threading.Lock()
 
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        for k in ("_found_lock", "_found", "_locator"):   # a lock cannot be pickled; caches are rebuilt
+            state.pop(k, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._locator, self._found, self._found_lock = None, {}, threading.Lock()
+
     def find(self, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
         """The triangle (row of :attr:`triangles`) holding each point of (qx, qy), flattened; -1 outside.
         The answers for the last three sets of query points are kept (by content)."""

@@ -45,7 +45,6 @@ weight, spread over the p-area each ray occupies, |a|^2 = w / |d(p)/d(a, b)|
 """
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -150,13 +149,23 @@ class RayWavefront:
         """``(m, grid_index)`` for :func:`~lensrt.analysis.wave.pupil_grid.pupil_from_rays`, None off a grid."""
         return None if self.grid_index is None or self.grid_m < 2 else (int(self.grid_m), self.grid_index)
 
-    @functools.cached_property
+    @property
     def mesh(self):
         """The rays' :class:`~lensrt.analysis.wave.ray_mesh.GridLinear` (built once per wavefront; a pupil
-        function at any size uses it), None off a grid."""
+        function at any size uses it), None off a grid. Two threads asking at once may both build it (the
+        same mesh): no lock, so analysis threads never wait on each other here."""
         from .ray_mesh import GridLinear
-        grid = self.ray_grid
-        return None if grid is None else GridLinear(grid[0], grid[1], self.px, self.py)
+        got = self.__dict__.get("_mesh")
+        if got is None or got[0] is not self.px:
+            grid = self.ray_grid
+            got = (self.px, None if grid is None else GridLinear(grid[0], grid[1], self.px, self.py))
+            self.__dict__["_mesh"] = got
+        return got[1]
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_mesh", None)   # rebuilt on demand
+        return state
 
 
 def _grid_stats(opd: np.ndarray, valid: np.ndarray, m: int, wavelength_mm: float) -> tuple[float, float]:

@@ -205,3 +205,17 @@ def test_traced_wavefront_carries_its_ray_grid_and_both_paths_agree():
     assert new.zernike_noll_waves == old.zernike_noll_waves          # fitted on the rays: no interpolation
     assert abs(new.rms_waves_no_tilt - old.rms_waves_no_tilt) < 0.1 * max(wf.interp_error_waves, 1e-3)
     assert abs(new.strehl - old.strehl) < 1e-3
+
+
+def test_wavefront_and_mesh_pickle_after_use():
+    """A wavefront that has built its mesh (which holds a lock) still pickles, and gives the same pupil."""
+    import pickle
+    wf = grid_wavefront(zernike_wave(0.1, 0.05, 0.02), m=41)
+    p1, _ = pupil_function_from_wavefront(wf, 32)
+    back = pickle.loads(pickle.dumps(wf))
+    assert back.mesh is not None and wf.mesh is not None
+    p2, _ = pupil_function_from_wavefront(back, 32)
+    assert np.array_equal(p1.opd_mm, p2.opd_mm) and np.array_equal(p1.amplitude, p2.amplitude)
+    mesh = pickle.loads(pickle.dumps(wf.mesh))
+    q = np.linspace(-0.5, 0.5, 7)
+    assert np.array_equal(mesh.interp(wf.px, q, q), wf.mesh.interp(wf.px, q, q))
