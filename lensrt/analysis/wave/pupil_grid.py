@@ -31,12 +31,15 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
 from ...errors import LensrtError
 from ...prescription.model import Iris
+
+if TYPE_CHECKING:
+    from .ray_mesh import GridLinear
 
 __all__ = ["pupil_coordinates", "aperture_mask", "aperture_fine_mask", "clear_fraction", "circular_aperture", "iris_aperture",
            "aperture_from_iris", "vignetted_aperture", "noll_to_nm", "zernike", "fit_zernike",
@@ -327,8 +330,9 @@ def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.nda
     return coef[:, 0]
 
 
-def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_grid, gx: np.ndarray,
-                           gy: np.ndarray):
+def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray,
+                           ray_grid: tuple[int, np.ndarray] | GridLinear | None, gx: np.ndarray,
+                           gy: np.ndarray) -> Callable[..., np.ndarray]:
     """``lin(values, fill=nan, every=False)``: values on the valid rays (all rays with ``every``) interpolated
     linearly at the grid points (gx, gy) -- on the valid rays' Delaunay triangulation (every ray's, with
     ``every``), or along the ray grid (:class:`~lensrt.analysis.wave.ray_mesh.GridLinear`, one point location
@@ -361,7 +365,8 @@ def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray, ray_g
 def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: np.ndarray, n: int, *,
                     method: str = "linear", amplitude: np.ndarray | None = None,
                     aperture: np.ndarray | None = None, n_zernike: int = 36,
-                    ray_grid=None) -> tuple[np.ndarray, np.ndarray, dict]:
+                    ray_grid: tuple[int, np.ndarray] | GridLinear | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Grid scattered real-ray pupil data: the glue from the tracer's *store* output to the FFT.
 
     Parameters

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
@@ -56,6 +56,9 @@ from ...prescription.model import Lens
 from ...units import NM_PER_MM
 from .pupil_grid import enclosing_na, pupil_coordinates_from_directions, pupil_from_rays
 from ..pupil_rays import PupilRays, pupil_grid_rays
+
+if TYPE_CHECKING:
+    from .ray_mesh import GridLinear
 
 __all__ = ["ReferenceSphere", "RayWavefront", "reference_sphere", "opd_to_sphere_mm", "trace_wavefronts",
            "trace_wavefronts_many", "pupil_function_from_wavefront"]
@@ -150,7 +153,7 @@ class RayWavefront:
         return None if self.grid_index is None or self.grid_m < 2 else (int(self.grid_m), self.grid_index)
 
     @property
-    def mesh(self):
+    def mesh(self) -> GridLinear | None:
         """The rays' :class:`~lensrt.analysis.wave.ray_mesh.GridLinear` (built once per wavefront; a pupil
         function at any size uses it), None off a grid. Two threads asking at once may both build it (the
         same mesh): no lock, so analysis threads never wait on each other here."""
