@@ -153,6 +153,39 @@ def test_a_tile_copies_from_its_device_once_whatever_its_pass_count(monkeypatch)
     assert per_item[0] == per_item[1] <= 5
 
 
+def test_tiles_written_in_place_equal_tiles_returned_to_the_reduction():
+    """Tiles that copy their sums from the device straight into the run's image (and compute their XYZ
+    mean and standard error there) give the bits of tiles that return their sums for the reduction to
+    place: image, moments, per-pass hits and region means; every tile of a thread run finds the image,
+    and the run's shared-memory segment is gone at its end."""
+    import dataclasses as dc
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.shm import SHM_DIR
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.jobs import render_tiles_job, run_tile_item
+    setup = get_workload("render")("tiles=3", 7).context
+    placed = []
+
+    def spy(item, prep, device):
+        r = run_tile_item(item, prep, device)
+        placed.append(r.placed)
+        return r
+
+    values = []
+    for in_place in (False, True):
+        job = render_tiles_job(setup, 3, 5, in_place=in_place)
+        job = dc.replace(job, run=spy)
+        placed.clear()
+        values.append(LocalExecutor("cpu,cpu").run(job).value)
+        assert placed == [in_place] * 5
+    ret, inp = values
+    for f in ("spec_sum", "xyz", "xyz_stderr", "passes", "samples_per_pixel", "hits"):
+        assert np.array_equal(getattr(ret, f), getattr(inp, f)), f
+    assert inp.pass_sum.pass_hits == ret.pass_sum.pass_hits and inp.pass_sum.region_means == ret.pass_sum.region_means
+    assert np.array_equal(inp.pass_sum.xyz2, ret.pass_sum.xyz2)
+    assert not Path(SHM_DIR, job.items[0].params[3]).exists()
+
+
 def test_render_job_workload_reduces_in_pass_order():
     from lensrt.parallel import LocalExecutor
     from lensrt.parallel.workloads import get_workload
