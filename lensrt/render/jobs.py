@@ -38,7 +38,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .passes import REGIONS, PassSum, RenderSetup, moments_stderr, prepare_setup, region_slices, run_pass_item
-from ..core.telemetry import launch
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
            "run_tile_item", "region_cuts", "region_sums_from_segments", "render_workload", "WORKLOAD_SIZES",
@@ -178,40 +177,40 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     with each pass's paths through the lens and Y sums over the tile's part of the regions kept on the
     device (:mod:`lensrt.render.tile_kernels`): the passes are queued without a wait between them, and
     the tile comes to the host once, at its end -- into the run's image arrays when this process finds
-    them (:func:`lensrt.parallel.shm.attach_shared`), else into the result."""
+    them (:func:`lensrt.parallel.shm.attach_shared`), else into the result. Per pass: the camera kernel
+    and one :func:`lensrt.render.tile_kernels.tile_pass_sums` launch."""
     import time
     from ..device import warp
     from ..parallel.shm import attach_shared
     from .passes import device_pass
     from .pupil_table import launch_sliced
-    from .tile_kernels import HITS_BLOCK, block_hits, row_segment_sums
+    from .tile_kernels import tile_pass_sums
     wp = warp()
     t0 = time.perf_counter()
     p0, p1, passes = (int(v) for v in item.params[:3])
     token = item.params[3] if len(item.params) > 3 else None
     s = prep.setup
     n = p1 - p0
-    k = prep.kernels
     cols = s.shape[1]
     ra, rb = p0 // cols, -(-p1 // cols)
     cuts_h = region_cuts(s.shape)
     cuts = wp.array(cuts_h, dtype=wp.int32, device=device)
-    n_blocks = -(-n // HITS_BLOCK)
-    spec_sum = wp.zeros(n * s.n_bands, dtype=wp.float64, device=device)
+    n_segs = len(cuts_h) - 1
+    n_cells = (rb - ra) * n_segs
+    n_spec = n * s.n_bands
+    spec_sum = wp.zeros(n_spec, dtype=wp.float64, device=device)
     s1 = wp.zeros((n, 3), dtype=wp.float64, device=device)
     s2 = wp.zeros((n, 3), dtype=wp.float64, device=device)
-    hits = wp.zeros((passes, n_blocks), dtype=wp.int64, device=device)
-    seg = wp.zeros((passes, rb - ra, len(cuts_h) - 1), dtype=wp.float64, device=device)
+    seg_y = wp.zeros((passes, rb - ra, n_segs), dtype=wp.float64, device=device)
+    seg_hits = wp.zeros((passes, rb - ra, n_segs), dtype=wp.int64, device=device)
     buf = None
     for index in range(passes):
         buf = device_pass(prep, index, buf, (p0, p1))
-        launch_sliced(k.accumulate, n * s.n_bands, lambda base: [buf.spec[base:], spec_sum[base:]], device)
-        launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
-        launch(block_hits, dim=n_blocks, inputs=[buf.hits, n, HITS_BLOCK, index, hits], device=device)
-        launch(row_segment_sums, dim=(rb - ra, len(cuts_h) - 1), inputs=[buf.xyz, p0, p1, ra, cols, cuts, index, seg],
-               device=device)
-    pass_hits = hits.numpy().sum(axis=1)
-    region_y = region_sums_from_segments(seg.numpy(), ra, s.shape, cuts_h)
+        launch_sliced(tile_pass_sums, max(n_spec, n, n_cells),
+                      lambda base: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0, p1, ra,
+                                    cols, cuts, n_segs, n_cells, index, seg_y, seg_hits], device)
+    pass_hits = seg_hits.numpy().sum(axis=(1, 2))
+    region_y = region_sums_from_segments(seg_y.numpy(), ra, s.shape, cuts_h)
     image = attach_shared(token, image_layout(s.n_pixels, s.n_bands))
     if image is None:
         return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), int(pass_hits.sum()), pass_hits,
