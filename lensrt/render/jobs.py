@@ -293,17 +293,20 @@ def render_tiles_job(setup: RenderSetup, passes: int, tiles: int, in_place: bool
 #: workload sizes: scene, image width, samples per pixel per pass, passes, tiles (0: one item per pass,
 #: each returning the whole image -- the host reduction then grows with the passes). "large" keeps one
 #: H100 busy for seconds (1920 x 1080 x 512 paths per pixel: 2.8 s measured, 1.1e9 paths).
+#: ``in_place=0``: tiles return their sums to the reduction instead of writing the image in place (the path
+#: before in-place writes, kept for comparison and for workers on other machines).
 WORKLOAD_SIZES = {
-    "tiny": {"scene": "default", "width": 64, "spp_per_pass": 2, "passes": 4, "tiles": 4},
-    "small": {"scene": "still_life_mesh", "width": 480, "spp_per_pass": 8, "passes": 8, "tiles": 8},
-    "large": {"scene": "still_life_mesh", "width": 1920, "spp_per_pass": 8, "passes": 64, "tiles": 16},
+    "tiny": {"scene": "default", "width": 64, "spp_per_pass": 2, "passes": 4, "tiles": 4, "in_place": 1},
+    "small": {"scene": "still_life_mesh", "width": 480, "spp_per_pass": 8, "passes": 8, "tiles": 8, "in_place": 1},
+    "large": {"scene": "still_life_mesh", "width": 1920, "spp_per_pass": 8, "passes": 64, "tiles": 16,
+              "in_place": 1},
 }
 
 
 def render_workload(size: str, seed: int):
     """Workload factory for ``benchmarks/bench_multigpu.py --workload render`` (sizes: :data:`WORKLOAD_SIZES`,
-    or ``scene=...,width=...,spp_per_pass=...,passes=...,tiles=...``). The set-up (focus, exit-pupil table) runs
-    here, on the first device Warp sees."""
+    or ``scene=...,width=...,spp_per_pass=...,passes=...,tiles=...,in_place=0|1``). The set-up (focus,
+    exit-pupil table) runs here, on the first device Warp sees."""
     from ..parallel.workloads import parse_size
     from .setup import RenderOptions, prepare_render
     from .scene.load import load_scene
@@ -313,5 +316,5 @@ def render_workload(size: str, seed: int):
                          samples_per_pixel=int(p["spp_per_pass"]) * int(p["passes"]), seed=int(seed))
     setup, _ = prepare_render(scene, None, opts)
     if int(p["tiles"]) > 0:
-        return render_tiles_job(setup, int(p["passes"]), int(p["tiles"]))
+        return render_tiles_job(setup, int(p["passes"]), int(p["tiles"]), in_place=bool(p["in_place"]))
     return render_job(setup, int(p["passes"]))

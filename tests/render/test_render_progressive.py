@@ -196,6 +196,7 @@ def test_tiles_written_in_place_equal_tiles_returned_to_the_reduction():
     assert inp.pass_sum.pass_hits == ret.pass_sum.pass_hits and inp.pass_sum.region_means == ret.pass_sum.region_means
     assert np.array_equal(inp.pass_sum.xyz2, ret.pass_sum.xyz2)
     assert not Path(SHM_DIR, job.items[0].params[3]).exists()
+    assert get_workload("render")("tiles=2,in_place=0", 3).items[0].params[3] is None   # the benchmark's switch
 
 
 def test_render_job_workload_reduces_in_pass_order():
