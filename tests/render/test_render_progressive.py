@@ -199,6 +199,26 @@ def test_tiles_written_in_place_equal_tiles_returned_to_the_reduction():
     assert get_workload("render")("tiles=2,in_place=0", 3).items[0].params[3] is None   # the benchmark's switch
 
 
+@pytest.mark.gpu
+def test_tiles_in_place_on_every_gpu_equal_returned_tiles_on_one() -> None:
+    """On a CUDA machine: tiles written in place by one thread and by one worker process per GPU give the
+    bits of tiles returned from cuda:0 alone (the copy straight from the device into the image)."""
+    from lensrt.device import cuda_available
+    if not cuda_available():
+        pytest.skip("no CUDA device")
+    from lensrt.parallel import LocalExecutor, ProcessExecutor
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.jobs import render_tiles_job
+    setup = get_workload("render")("small", 5).context
+    want = LocalExecutor("cuda:0").run(render_tiles_job(setup, 4, 8, in_place=False)).value
+    with ProcessExecutor("all") as px:
+        for ex in (LocalExecutor("cuda:0"), LocalExecutor("all"), px):
+            got = ex.run(render_tiles_job(setup, 4, 8)).value
+            for f in ("spec_sum", "xyz", "xyz_stderr", "hits"):
+                assert np.array_equal(getattr(got, f), getattr(want, f)), (ex.describe(), f)
+            assert got.pass_sum.region_means == want.pass_sum.region_means
+
+
 def test_render_job_workload_reduces_in_pass_order():
     from lensrt.parallel import LocalExecutor
     from lensrt.parallel.workloads import get_workload
