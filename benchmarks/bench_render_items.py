@@ -71,8 +71,17 @@ def main(argv: list[str] | None = None) -> int:
         counts["launch_s"] += time.perf_counter() - t0
         counts["launches"] += 1
 
+    replay = tel.replay
+
+    def timed_replay(*a, **k):  # a launch recorded once per tile and replayed pass by pass
+        t0 = time.perf_counter()
+        replay(*a, **k)
+        counts["launch_s"] += time.perf_counter() - t0
+        counts["launches"] += 1
+
     for mod in (jobs, pupil_table):
         mod.launch = timed_launch
+    pupil_table.replay = timed_replay
     numpy_of = wp.array.numpy
 
     def counted_numpy(self):

@@ -178,12 +178,13 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     device (:mod:`lensrt.render.tile_kernels`): the passes are queued without a wait between them, and
     the tile comes to the host once, at its end -- into the run's image arrays when this process finds
     them (:func:`lensrt.parallel.shm.attach_shared`), else into the result. Per pass: the camera kernel
-    and one :func:`lensrt.render.tile_kernels.tile_pass_sums` launch."""
+    and one :func:`lensrt.render.tile_kernels.tile_pass_sums` launch, both recorded once per tile
+    (:class:`lensrt.render.passes.RecordedPasses`) and replayed."""
     import time
     from ..device import warp
     from ..parallel.shm import attach_shared
-    from .passes import device_pass
-    from .pupil_table import launch_sliced
+    from .passes import RecordedPasses
+    from .pupil_table import record_sliced, replay_sliced
     from .tile_kernels import tile_pass_sums
     wp = warp()
     t0 = time.perf_counter()
@@ -203,12 +204,17 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     s2 = wp.zeros((n, 3), dtype=wp.float64, device=device)
     seg_y = wp.zeros((passes, rb - ra, n_segs), dtype=wp.float64, device=device)
     seg_hits = wp.zeros((passes, rb - ra, n_segs), dtype=wp.int64, device=device)
-    buf = None
+    # both launches of a pass recorded once (arguments packed once), replayed with the pass's seed and slot
+    camera = RecordedPasses(prep, (p0, p1))
+    buf = camera.out
+    sums = record_sliced(tile_pass_sums, max(n_spec, n, n_cells),
+                         lambda base: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0, p1, ra,
+                                       cols, cuts, n_segs, n_cells, 0, seg_y, seg_hits], device)
     for index in range(passes):
-        buf = device_pass(prep, index, buf, (p0, p1))
-        launch_sliced(tile_pass_sums, max(n_spec, n, n_cells),
-                      lambda base: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0, p1, ra,
-                                    cols, cuts, n_segs, n_cells, index, seg_y, seg_hits], device)
+        camera.run(index)
+        for _, cmd in sums:
+            cmd.set_param_by_name("slot", index)
+        replay_sliced(sums)
     pass_hits = seg_hits.numpy().sum(axis=(1, 2))
     region_y = region_sums_from_segments(seg_y.numpy(), ra, s.shape, cuts_h)
     image = attach_shared(token, image_layout(s.n_pixels, s.n_bands))

@@ -145,6 +145,27 @@ def test_region_sums_from_row_segments_add_up_to_the_region_sums(device):
     assert through == int(hits.sum())
 
 
+def test_recorded_camera_passes_equal_launched_passes_and_count_as_launches(device):
+    """The camera kernel recorded once per tile and replayed with each pass's seed gives the bits of a pass
+    launched with all its arguments (every pass, not only the first), and telemetry counts each replay as
+    a launch."""
+    from lensrt.core.telemetry import measure
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.passes import RecordedPasses, device_pass, prepare_setup
+    prep = prepare_setup(get_workload("render")("tiles=2", 11).context, device)
+    p0, p1 = 100, 900
+    rec = RecordedPasses(prep, (p0, p1))
+    with measure() as t:
+        for index in (0, 1, 2):
+            got = rec.run(index)
+            want = device_pass(prep, index, None, (p0, p1))
+            for f in ("spec", "xyz", "hits"):
+                assert np.array_equal(getattr(got, f).numpy(), getattr(want, f).numpy()), (index, f)
+    assert t.launches == 6
+    first = rec.run(0).xyz.numpy().copy()                 # (on the CPU numpy() aliases the buffer)
+    assert not np.array_equal(first, rec.run(1).xyz.numpy())   # the seed did change
+
+
 def test_a_tile_copies_from_its_device_once_whatever_its_pass_count(monkeypatch):
     """A tile queues all its passes without bringing anything to the host between them (on a GPU each
     copy waits for the device): the number of device-to-host copies of one item does not grow with its
