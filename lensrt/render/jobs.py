@@ -23,7 +23,7 @@ The image is written in place: each run of the job makes its image arrays once i
 tile that finds them -- a device thread of the parent, or a worker process or Dask worker on the same
 machine -- copies its sums from the device straight into its rows and computes its XYZ mean and
 standard error there, returning only its per-pass counts. The parent's work per tile is then a few
-hundred bytes whatever the tile's size (before: unpacking ~31 MB of a large-render tile from shared
+hundred bytes whatever the tile's size (before: unpacking ~32 MB of a large-render tile from shared
 memory and copying it into the image, serially for every device, with the last round's tiles
 unpacked one after the other after the last device had finished). A tile that finds no arrays (a
 worker on another machine) returns its sums as before and the reduction places them: the same bits.
