@@ -123,6 +123,7 @@ class _Job:
     error: str | None = None
     seconds: float = 0.0
     where: str = "worker"
+    finished: float = 0.0  # time.perf_counter() when a worker finished it
 
 
 class _Worker:
@@ -140,6 +141,8 @@ class _Worker:
         self.jobs = jobs
         self.alive = True
         self.why = ""
+        self.sent = 0  # jobs given to this worker (counted by the submitting thread)
+        self.answered = 0  # jobs it has finished or failed (counted by the feeding thread)
         self.thread = threading.Thread(target=self._feed, name="lensrt-figures", daemon=True)
         self.thread.start()
 
@@ -150,14 +153,17 @@ class _Worker:
                 return
             job = self.jobs[k]
             if not self.alive:  # the process stopped: the caller runs the job at the end
+                self.answered += 1
                 continue
             try:
                 write_bytes(self.proc.stdin, job.data)
                 error, seconds = read_message(self.proc.stdout)
             except Exception as err:  # noqa: BLE001 - a broken pipe, an end of file, a garbled answer
                 self.alive, self.why = False, f"{type(err).__name__}: {err}".rstrip(": ")
+                self.answered += 1
                 continue
-            job.seconds = seconds
+            job.seconds, job.finished = seconds, time.perf_counter()
+            self.answered += 1
             if error is None:
                 job.done, job.data = True, None
             else:
@@ -200,6 +206,7 @@ class FigureRenderer:
         self.message: str | None = None  #: what went wrong with the workers, once per renderer (or None)
         self.wait_s = 0.0  #: seconds :meth:`wait` waited for the workers and ran left-over jobs
         self._outcomes: list[tuple[str, Path, BaseException | None]] | None = None
+        self._wait_began = 0.0
         for _ in range(workers):
             try:
                 self.workers.append(_Worker(self.jobs))
@@ -218,8 +225,10 @@ class FigureRenderer:
             k = len(self.jobs)
             self.jobs.append(_Job(self.owner, Path(path), job))
             live = [w for w in self.workers if w.alive]
-            if live:
-                min(live, key=lambda w: w.todo.qsize()).todo.put(k)
+            if live:  # to the worker with the fewest jobs queued or in hand
+                w = min(live, key=lambda w: w.sent - w.answered)
+                w.sent += 1
+                w.todo.put(k)
                 return
         self._run_here(self.jobs[k])
 
@@ -239,7 +248,7 @@ class FigureRenderer:
         (owner, path, error or None) of each job, in submission order (a second call returns the same)."""
         if self._outcomes is not None:
             return self._outcomes
-        t0 = time.perf_counter()
+        t0 = self._wait_began = time.perf_counter()
         for w in self.workers:
             w.close()
         stopped = [w.why for w in self.workers if not w.alive]
@@ -264,11 +273,15 @@ class FigureRenderer:
             w.close(kill=True)
 
     def stats(self) -> dict[str, Any]:
-        """Jobs, where they ran and their seconds, and how long :meth:`wait` took."""
+        """Jobs, where they ran and their seconds (the five slowest by name), how long :meth:`wait` took and
+        the jobs it waited for (finished by a worker after it began)."""
         in_workers = [j for j in self.jobs if j.done and j.where == "worker"]
+        late = [j.path.name for j in in_workers if self._wait_began and j.finished > self._wait_began]
         return {"workers": len(self.workers), "jobs": len(self.jobs), "jobs_in_workers": len(in_workers),
                 "worker_s": sum(j.seconds for j in in_workers),
-                "caller_s": sum(j.seconds for j in self.jobs if j.where == "caller"), "wait_s": self.wait_s}
+                "caller_s": sum(j.seconds for j in self.jobs if j.where == "caller"), "wait_s": self.wait_s,
+                "waited_for": late,
+                "slowest": [[j.path.name, j.where, j.seconds] for j in sorted(self.jobs, key=lambda j: -j.seconds)[:5]]}
 
 
 @contextmanager

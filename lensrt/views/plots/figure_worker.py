@@ -74,8 +74,15 @@ def savefig(fig, path: str) -> None:
 
 def warm_up() -> None:
     """Import Matplotlib's figure and Agg canvas and draw a small figure with text into memory: the
-    font files, the glyph cache and the text layout code are loaded before the first real figure."""
+    font files, the glyph cache and the text layout code are loaded before the first real figure.
+    OpenEXR compresses with up to 4 threads where the machine has 16 or more cores (the same bytes:
+    each block of scan lines is compressed on its own and written in order)."""
     import io
+    import os
+
+    import OpenEXR
+    if (os.cpu_count() or 1) >= 16:
+        OpenEXR.set_global_thread_count(4)
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
