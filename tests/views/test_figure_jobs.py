@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,12 @@ def _tiles(n: int = 6) -> list[PsfTile]:
     return out
 
 
+def _let_workers_take_their_jobs(renderer) -> None:
+    """Until every job is in a worker's hands: then :meth:`FigureRenderer.wait` has nothing left to take back."""
+    while any(w.todo.qsize() for w in renderer.workers):
+        time.sleep(0.01)
+
+
 def _make_all(d: Path) -> dict[str, Path]:
     """Two figures and two data files, through the functions the report uses."""
     f = np.linspace(0.0, 200.0, 41)
@@ -57,6 +64,7 @@ def test_jobs_in_a_worker_write_the_files_the_caller_writes(tmp_path):
     here = _make_all(tmp_path / "here")
     with deferred_figures(1) as renderer:
         there = _make_all(tmp_path / "worker")
+        _let_workers_take_their_jobs(renderer)
         outcomes = renderer.wait()
     assert [e for _, _, e in outcomes] == [None] * 4 and renderer.message is None
     assert renderer.stats()["jobs_in_workers"] == 4
@@ -117,11 +125,31 @@ def test_a_worker_that_cannot_start_leaves_the_work_to_the_caller(tmp_path, monk
 def test_a_job_that_fails_everywhere_is_its_error(tmp_path):
     with deferred_figures(1) as renderer:
         defer(write_exr, tmp_path / "bad.exr", {"x": np.zeros((2, 2), np.int8)})  # no EXR pixel type
+        _let_workers_take_their_jobs(renderer)
         plot_mtf_curves(tmp_path / "good.png", np.linspace(0, 1, 5), [("a", np.ones(5), np.ones(5))])
         (_, p1, e1), (_, p2, e2) = renderer.wait()
     assert "int8 has no EXR pixel type" in str(e1) and not p1.exists()
     assert e2 is None and p2.stat().st_size > 0
     assert renderer.message.startswith("a figure worker process could not draw bad.exr")
+
+
+def test_the_end_takes_file_jobs_back_from_a_busy_worker(tmp_path):
+    """At the wait the caller writes the files still queued behind a busy worker (it would sit idle), and leaves
+    the figures queued there to the worker."""
+    from lensrt.views.plots.figure_worker import job_bytes
+    with deferred_figures(1) as renderer:
+        renderer.submit(job_bytes(time.sleep, (2.0,), {}), tmp_path / "busy")  # the worker's hands are full
+        _let_workers_take_their_jobs(renderer)
+        paths = _make_all(tmp_path)
+        outcomes = renderer.wait()
+    stats = renderer.stats()
+    assert [e for _, _, e in outcomes] == [None] * 5 and renderer.message is None
+    assert stats["stolen"] == 2 and stats["jobs_in_workers"] == 3
+    assert [(j.path.name, j.where) for j in renderer.jobs] == [
+        ("busy", "worker"), ("mosaic.png", "worker"), ("mtf.png", "worker"), ("map.exr", "stolen"),
+        ("data.json", "stolen")]
+    assert sorted(stats["waited_for"]) == ["busy", "data.json", "map.exr", "mosaic.png", "mtf.png"]
+    assert all(p.stat().st_size > 0 for p in paths.values())
 
 
 def test_no_worker_process_outlives_its_block(tmp_path):

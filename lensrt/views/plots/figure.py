@@ -80,7 +80,7 @@ def defer(fn: Callable[..., Any], path: str | Path, *args: Any, **kwargs: Any) -
     if renderer is None or "<locals>" in fn.__qualname__:
         fn(path, *args, **kwargs)
         return
-    renderer.submit(job_bytes(fn, (path, *args), kwargs), Path(path))
+    renderer.submit(job_bytes(fn, (path, *args), kwargs), Path(path), "file")
 
 
 def drawn_by_workers(plot: F) -> F:
@@ -121,8 +121,9 @@ class _Job:
     data: bytes | None
     done: bool = False
     error: str | None = None
+    kind: str = "figure"  # "figure" (needs Matplotlib) or "file" (a writer of data)
     seconds: float = 0.0
-    where: str = "worker"
+    where: str = "worker"  # where it ran: "worker", "caller", or "stolen" (by the caller, at the end)
     finished: float = 0.0  # time.perf_counter() when a worker finished it
 
 
@@ -219,11 +220,12 @@ class FigureRenderer:
         """Process ids of the worker processes."""
         return [w.proc.pid for w in self.workers]
 
-    def submit(self, job: bytes, path: Path) -> None:
-        """Queue a job made by :func:`~lensrt.views.plots.figure_worker.job_bytes` that writes ``path``."""
+    def submit(self, job: bytes, path: Path, kind: str = "figure") -> None:
+        """Queue a job made by :func:`~lensrt.views.plots.figure_worker.job_bytes` that writes ``path``
+        (``kind``: ``"figure"``, or ``"file"`` for a writer that needs no Matplotlib)."""
         with self._lock:  # jobs may come from several threads
             k = len(self.jobs)
-            self.jobs.append(_Job(self.owner, Path(path), job))
+            self.jobs.append(_Job(self.owner, Path(path), job, kind=kind))
             live = [w for w in self.workers if w.alive]
             if live:  # to the worker with the fewest jobs queued or in hand
                 w = min(live, key=lambda w: w.sent - w.answered)
@@ -232,14 +234,14 @@ class FigureRenderer:
                 return
         self._run_here(self.jobs[k])
 
-    def _run_here(self, job: _Job) -> None:
-        """Run a job in this process (no worker, or a worker failed it)."""
+    def _run_here(self, job: _Job, where: str = "caller") -> None:
+        """Run a job in this process (no worker, a worker failed it, or taken from a busy worker's queue)."""
         _here.now = True
         try:
             job.seconds = execute(job.data)
-            job.done, job.data, job.where = True, None, "caller"
+            job.done, job.data, job.where = True, None, where
         except Exception as err:  # noqa: BLE001 - handed to the caller as the job's error
-            job.error, job.where = f"{type(err).__name__}: {err}", "caller"
+            job.error, job.where = f"{type(err).__name__}: {err}", where
         finally:
             _here.now = False
 
@@ -249,6 +251,8 @@ class FigureRenderer:
         if self._outcomes is not None:
             return self._outcomes
         t0 = self._wait_began = time.perf_counter()
+        for k in self._steal_files():
+            self._run_here(self.jobs[k], "stolen")
         for w in self.workers:
             w.close()
         stopped = [w.why for w in self.workers if not w.alive]
@@ -267,6 +271,24 @@ class FigureRenderer:
         self._outcomes = [(j.owner, j.path, None if j.done else RuntimeError(j.error)) for j in self.jobs]
         return self._outcomes
 
+    def _steal_files(self) -> list[int]:
+        """The file jobs still queued for a worker, taken off its queue (figure jobs stay: they would make this
+        process import Matplotlib's figure code), in submission order. While it writes them the workers finish
+        the jobs in their hands: the caller would otherwise sit idle at the end."""
+        import queue
+        stolen = []
+        for w in self.workers:
+            back = []
+            while True:
+                try:
+                    k = w.todo.get_nowait()
+                except queue.Empty:
+                    break
+                (stolen if self.jobs[k].kind == "file" else back).append(k)
+            for k in back:
+                w.todo.put(k)
+        return sorted(stolen)
+
     def abort(self) -> None:
         """Stop the workers at once, jobs unfinished (the caller is failing anyway)."""
         for w in self.workers:
@@ -274,12 +296,16 @@ class FigureRenderer:
 
     def stats(self) -> dict[str, Any]:
         """Jobs, where they ran and their seconds (the five slowest by name), how long :meth:`wait` took and
-        the jobs it waited for (finished by a worker after it began)."""
+        the jobs it waited for (finished by a worker after it began, or taken off a worker's queue and run
+        here then: ``stolen``)."""
         in_workers = [j for j in self.jobs if j.done and j.where == "worker"]
-        late = [j.path.name for j in in_workers if self._wait_began and j.finished > self._wait_began]
+        here = [j for j in self.jobs if j.where in ("caller", "stolen")]
+        late = [j.path.name for j in self.jobs if j.where == "stolen" or (j.done and j.where == "worker"
+                                                                           and j.finished > self._wait_began > 0)]
         return {"workers": len(self.workers), "jobs": len(self.jobs), "jobs_in_workers": len(in_workers),
                 "worker_s": sum(j.seconds for j in in_workers),
-                "caller_s": sum(j.seconds for j in self.jobs if j.where == "caller"), "wait_s": self.wait_s,
+                "caller_s": sum(j.seconds for j in here), "stolen": sum(j.where == "stolen" for j in here),
+                "wait_s": self.wait_s,
                 "waited_for": late,
                 "slowest": [[j.path.name, j.where, j.seconds] for j in sorted(self.jobs, key=lambda j: -j.seconds)[:5]]}
 
