@@ -182,3 +182,12 @@ def test_exr_bytes_do_not_depend_on_openexr_threads(tmp_path):
     finally:
         OpenEXR.set_global_thread_count(before)
     assert (tmp_path / "t0.exr").read_bytes() == (tmp_path / "t4.exr").read_bytes()
+
+
+def test_a_call_that_cannot_be_pickled_runs_in_the_caller(tmp_path):
+    from types import MappingProxyType
+    chans = MappingProxyType({"R": np.ones((4, 4), np.float32)})  # pickle refuses a mappingproxy
+    with deferred_figures(1) as renderer:
+        defer(write_exr, tmp_path / "here.exr", chans)
+        assert (tmp_path / "here.exr").stat().st_size > 0 and renderer.jobs == []
+    assert np.array_equal(read_exr(tmp_path / "here.exr")[0]["R"], chans["R"])

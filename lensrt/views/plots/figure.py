@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import os
+import pickle
 import threading
 import time
 from contextlib import contextmanager
@@ -61,14 +62,25 @@ def _renderer() -> "FigureRenderer | None":
         return _active
 
 
+def _handed_over(fn: Callable[..., Any], args: tuple, kwargs: dict, path: Path, kind: str) -> bool:
+    """Give ``fn(*args, **kwargs)`` to the active renderer: False when there is none (or the call cannot be
+    pickled: a function that is not module-level, an argument that pickle refuses), and the caller runs it."""
+    renderer = _renderer()
+    if renderer is None or "<locals>" in fn.__qualname__:
+        return False
+    try:
+        job = job_bytes(fn, args, kwargs)
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return False
+    renderer.submit(job, path, kind)
+    return True
+
+
 def save_figure(fig, path: str | Path) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix), creating the folder; inside
     :func:`deferred_figures` the file is written by a worker process (module docstring)."""
     p = output_file(path)
-    renderer = _renderer()
-    if renderer is not None:
-        renderer.submit(job_bytes(savefig, (fig, str(p)), {}), p)
-    else:
+    if not _handed_over(savefig, (fig, str(p)), {}, p, "figure"):
         fig.savefig(p)
     return p
 
@@ -76,11 +88,8 @@ def save_figure(fig, path: str | Path) -> Path:
 def defer(fn: Callable[..., Any], path: str | Path, *args: Any, **kwargs: Any) -> None:
     """Run ``fn(path, *args, **kwargs)``, a module-level function that writes the file ``path``:
     inside :func:`deferred_figures` in a worker process (the arguments are pickled now), else at once."""
-    renderer = _renderer()
-    if renderer is None or "<locals>" in fn.__qualname__:
+    if not _handed_over(fn, (path, *args), kwargs, Path(path), "file"):
         fn(path, *args, **kwargs)
-        return
-    renderer.submit(job_bytes(fn, (path, *args), kwargs), Path(path), "file")
 
 
 def drawn_by_workers(plot: F) -> F:
@@ -90,10 +99,8 @@ def drawn_by_workers(plot: F) -> F:
     @functools.wraps(plot)
     def deferred_plot(path, *args, **kwargs):
         p = output_file(path)
-        renderer = _renderer()
-        if renderer is None:
+        if not _handed_over(deferred_plot, (p, *args), kwargs, p, "figure"):
             return plot(p, *args, **kwargs)
-        renderer.submit(job_bytes(deferred_plot, (p, *args), kwargs), p)
         return p
     return deferred_plot  # type: ignore[return-value]
 
