@@ -191,3 +191,16 @@ def test_a_call_that_cannot_be_pickled_runs_in_the_caller(tmp_path):
         defer(write_exr, tmp_path / "here.exr", chans)
         assert (tmp_path / "here.exr").stat().st_size > 0 and renderer.jobs == []
     assert np.array_equal(read_exr(tmp_path / "here.exr")[0]["R"], chans["R"])
+
+
+def test_the_message_says_why_a_worker_stopped(tmp_path, monkeypatch):
+    fake = tmp_path / "python"
+    fake.write_text("#!/bin/sh\necho 'ModuleNotFoundError: No module named matplotlib' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(sys, "executable", str(fake))
+    with deferred_figures(1) as renderer:
+        paths = _make_all(tmp_path / "out")
+        renderer.wait()
+    assert "it said: ModuleNotFoundError: No module named matplotlib" in renderer.message
+    assert renderer.message.startswith("a figure worker process stopped")
+    assert all(p.stat().st_size > 0 for p in paths.values())

@@ -141,10 +141,16 @@ class _Worker:
         import queue
         import subprocess
         import sys
+        import tempfile
         root = str(Path(__file__).resolve().parents[3])  # the lensrt this process runs, first on the path
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([root] + [v for v in [os.environ.get("PYTHONPATH")] if v]))
-        self.proc = subprocess.Popen([sys.executable, "-m", "lensrt.views.plots.figure_worker"], env=env,
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        self.stderr = tempfile.TemporaryFile()  # what the process says before it stops, for the message
+        try:
+            self.proc = subprocess.Popen([sys.executable, "-m", "lensrt.views.plots.figure_worker"], env=env,
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.stderr)
+        except BaseException:
+            self.stderr.close()
+            raise
         self.todo: "queue.SimpleQueue[int | None]" = queue.SimpleQueue()
         self.jobs = jobs
         self.alive = True
@@ -167,7 +173,7 @@ class _Worker:
                 write_bytes(self.proc.stdin, job.data)
                 error, seconds = read_message(self.proc.stdout)
             except Exception as err:  # noqa: BLE001 - a broken pipe, an end of file, a garbled answer
-                self.alive, self.why = False, f"{type(err).__name__}: {err}".rstrip(": ")
+                self.alive, self.why = False, f"{type(err).__name__}: {err}".rstrip(": ") + self._last_words()
                 self.answered += 1
                 continue
             job.seconds, job.finished = seconds, time.perf_counter()
@@ -176,6 +182,17 @@ class _Worker:
                 job.done, job.data = True, None
             else:
                 job.error = error
+
+    def _last_words(self) -> str:
+        """The last line the stopped process wrote on stderr (its exception, if Python raised one)."""
+        import subprocess
+        try:
+            self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            pass
+        self.stderr.seek(0)
+        lines = self.stderr.read().decode("utf-8", "replace").strip().splitlines()
+        return f"; it said: {lines[-1].strip()[:200]}" if lines else ""
 
     def close(self, kill: bool = False) -> None:
         """Stop the worker: after its queue is done (or at once with ``kill``); the process is reaped."""
@@ -194,6 +211,7 @@ class _Worker:
             self.proc.kill()
             self.proc.wait()
         self.proc.stdout.close()
+        self.stderr.close()
 
 
 class FigureRenderer:
