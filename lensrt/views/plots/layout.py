@@ -105,10 +105,10 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
 
 @dataclass(frozen=True)
 class LayoutFan:
-    """The drawn rays of one field: its label, and each ray's global (z, y) polyline from its start to
-    where it ends (the image surface, or the surface that stops it); ``labelled``: the ray whose line
-    carries the field's legend entry. ``vignetted``: no ray of the field reaches past the pupil probe (the
-    legend says so)."""
+    """The drawn rays of one field: its label, and per ray (z_mm, y_mm, labelled) -- the global polyline
+    from its start to where it ends (the image surface, or the surface that stops it), and whether its
+    line carries the field's legend entry. ``vignetted``: every probe ray of the field was stopped, so no
+    ray is drawn and the legend says so."""
     label: str
     polylines: tuple[tuple[np.ndarray, np.ndarray, bool], ...]
     vignetted: bool = False
