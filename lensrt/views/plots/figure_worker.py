@@ -118,6 +118,9 @@ def serve(inp: BinaryIO, out: BinaryIO) -> None:
 
 
 if __name__ == "__main__":
+    import os
     reply = sys.stdout.buffer
     sys.stdout = sys.stderr  # nothing but answers on the answer channel
     serve(sys.stdin.buffer, reply)
+    sys.stderr.flush()
+    os._exit(0)  # every file is written and every answer flushed: no interpreter teardown for the parent to wait on
