@@ -128,7 +128,7 @@ def _figure_errors(outcomes, sections: list[Section]) -> None:
         for sec in sections:
             if sec.key == owner:
                 sec.errors.append(f"figure {Path(path).name} could not be drawn: {type(err).__name__}: {err} "
-                                  "(a bug in lensrt; set LENSRT_FIGURE_WORKERS=0 to draw figures in this process)")
+                                  "(a bug in lensrt; with LENSRT_FIGURE_WORKERS=0 report.json keeps its traceback)")
 
 
 def _worker_trouble(renderer, sections: list[Section], stream, quiet: bool) -> None:
