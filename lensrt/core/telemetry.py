@@ -25,7 +25,7 @@ from typing import Any, Iterator
 
 from .compile_ahead import wait_for
 
-__all__ = ["Telemetry", "measure", "snapshot", "launch", "upload", "download", "count_copy"]
+__all__ = ["Telemetry", "measure", "snapshot", "launch", "replay", "upload", "download", "count_copy"]
 
 _LOCK = threading.Lock()
 _OPEN: list["Telemetry"] = []
@@ -136,6 +136,27 @@ def launch(kernel, dim, inputs=(), *, device=None, slice_of: int = 0, **kwargs) 
         return
     t0 = time.perf_counter()
     wp.launch(kernel, dim=dim, inputs=list(inputs), device=device, **kwargs)
+    _add(launches=1, kernel_s=time.perf_counter() - t0)
+
+
+def replay(cmd, *, slice_of: int = 0) -> None:
+    """``cmd.launch()`` of a launch recorded with ``wp.launch(..., record_cmd=True)`` (its arguments packed once,
+    replayed with only the changed ones set again), counted as :func:`launch` counts a launch."""
+    import warp as wp
+    if not _OPEN or slice_of:
+        cmd.launch()
+        return
+    dev = cmd.device
+    if dev.is_cuda:
+        start, end = wp.Event(dev, enable_timing=True), wp.Event(dev, enable_timing=True)
+        stream = dev.stream
+        stream.record_event(start)
+        cmd.launch()
+        stream.record_event(end)
+        _add(launches=1, events=(start, end))
+        return
+    t0 = time.perf_counter()
+    cmd.launch()
     _add(launches=1, kernel_s=time.perf_counter() - t0)
 
 
