@@ -100,17 +100,24 @@ def main_pupil_box(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray) ->
 
 def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = None, z0_mm: float | None = None,
                   n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
-                  device: str | None = None) -> FocusMoments:
+                  device: str | None = None, reuse: bool = True) -> FocusMoments:
     """The focus moments of one wavelength (module docstring): an n x n grid, boundary cells sub x sub."""
     fp = field_point(lens, 0.0, 0.0) if fp is None else fp
     z0 = lens.image_z_mm if z0_mm is None else float(z0_mm)
     return focus_moments_fields(lens, [(fp, wavelength_nm, z0)], n=n, sub=sub, stop_radius_mm=stop_radius_mm,
-                                device=device)[0]
+                                device=device, reuse=reuse)[0]
+
+
+#: moments already found, per (lens, field point, wavelength, plane, n, sub, stop radius, device, path): the
+#: report asks for the same ones in several sections (the comparison's tables, the PSFs' best focus, focus
+#: breathing at infinity); at most _KNOWN_KEPT kept
+_KNOWN: dict = {}
+_KNOWN_KEPT = 256
 
 
 def focus_moments_fields(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, float]], *, n: int = 128,
                          sub: int = 8, stop_radius_mm: float | None = None, device: str | None = None,
-                         on_device: bool | None = None) -> list[FocusMoments]:
+                         on_device: bool | None = None, reuse: bool = True) -> list[FocusMoments]:
     """:func:`focus_moments` of several (field point, wavelength nm, plane z0 mm) jobs of one lens, traced together.
 
     Each job gets its own pupil box, grid, main-pupil refinement and boundary sub-rays, as alone; the
@@ -119,10 +126,31 @@ def focus_moments_fields(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, flo
     surface and carried on in a straight line to each plane (the same rays; positions differ from a
     trace to the plane by rounding). For rotationally symmetric lenses the rays are made, traced and
     reduced to the moments' sums on the device (:mod:`lensrt.trace.focus_grids`; ``on_device=False``
-    takes the host path, which agrees to rounding). Raises :class:`LensrtError` as :func:`focus_moments` does.
+    takes the host path, which agrees to rounding). Jobs found before in this process (same lens, field
+    point, wavelength, plane, grid, stop radius, device and path) are not traced again (``reuse=False``
+    traces every job). Raises :class:`LensrtError` as :func:`focus_moments` does.
     """
-    from .focus_grids import focus_grids
+    from ..device import resolve_device
+    from .focus_grids import grids_on_device
     jobs = [(fp, float(w), float(z0)) for fp, w, z0 in jobs]
+    dev = resolve_device(device)
+    path = grids_on_device(lens, dev, stop_radius_mm, on_device)
+    keys = [(lens, fp, w, z0, int(n), int(sub), stop_radius_mm, dev, path) for fp, w, z0 in jobs]
+    missing = list(dict.fromkeys(k for k in keys if not (reuse and k in _KNOWN)))
+    found = dict(zip(missing, _traced_moments(lens, [k[1:4] for k in missing], n, sub, stop_radius_mm, dev,
+                                              path))) if missing else {}
+    out = [found[k] if k in found else _KNOWN[k] for k in keys]
+    if reuse and found:
+        if len(_KNOWN) + len(found) > _KNOWN_KEPT:
+            _KNOWN.clear()
+        _KNOWN.update(found)
+    return out
+
+
+def _traced_moments(lens: Lens, jobs: list, n: int, sub: int, stop_radius_mm: float | None, device: str,
+                    on_device: bool) -> list[FocusMoments]:
+    """:func:`focus_moments_fields` of ``jobs``, all traced."""
+    from .focus_grids import focus_grids
     boxes: list = [None] * len(jobs)
     for w in sorted({j[1] for j in jobs}):
         ks = [k for k, j in enumerate(jobs) if j[1] == w]

@@ -11,9 +11,11 @@ cells passed) and :meth:`moments` (the sums, from the final pass/fail grids):
   device kernels do not take);
 * :class:`DeviceGrids` -- rays made, traced and reduced in Warp kernels
   (:mod:`lensrt.trace.kernels.focus_grid`): a grid pass downloads one byte per cell, the sums one row
-  of 9 numbers per grid row or boundary cell; rotationally symmetric lenses. Each job's sums are
-  added in a fixed order (the same bits every run); they are in another order than the host path's
-  and agree with it to rounding (tests/trace/test_focus_grids.py: 1e-12 relative).
+  of 9 numbers per grid row or boundary cell; rotationally symmetric lenses. Each job's rays are
+  traced to its own plane, and its sums added in a fixed order: a job's moments are the same bits
+  whatever the other jobs of the call and on every run. They agree with the host path to rounding
+  (tests/trace/test_focus_grids.py: 1e-12 relative) -- the sums are in another order, and where a
+  call's jobs have several planes the host path traces to the image surface and on in a straight line.
 
 The launches are the same for both: one per grid round, one for the boundary sub-rays.
 """
@@ -31,7 +33,7 @@ from .aiming import FieldPoint, ray_through_point
 from .api import RayBatch, trace
 from .pupil_boxes import PupilBox
 
-__all__ = ["HostGrids", "DeviceGrids", "focus_grids", "boundary_cells", "grid_rays"]
+__all__ = ["HostGrids", "DeviceGrids", "focus_grids", "grids_on_device", "boundary_cells", "grid_rays"]
 
 #: (mean p (2,), mean t (2,), E[p.p], E[p.t], E[t.t], rays) of one job
 Moments = tuple
@@ -173,7 +175,6 @@ class DeviceGrids:
         self.lens, self.jobs, self.n, self.sub = lens, list(jobs), int(n), int(sub)
         self.packed = pack_lens(lens, "float64", device, None, stop_radius_mm)
         self.dev = self.packed.device
-        self.image_z = float(lens.vertex_z_mm()[lens.n_surfaces])
         self.cells = wp.empty((len(self.jobs), self.n * self.n, FOCUS_CELL_COLS), dtype=wp.float64, device=self.dev)
         self.dummies = [wp.zeros((1, 1), dtype=wp.float64, device=self.dev),
                         wp.zeros((1, 1, 1), dtype=wp.float64, device=self.dev), SymmetricLens()]
@@ -195,15 +196,13 @@ class DeviceGrids:
                 rows[k, 20] = float(np.linalg.norm(obj))
                 rows[k, 21] = float(np.dot(np.asarray(box.centre) - obj, np.asarray(box.axis, dtype=np.float64)))
             w_um = wl * 1.0e-3
-            rows[k, 22], rows[k, 23] = w_um * w_um, z0
+            rows[k, 22], rows[k, 23] = w_um * w_um, z0 - self.lens.image_z_mm
         return upload(rows, warp().float64, self.dev)
 
-    def _lens_args(self, planes_mm: list[float]) -> list:
-        """The arguments every launch starts with: one plane for the launch (traced to it) or several."""
-        one = len(set(planes_mm)) == 1
-        plane_dz = float(planes_mm[0]) - self.lens.image_z_mm if one else 0.0
+    def _lens_args(self) -> list:
+        """The arguments every launch starts with."""
         p = self.packed
-        return [p.surf, p.media, p.iris, self.lens.n_surfaces, plane_dz, self.image_z, int(one)]
+        return [p.surf, p.media, p.iris, self.lens.n_surfaces]
 
     def _launch(self, kernel, total: int, head: list, tail: list) -> None:
         """One logical launch of ``total`` threads; on the CPU in slices, one per core (no shared writes)."""
@@ -230,7 +229,7 @@ class DeviceGrids:
         wp, n = warp(), self.n
         active = list(active)
         ok = wp.zeros((len(active), n * n), dtype=wp.uint8, device=self.dev)
-        head = self._lens_args([self.jobs[k][2] for k in active]) + [
+        head = self._lens_args() + [
             self._rows(boxes), upload(np.asarray(active, dtype=np.int32), wp.int32, self.dev), n] + self.dummies
         self._launch(focus_grid_pass_symmetric, len(active) * n * n, head, [ok, self.cells])
         got = download(ok).reshape(len(active), n, n).astype(bool)
@@ -244,7 +243,7 @@ class DeviceGrids:
         from .kernels.focus_grid import FOCUS_SUM_COLS, focus_sums_symmetric
         wp, n = warp(), self.n
         keep = np.zeros((len(self.jobs), n * n), dtype=np.uint8)
-        items, owner, with_edges = [], [], []
+        items, owner = [], []
         for k, ok in enumerate(oks):
             edge = boundary_cells(ok)
             keep[k] = (ok & ~edge).ravel()
@@ -252,13 +251,10 @@ class DeviceGrids:
             cells = np.flatnonzero(edge)
             items.append(np.stack([np.full(len(rows) + len(cells), k), np.concatenate([rows, n + cells])], axis=1))
             owner.append(np.full(len(rows) + len(cells), k))
-            if len(cells):
-                with_edges.append(k)
         items_host = np.concatenate(items).astype(np.int32)
         owner_host = np.concatenate(owner)
         sums_dev = wp.empty((len(items_host), FOCUS_SUM_COLS), dtype=wp.float64, device=self.dev)
-        planes = [self.jobs[k][2] for k in with_edges] or [self.jobs[0][2]]
-        head = self._lens_args(planes) + [self._rows(boxes), n, self.sub] + self.dummies
+        head = self._lens_args() + [self._rows(boxes), n, self.sub] + self.dummies
         tail = [upload(items_host, wp.int32, self.dev), upload(keep, wp.uint8, self.dev), self.cells, sums_dev]
         if len(items_host):
             self._launch(focus_sums_symmetric, len(items_host), head, tail)
@@ -272,13 +268,20 @@ class DeviceGrids:
         return out
 
 
-def focus_grids(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, float]], n: int, sub: int,
-                stop_radius_mm: float | None, device: str | None, on_device: bool | None = None):
-    """The grids of ``jobs``: :class:`DeviceGrids` for rotationally symmetric lenses (unless ``on_device`` is
-    False), else :class:`HostGrids` (always where ``on_device`` is False)."""
+def grids_on_device(lens: Lens, device: str | None, stop_radius_mm: float | None = None,
+                    on_device: bool | None = None) -> bool:
+    """Whether :func:`focus_grids` takes the device path: for rotationally symmetric lenses unless ``on_device``
+    is False; ``on_device=True`` for a lens that needs the general kernel variant is one clear error."""
     from .pack import pack_lens
     use = on_device is not False and not pack_lens(lens, "float64", device, None, stop_radius_mm).general
     if on_device and not use:
         raise LensrtError("the best-focus grids run on the device for rotationally symmetric lenses only",
                           hint="leave on_device unset to take the host path for this lens")
+    return use
+
+
+def focus_grids(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, float]], n: int, sub: int,
+                stop_radius_mm: float | None, device: str | None, on_device: bool | None = None):
+    """The grids of ``jobs``: :class:`DeviceGrids` where :func:`grids_on_device`, else :class:`HostGrids`."""
+    use = grids_on_device(lens, device, stop_radius_mm, on_device)
     return (DeviceGrids if use else HostGrids)(lens, jobs, n, sub, stop_radius_mm, device)

@@ -81,10 +81,10 @@ def test_focus_moments_of_several_planes_in_one_set_of_launches(dg):
     jobs = [(object_field_point(far, v), 587.56, z) for v, z in ((0.0, dg.image_z_mm), (3.0, dg.image_z_mm + 0.2),
                                                                   (6.0, dg.image_z_mm - 0.1))]
     with measure() as rec:
-        got = focus_moments_fields(far, jobs, device="cpu")
+        got = focus_moments_fields(far, jobs, device="cpu", reuse=False)
     assert rec.launches <= 2 + 3 + 1  # boxes (2 passes), up to 3 grid rounds, sub-rays: for all three jobs
     for (fp, wl, z0), m in zip(jobs, got):
-        alone = focus_moments(far, wl, fp=fp, z0_mm=z0, device="cpu")
+        alone = focus_moments(far, wl, fp=fp, z0_mm=z0, device="cpu", reuse=False)
         assert m.rays == alone.rays
         np.testing.assert_allclose(m.mean_p, alone.mean_p, rtol=0, atol=1e-12)
         np.testing.assert_allclose([m.pp, m.pt, m.tt], [alone.pp, alone.pt, alone.tt], rtol=1e-12, atol=1e-15)

@@ -86,20 +86,41 @@ def test_device_grids_cut_away_a_disconnected_ring_as_the_host_does() -> None:
 
 
 def test_device_grids_are_reproducible_and_launch_as_the_host_path() -> None:
-    """Same inputs, same bits (no atomics: fixed-order sums); the launches are the host path's (a grid round
-    each, one for the boundary sub-rays) and far fewer bytes come back."""
+    """Same inputs, same bits (no atomics: fixed-order sums), whatever the other jobs of the call; the launches
+    are the host path's (a grid round each, one for the boundary sub-rays)."""
     lens = load_lens("dgauss_50mm_f2")
-    jobs = [(object_field_point(lens, 0.0), w, lens.image_z_mm) for w in (486.13, 587.56)]
-    focus_moments_fields(lens, jobs, n=32, sub=4, device="cpu", on_device=True)  # compile, pack
+    jobs = [(object_field_point(lens, 0.0), w, lens.image_z_mm + dz) for w, dz in ((486.13, 0.0), (587.56, 0.1))]
+    kw = dict(n=32, sub=4, device="cpu", reuse=False)
+    focus_moments_fields(lens, jobs, on_device=True, **kw)  # compile, pack
     with measure() as dev_rec:
-        a = focus_moments_fields(lens, jobs, n=32, sub=4, device="cpu", on_device=True)
+        a = focus_moments_fields(lens, jobs, on_device=True, **kw)
     with measure() as host_rec:
-        focus_moments_fields(lens, jobs, n=32, sub=4, device="cpu", on_device=False)
-    b = focus_moments_fields(lens, jobs, n=32, sub=4, device="cpu", on_device=True)
-    for x, y in zip(a, b):
+        focus_moments_fields(lens, jobs, on_device=False, **kw)
+    b = focus_moments_fields(lens, jobs[::-1], on_device=True, **kw)[::-1]
+    c = [focus_moments_fields(lens, [j], on_device=True, **kw)[0] for j in jobs]
+    for x, y, z in zip(a, b, c):
         assert (x.mean_p.tobytes(), x.mean_t.tobytes(), x.pp, x.pt, x.tt, x.rays) == \
-            (y.mean_p.tobytes(), y.mean_t.tobytes(), y.pp, y.pt, y.tt, y.rays)
+            (y.mean_p.tobytes(), y.mean_t.tobytes(), y.pp, y.pt, y.tt, y.rays) == \
+            (z.mean_p.tobytes(), z.mean_t.tobytes(), z.pp, z.pt, z.tt, z.rays)
     assert dev_rec.launches == host_rec.launches
+
+
+def test_moments_found_once_are_reused() -> None:
+    """The report asks for the axial moments in several sections: asked again (among new jobs), known jobs
+    are not traced again and are the moments found before; a different plane, grid or path is a new job."""
+    lens = load_lens("dgauss_50mm_f2")
+    axis = object_field_point(lens, 0.0)
+    first = focus_moments_fields(lens, [(axis, 587.56, lens.image_z_mm)], n=24, sub=2, device="cpu")
+    with measure() as rec:
+        again = focus_moments_fields(lens, [(axis, 587.56, lens.image_z_mm)], n=24, sub=2, device="cpu")
+    assert rec.launches == 0 and again[0] is first[0]
+    with measure() as rec:
+        mixed = focus_moments_fields(lens, [(axis, 587.56, lens.image_z_mm + 0.2), (axis, 587.56, lens.image_z_mm)],
+                                     n=24, sub=2, device="cpu")
+    assert mixed[1] is first[0] and mixed[0].z0_mm == lens.image_z_mm + 0.2 and rec.launches > 0
+    host = focus_moments_fields(lens, [(axis, 587.56, lens.image_z_mm)], n=24, sub=2, device="cpu", on_device=False)
+    finer = focus_moments_fields(lens, [(axis, 587.56, lens.image_z_mm)], n=26, sub=2, device="cpu")
+    assert host[0] is not first[0] and finer[0].rays != first[0].rays
 
 
 def test_general_lenses_take_the_host_path_and_asking_for_the_device_is_one_error() -> None:

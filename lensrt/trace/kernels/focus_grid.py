@@ -8,7 +8,7 @@ uploaded, traced, downloaded and reduced. Here:
 
 * :func:`focus_grid_pass` -- one thread per (job, grid cell): makes the cell-centre ray exactly
   as :func:`lensrt.trace.aiming.ray_through_point` does (the object-point weight of
-  ``trace.focus._grid_rays`` with it), traces it with the shared ``trace_ray`` (float64, every
+  :func:`lensrt.trace.focus_grids.grid_rays` with it), traces it with the shared ``trace_ray`` (float64, every
   aperture) to the job's plane, writes whether it passed (one byte per cell: the only download)
   and keeps its weight, position and slopes on the device;
 * :func:`focus_sums` -- one thread per work item, an item being either one grid row of a job (the
@@ -21,8 +21,10 @@ uploaded, traced, downloaded and reduced. Here:
 Each job's row of ``jobs`` (:data:`FOCUS_JOB_COLS` float64): infinite flag, beam direction (3) or
 object point (3), aim-plane centre (3), e1 (3), e2 (3), beam axis (3), a0, da, b0, db (the grid's
 first cell edge and cell size), |object point| (mm; 0 at infinity), (centre - object) . axis (mm),
-wavelength^2 (um^2), the plane z0 (lens frame, mm). Rotationally symmetric lenses only (plane
-image square to the axis); the caller keeps the host path for the others. float64 only.
+wavelength^2 (um^2), the plane's distance behind the image surface (mm): each job's rays are traced
+to its own plane, so a job's sums do not depend on the other jobs of the launch. Rotationally
+symmetric lenses only (plane image square to the axis); the caller keeps the host path for the
+others. float64 only.
 """
 # No ``from __future__ import annotations`` here: Warp reads the annotations as objects.
 
@@ -85,7 +87,7 @@ def _focus_ray(jobs: wp.array2d(dtype=wp.float64), k: int, a: wp.float64, b: wp.
         ox = px - back * dx
         oy = py - back * dy
         oz = pz - back * dz
-        # cos(theta_plane) (dist / rho)^2 x cos(theta_object) (Lambertian), as trace.focus._grid_rays
+        # cos(theta_plane) (dist / rho)^2 x cos(theta_object) (Lambertian), as trace.focus_grids.grid_rays
         ratio = jobs[k, 21] / dist
         weight = (dx * jobs[k, 13] + dy * jobs[k, 14] + dz * jobs[k, 15]) * (ratio * ratio) * dz
     return ox, oy, oz, dx, dy, dz, weight
@@ -93,27 +95,18 @@ def _focus_ray(jobs: wp.array2d(dtype=wp.float64), k: int, a: wp.float64, b: wp.
 
 @wp.func
 def _focus_trace(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
-                 iris: wp.array(dtype=wp.float64), n_surfaces: int, plane_dz: wp.float64, image_z: wp.float64,
-                 one_plane: int, jobs: wp.array2d(dtype=wp.float64), k: int, ox: wp.float64, oy: wp.float64,
-                 oz: wp.float64, dx: wp.float64, dy: wp.float64, dz: wp.float64, table: wp.array2d(dtype=wp.float64),
-                 rec: wp.array3d(dtype=wp.float64), variant: Any):
-    """Trace one ray to job k's plane: (passed with N > 0, x, y on the plane, slopes L/N, M/N).
-
-    One plane for the launch: traced to it (``plane_dz`` behind the image surface); else to the image
-    surface and on in a straight line to the job's plane, as ``trace.focus._trace_to_planes`` does."""
+                 iris: wp.array(dtype=wp.float64), n_surfaces: int, jobs: wp.array2d(dtype=wp.float64), k: int,
+                 ox: wp.float64, oy: wp.float64, oz: wp.float64, dx: wp.float64, dy: wp.float64, dz: wp.float64,
+                 table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any):
+    """Trace one ray to job k's plane: (passed with N > 0, x, y on the plane, slopes L/N, M/N)."""
     st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
-        surf, media, iris, n_surfaces, ox, oy, oz, dx, dy, dz, jobs[k, 22], table, -1, n_surfaces, 1, plane_dz,
+        surf, media, iris, n_surfaces, ox, oy, oz, dx, dy, dz, jobs[k, 22], table, -1, n_surfaces, 1, jobs[k, 23],
         0, rec, 0, variant)
     passed = int(0)
     tx = wp.float64(0.0)
     ty = wp.float64(0.0)
     if st == int(OK) and N > wp.float64(0.0):
         passed = int(1)
-        if one_plane == 0:
-            zi = z + image_z + plane_dz
-            s = (jobs[k, 23] - zi) / N
-            x = x + s * L
-            y = y + s * M
         tx = L / N
         ty = M / N
     return passed, x, y, tx, ty
@@ -121,8 +114,8 @@ def _focus_trace(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.
 
 @wp.kernel
 def focus_grid_pass(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
-                    iris: wp.array(dtype=wp.float64), n_surfaces: int, plane_dz: wp.float64, image_z: wp.float64,
-                    one_plane: int, jobs: wp.array2d(dtype=wp.float64), active: wp.array(dtype=wp.int32), n: int,
+                    iris: wp.array(dtype=wp.float64), n_surfaces: int, jobs: wp.array2d(dtype=wp.float64),
+                    active: wp.array(dtype=wp.int32), n: int,
                     table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any,
                     tid_base: int, ok: wp.array2d(dtype=wp.uint8), cells: wp.array3d(dtype=wp.float64)):
     tid = wp.tid() + tid_base
@@ -133,8 +126,8 @@ def focus_grid_pass(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=
     a = jobs[k, 16] + (wp.float64(m // n) + wp.float64(0.5)) * jobs[k, 17]
     b = jobs[k, 18] + (wp.float64(m % n) + wp.float64(0.5)) * jobs[k, 19]
     ox, oy, oz, dx, dy, dz, weight = _focus_ray(jobs, k, a, b)
-    passed, x, y, tx, ty = _focus_trace(surf, media, iris, n_surfaces, plane_dz, image_z, one_plane, jobs, k,
-                                        ox, oy, oz, dx, dy, dz, table, rec, variant)
+    passed, x, y, tx, ty = _focus_trace(surf, media, iris, n_surfaces, jobs, k, ox, oy, oz, dx, dy, dz, table, rec,
+                                        variant)
     ok[j, m] = wp.uint8(passed)
     cells[k, m, 0] = weight
     cells[k, m, 1] = x
@@ -152,8 +145,8 @@ def _one_ray(w: wp.float64, x: wp.float64, y: wp.float64, tx: wp.float64, ty: wp
 
 @wp.kernel
 def focus_sums(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.float64),
-               iris: wp.array(dtype=wp.float64), n_surfaces: int, plane_dz: wp.float64, image_z: wp.float64,
-               one_plane: int, jobs: wp.array2d(dtype=wp.float64), n: int, sub: int,
+               iris: wp.array(dtype=wp.float64), n_surfaces: int, jobs: wp.array2d(dtype=wp.float64), n: int,
+               sub: int,
                table: wp.array2d(dtype=wp.float64), rec: wp.array3d(dtype=wp.float64), variant: Any, tid_base: int,
                items: wp.array2d(dtype=wp.int32), keep: wp.array2d(dtype=wp.uint8),
                cells: wp.array3d(dtype=wp.float64), sums: wp.array2d(dtype=wp.float64)):
@@ -177,8 +170,8 @@ def focus_sums(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp.fl
             a = jobs[k, 16] + (ia + fa) * jobs[k, 17]
             b = jobs[k, 18] + (ib + fb) * jobs[k, 19]
             ox, oy, oz, dx, dy, dz, weight = _focus_ray(jobs, k, a, b)
-            passed, x, y, tx, ty = _focus_trace(surf, media, iris, n_surfaces, plane_dz, image_z, one_plane, jobs,
-                                                k, ox, oy, oz, dx, dy, dz, table, rec, variant)
+            passed, x, y, tx, ty = _focus_trace(surf, media, iris, n_surfaces, jobs, k, ox, oy, oz, dx, dy, dz, table,
+                                                rec, variant)
             if passed != 0:
                 acc = acc + _one_ray(weight / share, x, y, tx, ty)
     for q in range(9):
