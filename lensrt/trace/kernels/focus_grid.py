@@ -33,6 +33,7 @@ from typing import Any
 import warp as wp
 
 from ..status import OK
+from .boxes import aim_point_ray
 from .surfaces import SymmetricLens, trace_ray
 
 __all__ = ["focus_grid_pass", "focus_grid_pass_symmetric", "focus_sums", "focus_sums_symmetric",
@@ -57,37 +58,10 @@ def _focus_ray(jobs: wp.array2d(dtype=wp.float64), k: int, a: wp.float64, b: wp.
     px = jobs[k, 4] + a * jobs[k, 7] + b * jobs[k, 10]
     py = jobs[k, 5] + a * jobs[k, 8] + b * jobs[k, 11]
     pz = jobs[k, 6] + a * jobs[k, 9] + b * jobs[k, 12]
-    ox = wp.float64(0.0)
-    oy = wp.float64(0.0)
-    oz = wp.float64(0.0)
-    dx = wp.float64(0.0)
-    dy = wp.float64(0.0)
-    dz = wp.float64(0.0)
+    ox, oy, oz, dx, dy, dz, dist = aim_point_ray(jobs[k, 0], jobs[k, 1], jobs[k, 2], jobs[k, 3], px, py, pz,
+                                                 jobs[k, 20])
     weight = wp.float64(1.0)
-    if jobs[k, 0] != wp.float64(0.0):  # collimated beam: the foot of p on the plane through 0 normal to it
-        dx = jobs[k, 1]
-        dy = jobs[k, 2]
-        dz = jobs[k, 3]
-        s = px * dx + py * dy + pz * dz
-        ox = px - s * dx
-        oy = py - s * dy
-        oz = pz - s * dz
-    else:  # from the object point through p, started on the sphere |p - o| = |o|
-        qx = jobs[k, 1]
-        qy = jobs[k, 2]
-        qz = jobs[k, 3]
-        vx = px - qx
-        vy = py - qy
-        vz = pz - qz
-        dist = wp.sqrt(vx * vx + vy * vy + vz * vz)
-        dx = vx / dist
-        dy = vy / dist
-        dz = vz / dist
-        back = ((px * px + py * py + pz * pz) - wp.float64(2.0) * (px * qx + py * qy + pz * qz)) / (dist + jobs[k, 20])
-        ox = px - back * dx
-        oy = py - back * dy
-        oz = pz - back * dz
-        # cos(theta_plane) (dist / rho)^2 x cos(theta_object) (Lambertian), as trace.focus_grids.grid_rays
+    if jobs[k, 0] == wp.float64(0.0):  # cos(theta_plane) (dist / rho)^2 x cos(theta_object), as grid_rays
         ratio = jobs[k, 21] / dist
         weight = (dx * jobs[k, 13] + dy * jobs[k, 14] + dz * jobs[k, 15]) * (ratio * ratio) * dz
     return ox, oy, oz, dx, dy, dz, weight
