@@ -22,7 +22,6 @@ The launches are the same for both: one per grid round, one for the boundary sub
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 from typing import Sequence
 
 import numpy as np
@@ -206,20 +205,10 @@ class DeviceGrids:
 
     def _launch(self, kernel, total: int, head: list, tail: list) -> None:
         """One logical launch of ``total`` threads; on the CPU in slices, one per core (no shared writes)."""
-        from ..core.telemetry import launch
+        from ..core.telemetry import launch_slices
         workers = 1 if self.dev.startswith("cuda") or total < 4096 else max(1, len(os.sched_getaffinity(0)))
         cuts = [total * w // workers for w in range(workers + 1)]
-
-        def run(w: int) -> None:
-            if cuts[w + 1] > cuts[w]:
-                launch(kernel, dim=cuts[w + 1] - cuts[w], device=self.dev, inputs=head + [cuts[w]] + tail,
-                       slice_of=cuts[w])
-
-        if workers == 1:
-            run(0)
-        else:
-            with ThreadPoolExecutor(workers) as pool:
-                list(pool.map(run, range(workers)))
+        launch_slices(kernel, cuts, self.dev, lambda w, start: head + [start] + tail)
 
     def grid(self, active: Sequence[int], boxes: Sequence[PupilBox]) -> dict[int, np.ndarray]:
         """:meth:`HostGrids.grid` in one launch; the cells' weights, positions and slopes stay on the device."""
