@@ -132,14 +132,19 @@ def focus_moments_fields(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, flo
     """
     from ..device import resolve_device
     from .focus_grids import grids_on_device
+    if not (int(n) == n >= 2 and int(sub) == sub >= 1):
+        raise LensrtError(f"a best-focus grid needs n >= 2 cells a side and sub >= 1 sub-rays (got n={n!r}, "
+                          f"sub={sub!r})", hint="the defaults are n=128, sub=8")
     jobs = [(fp, float(w), float(z0)) for fp, w, z0 in jobs]
     dev = resolve_device(device)
     path = grids_on_device(lens, dev, stop_radius_mm, on_device)
     keys = [(lens, fp, w, z0, int(n), int(sub), stop_radius_mm, dev, path) for fp, w, z0 in jobs]
-    missing = list(dict.fromkeys(k for k in keys if not (reuse and k in _KNOWN)))
+    known = {k: _KNOWN.get(k) for k in keys} if reuse else {}  # one look each (another thread may clear it)
+    missing = list(dict.fromkeys(k for k in keys if known.get(k) is None))
     found = dict(zip(missing, _traced_moments(lens, [k[1:4] for k in missing], n, sub, stop_radius_mm, dev,
                                               path))) if missing else {}
-    out = [found[k] if k in found else _KNOWN[k] for k in keys]
+    known.update(found)
+    out = [known[k] for k in keys]
     if reuse and found:
         if len(_KNOWN) + len(found) > _KNOWN_KEPT:
             _KNOWN.clear()

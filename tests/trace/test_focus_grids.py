@@ -135,3 +135,6 @@ def test_general_lenses_take_the_host_path_and_asking_for_the_device_is_one_erro
     assert isinstance(focus_grids(lens, jobs, 16, 2, None, "cpu", on_device=False), HostGrids)
     with pytest.raises(LensrtError, match="rotationally symmetric"):
         focus_grids(curved, jobs, 16, 2, None, "cpu", on_device=True)
+    for n, sub in ((1, 2), (16, 0), (16.5, 2)):
+        with pytest.raises(LensrtError, match="best-focus grid needs"):
+            focus_moments_fields(lens, jobs, n=n, sub=sub, device="cpu")
