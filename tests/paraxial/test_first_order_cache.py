@@ -26,3 +26,18 @@ def test_first_order_is_found_once_and_never_stale() -> None:
     with pytest.raises(LensrtError, match="must be positive"):
         first_order(lens, None, -5.0)
     assert math.isfinite(first_order(lens, 587.56).efl_mm)
+
+
+def test_paraxial_systems_are_kept_read_only_and_equal_to_a_fresh_reduction() -> None:
+    import numpy as np
+    from lensrt.paraxial.ynu import paraxial_system
+    fresh = sys.modules["lensrt.paraxial.ynu"]._paraxial_system
+    lens = load_lens("dgauss_50mm_f2")
+    a = paraxial_system(lens, 486.13)
+    assert paraxial_system(lens, 486.13) is a
+    b = fresh(lens, 486.13)
+    for name in ("curvature_per_mm", "thickness_mm", "index", "power_per_mm"):
+        assert np.array_equal(getattr(a, name), getattr(b, name))
+        with pytest.raises(ValueError):  # a kept system cannot be changed in place by a caller
+            getattr(a, name)[0] = 0.0
+    assert not np.array_equal(paraxial_system(lens, 656.27).index, a.index)
