@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..core.keep import kept
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
@@ -302,17 +303,9 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     try:
         key = (lens, None if wavelength_nm is None else float(wavelength_nm),
                None if object_distance_mm is None else float(object_distance_mm))
-        hit = _KNOWN.get(key)
     except (TypeError, ValueError):  # an unusual argument: computed (and refused) as it is
-        key, hit = None, None
-    if hit is not None:
-        return hit
-    fo = _first_order(lens, wavelength_nm, object_distance_mm)
-    if key is not None:
-        if len(_KNOWN) >= _KNOWN_KEPT:
-            _KNOWN.clear()
-        _KNOWN[key] = fo
-    return fo
+        return _first_order(lens, wavelength_nm, object_distance_mm)
+    return kept(_KNOWN, key, lambda: _first_order(lens, wavelength_nm, object_distance_mm), _KNOWN_KEPT)
 
 
 #: first-order data already found, per (lens, wavelength or None, object distance or None); at most _KNOWN_KEPT

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.keep import kept
 from ..prescription.model import Lens
 
 __all__ = ["ParaxialSystem", "ParaxialRay", "paraxial_system", "trace_ynu", "trace_ynu_reverse"]
@@ -94,20 +95,12 @@ def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialS
     Kept per (lens, wavelength) in this process (first-order data, paraxial chief rays and Seidel sums
     ask for the same ones many times); the arrays of a kept system are read-only."""
     w = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
-    try:
-        key = (lens, w)
-        hit = _KNOWN.get(key)
-    except TypeError:  # a lens that cannot be a key: computed each time
-        key, hit = None, None
-    if hit is not None:
-        return hit
-    sysm = _paraxial_system(lens, w)
-    if key is not None:
-        for a in (sysm.curvature_per_mm, sysm.thickness_mm, sysm.index, sysm.power_per_mm):
-            a.flags.writeable = False
-        if len(_KNOWN) >= _KNOWN_KEPT:
-            _KNOWN.clear()
-        _KNOWN[key] = sysm
+    return kept(_KNOWN, (lens, w), lambda: _read_only(_paraxial_system(lens, w)), _KNOWN_KEPT)
+
+
+def _read_only(sysm: ParaxialSystem) -> ParaxialSystem:
+    for a in (sysm.curvature_per_mm, sysm.thickness_mm, sysm.index, sysm.power_per_mm):
+        a.flags.writeable = False
     return sysm
 
 
