@@ -64,7 +64,8 @@ def test_device_grids_one_plane_finite_object_and_stop_radius(device: str) -> No
     z0 = first_order(lens).image_z_mm
     jobs = [(object_field_point(lens, v), w, z0) for v, w in ((0.0, 486.13), (0.0, 656.27), (120.0, 587.56))]
     kw = dict(n=40, sub=4, stop_radius_mm=7.0, device=device)
-    _same(focus_moments_fields(lens, jobs, on_device=True, **kw), focus_moments_fields(lens, jobs, on_device=False, **kw))
+    _same(focus_moments_fields(lens, jobs, on_device=True, **kw),
+          focus_moments_fields(lens, jobs, on_device=False, **kw))
 
 
 def test_device_grids_cut_away_a_disconnected_ring_as_the_host_does() -> None:
@@ -82,7 +83,8 @@ def test_device_grids_cut_away_a_disconnected_ring_as_the_host_does() -> None:
     from scipy import ndimage
     assert ndimage.label(ok_dev, structure=np.ones((3, 3)))[1] > 1  # the ring is there, apart from the pupil
     kw = dict(n=64, sub=4, device="cpu")
-    _same(focus_moments_fields(wide, jobs, on_device=True, **kw), focus_moments_fields(wide, jobs, on_device=False, **kw))
+    _same(focus_moments_fields(wide, jobs, on_device=True, **kw),
+          focus_moments_fields(wide, jobs, on_device=False, **kw))
 
 
 def test_device_grids_are_reproducible_and_launch_as_the_host_path() -> None:
