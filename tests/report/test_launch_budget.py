@@ -141,7 +141,8 @@ def test_ray_fraction_scales_the_monte_carlo_counts_only():
 #: boxes and chief rays of the 9 fields, 7 + 5, their wavefronts in one round of 2 traces, then the geometric
 #: fields' pilot grids and one stream, 4; the wavefront-error table: its own pupil boxes and chief rays, 7, the
 #: wavefronts' chief rays traced, 1 (aimed above), and one round of 2 traces; was 96, each field on its own),
-#: bokeh 48 (the map's streams and pupil boxes 20; the chief-ray secant of the sources' object heights 28): 188 -- the issue's <= 200.
+#: bokeh 48 (the map's streams and pupil boxes 20; the chief-ray secant of the sources' object heights 28):
+#: 188 -- the issue's <= 200.
 REPORT_LAUNCH_BUDGET = 200
 
 _REPORT_LAUNCHES = """
