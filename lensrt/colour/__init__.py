@@ -11,6 +11,7 @@ The only package that reads colour-science's tables; it imports nothing of lensr
 - rgb          XYZ <-> linear sRGB, the sRGB transfer curves, CIELAB of sRGB colours
 - reflectance  RGB -> spectral reflectance (Mallett-Yuksel 2019 basis)
 - charts       ColorChecker patch names and reflectances
+- datacache    colour-science's tables on disk per colour-science version (no colour-science import)
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from .illuminants import (ILLUMINANT_SYNTAX, Illuminant, cie_illuminant, dayligh
 from .photometry import (illuminance_lux, integrate, luminous_value, reflectance_to_xyz, scale_to_luminous,
                          spectral_to_xyz)
 from .reflectance import linear_rgb_to_reflectance, mallett2019_basis
-from .rgb import (linear_srgb_to_lab, linear_srgb_to_xyz, srgb_decode, srgb_encode, srgb_matrices,
+from .rgb import (linear_srgb_to_lab, linear_srgb_to_xyz, srgb_decode, srgb_encode, srgb_encode8, srgb_matrices,
                   srgb_matrix_for_white, srgb_white_xy, xyz_to_linear_srgb)
 from .wavelengths import (DEFAULT_GRID, STANDARD_WAVELENGTHS_NM, WavelengthGrid, as_wavelengths_nm, sd_at,
                           tabulated_at)
@@ -31,7 +32,7 @@ __all__ = ["CHART", "chart_names", "colorchecker_names", "colorchecker_reflectan
            "illuminant_names", "lines", "parse_illuminant", "planck", "planck_radiance", "spectrum", "tabulated",
            "illuminance_lux", "integrate", "luminous_value", "reflectance_to_xyz", "scale_to_luminous",
            "spectral_to_xyz", "linear_rgb_to_reflectance", "mallett2019_basis", "linear_srgb_to_lab",
-           "linear_srgb_to_xyz", "srgb_decode", "srgb_encode", "srgb_matrices", "srgb_matrix_for_white",
+           "linear_srgb_to_xyz", "srgb_decode", "srgb_encode", "srgb_encode8", "srgb_matrices", "srgb_matrix_for_white",
            "srgb_white_xy",
            "xyz_to_linear_srgb", "DEFAULT_GRID", "STANDARD_WAVELENGTHS_NM", "WavelengthGrid", "as_wavelengths_nm",
            "sd_at", "tabulated_at"]

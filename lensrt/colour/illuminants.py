@@ -33,6 +33,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import LensrtDeprecationWarning, LensrtError
+from .datacache import cached_tables
 from .wavelengths import WavelengthGrid, as_wavelengths_nm, tabulated_at
 
 __all__ = ["Illuminant", "parse_illuminant", "spectrum", "illuminant_names", "cie_illuminant", "planck",
@@ -128,11 +129,20 @@ class Illuminant:
         return v / top
 
 
+def _cie_tables() -> dict[str, np.ndarray]:
+    """colour-science's CIE illuminants: ``names``, and ``nm<i>`` / ``values<i>`` of the i-th name's table."""
+    import colour
+    out = {"names": np.array(list(colour.SDS_ILLUMINANTS.keys()))}
+    for i, sd in enumerate(colour.SDS_ILLUMINANTS.values()):
+        out[f"nm{i}"] = np.asarray(sd.wavelengths, dtype=np.float64)
+        out[f"values{i}"] = np.asarray(sd.values, dtype=np.float64)
+    return out
+
+
 @lru_cache(maxsize=1)
 def illuminant_names() -> tuple[str, ...]:
     """Names of the CIE illuminants colour-science ships (D65, A, FL1-FL12, LED-B1 ..., HP1 ...)."""
-    import colour
-    return tuple(colour.SDS_ILLUMINANTS.keys())
+    return tuple(str(n) for n in cached_tables("cie_illuminants", _cie_tables)["names"])
 
 
 def planck_radiance(kelvin: float, where: WavelengthGrid | np.ndarray) -> np.ndarray:
@@ -146,7 +156,6 @@ def planck_radiance(kelvin: float, where: WavelengthGrid | np.ndarray) -> np.nda
 
 def cie_illuminant(name: str) -> Illuminant:
     """A CIE illuminant colour-science ships, by name (case-insensitive; ``F2`` is ``FL2``)."""
-    import colour
     key = name.strip()
     if re.fullmatch(r"[Ff]([1-9]|1[0-2])", key):
         key = "FL" + key[1:]
@@ -156,9 +165,9 @@ def cie_illuminant(name: str) -> Illuminant:
         raise LensrtError(f"unknown illuminant {name!r}",
                           hint=("did you mean " + ", ".join(close) + "? " if close else "")
                           + "use " + ILLUMINANT_SYNTAX)
-    sd = colour.SDS_ILLUMINANTS[match[0]]
-    return Illuminant(match[0], "cie", table_nm=np.asarray(sd.wavelengths, dtype=np.float64),
-                      table_values=np.asarray(sd.values, dtype=np.float64))
+    i = illuminant_names().index(match[0])
+    t = cached_tables("cie_illuminants", _cie_tables)
+    return Illuminant(match[0], "cie", table_nm=t[f"nm{i}"].copy(), table_values=t[f"values{i}"].copy())
 
 
 def planck(kelvin: float) -> Illuminant:

@@ -86,16 +86,30 @@ def camera_response(name: str = "nikon_d5100") -> SpectralResponse:
         A key of :data:`CAMERA_DATASETS` (``nikon_d5100``, ``sigma_sd_merrill``) or
         colour-science's own name (``"Nikon 5100 (NPL)"``).
     """
-    import colour
+    from ..colour.datacache import cached_tables
     full = CAMERA_DATASETS.get(name, name)
-    if full not in colour.MSDS_CAMERA_SENSITIVITIES:
+    t = cached_tables("camera_sensitivities", _camera_tables)
+    names = [str(n) for n in t["names"]]
+    hits = [i for i, n in enumerate(names) if n == full] or [i for i, n in enumerate(names)
+                                                             if n.lower() == str(full).lower()]
+    if not hits:
         raise LensrtError(f"unknown camera sensitivity set {name!r}",
                           hint=f"use one of {sorted(CAMERA_DATASETS)} or a CSV/JSON file")
-    msds = colour.MSDS_CAMERA_SENSITIVITIES[full]
-    values = np.asarray(msds.values, dtype=np.float64)
-    values = np.clip(values, 0.0, None) / values.max(axis=0)
-    return SpectralResponse(np.asarray(msds.wavelengths, dtype=np.float64), values,
+    i = hits[0]
+    values = np.clip(t[f"values{i}"], 0.0, None) / t[f"values{i}"].max(axis=0)
+    return SpectralResponse(t[f"nm{i}"].copy(), values,
                             source=f"colour-science MSDS_CAMERA_SENSITIVITIES[{full!r}]")
+
+
+def _camera_tables() -> dict[str, np.ndarray]:
+    """colour-science's camera sensitivities: ``names``; per set i ``nm<i>`` and the (n, 3) ``values<i>``
+    (kept on disk per colour-science version by :func:`lensrt.colour.datacache.cached_tables`)."""
+    import colour
+    out = {"names": np.array(list(colour.MSDS_CAMERA_SENSITIVITIES))}
+    for i, msds in enumerate(colour.MSDS_CAMERA_SENSITIVITIES.values()):
+        out[f"nm{i}"] = np.asarray(msds.wavelengths, dtype=np.float64)
+        out[f"values{i}"] = np.asarray(msds.values, dtype=np.float64)
+    return out
 
 
 def load_response(path: str | Path, absolute: bool = False) -> SpectralResponse:

@@ -28,7 +28,7 @@ from .aiming import AIM_MODES, aim_many, field_point, pupil_geometry
 from .kernels import RAY_IN_COLS, RAY_OUT_COLS, get_kernels, lens_variant
 from .pack import pack_lens
 from .status import GRAZING_COS, OK, count_statuses
-from .specialised import DEFAULT_TUNING, GPU_TUNING, store_kernel
+from .specialised import DEFAULT_TUNING, GPU_TUNING, ready, store_kernel
 from .kernels import N_RECORD
 from .variants import choose_kernel, params, shape_and_constants
 from ..core.telemetry import download, launch, upload
@@ -123,6 +123,23 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
+_PLACEHOLDERS: dict = {}
+
+
+def _placeholder(device: str, real, ndim: int):
+    """A zero array of one element per (device, dtype, ndim), shared by every call: the store kernels take
+    an index table and a record array they only read (the table with row -1 never; records only with
+    ``record=True``, which gets its own array), so none is allocated and cleared per call."""
+    key = (device, real, ndim)
+    arr = _PLACEHOLDERS.get(key)
+    if arr is None:
+        from ..device import warp
+        wp = warp()
+        arr = wp.zeros((1, 1, N_RECORD) if ndim == 3 else (1, 1), dtype=real, device=device)
+        _PLACEHOLDERS[key] = arr
+    return arr
+
+
 def _check_wavelengths(wavelength_nm: np.ndarray) -> None:
     if not np.all(np.isfinite(wavelength_nm)) or np.any(wavelength_nm < 200.0) or np.any(wavelength_nm > 20000.0):
         raise LensrtError("ray wavelengths must lie within 200..20000 nm")
@@ -178,13 +195,14 @@ def trace(lens: Lens, rays: RayBatch, precision: str = "float64", device: str | 
     out = wp.empty((n, RAY_OUT_COLS), dtype=real, device=dev)
     status = wp.empty(n, dtype=wp.int32, device=dev)
     surface = wp.empty(n, dtype=wp.int32, device=dev)
-    rec = wp.zeros((n, end + 1, N_RECORD) if record else (1, 1, N_RECORD), dtype=real, device=dev)
-    table = wp.zeros((1, 1), dtype=real, device=dev)
+    rec = wp.zeros((n, end + 1, N_RECORD), dtype=real, device=dev) if record else _placeholder(dev, real, 3)
+    table = _placeholder(dev, real, 2)
     shape, consts = shape_and_constants(packed, clip)
     variant = choose_kernel(kernel, dev, shape, n, possible=end == n_surf and not record)
     store, _, lens_arg = lens_variant(k, packed.general)
     if variant == "specialised":
         sk = store_kernel(precision, shape, GPU_TUNING[precision] if dev.startswith("cuda") else DEFAULT_TUNING)
+        ready(sk, dev)
         common = [params(sk, consts, dev), arr, real(plane_dz), table]
     else:
         common = [packed.surf, packed.media, packed.iris, n_surf, arr, end, int(clip), real(plane_dz), int(record),

@@ -32,7 +32,7 @@ from ..prescription.model import Iris, Lens
 from ..prescription.frames import surface_frames
 from .aiming import FieldPoint, aim_frames, pupil_geometry, rays_through_points
 
-__all__ = ["PupilBox", "pupil_box", "pupil_boxes", "box_wavelengths"]
+__all__ = ["PupilBox", "pupil_box", "pupil_boxes", "box_wavelengths", "coarse_grid"]
 
 #: most rays one grid pass traces at once (its wavelengths are split into traces of at most this many)
 _MAX_PASS_RAYS = 1 << 22
@@ -229,6 +229,27 @@ def _shrink(box: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell: np.ndarray) -
     return out
 
 
+def _coarse_for(lens: Lens, box1: np.ndarray, coarse: int, min_cells_across_pupil: int) -> int:
+    """``coarse``, raised (up to 128) until the widest surface-1 box has ``min_cells_across_pupil`` cells
+    across the paraxial entrance pupil's diameter."""
+    if not min_cells_across_pupil:
+        return int(coarse)
+    width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
+    need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
+    return max(int(coarse), min(128, need))
+
+
+def coarse_grid(lens: Lens, fields, coarse: int = 128, min_cells_across_pupil: int = 0) -> int:
+    """The coarse grid :func:`pupil_boxes` would use for all of ``fields`` together: a caller that splits
+    the field points into several calls passes it as ``coarse`` to each, so that every call uses the same
+    grid (the boxes then do not depend on the split)."""
+    fps = _as_field_points(fields)
+    if not fps or not min_cells_across_pupil:
+        return int(coarse)
+    c, w, e1, e2 = aim_frames(fps, pupil_geometry(lens))
+    return _coarse_for(lens, _surface1_boxes(lens, fps, c, w, e1, e2), coarse, min_cells_across_pupil)
+
+
 def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = None, *,
                 plane_z_mm: float | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
                 device: str | None = None, coarse: int = 128, fine: int = 64, min_cells_across_pupil: int = 0,
@@ -274,10 +295,7 @@ def pupil_boxes(lens: Lens, fields, wavelengths_nm: Sequence[float] | None = Non
     c, w, e1, e2 = aim_frames(fps, pupil_geometry(lens))
     kw = {"iris": iris, "stop_radius_mm": stop_radius_mm}
     box1 = _surface1_boxes(lens, fps, c, w, e1, e2)
-    if min_cells_across_pupil:
-        width = float(np.max(np.maximum(box1[:, 1] - box1[:, 0], box1[:, 3] - box1[:, 2])))
-        need = math.ceil(min_cells_across_pupil * width / (2.0 * pupil_geometry(lens).ep_radius_mm))
-        coarse = max(coarse, min(128, need))
+    coarse = _coarse_for(lens, box1, coarse, min_cells_across_pupil)
     fw = None if field_wavelengths_nm is None else np.asarray(field_wavelengths_nm, dtype=np.float64)
     if fw is not None and fw.shape != (len(fps),):
         raise LensrtError(f"field_wavelengths_nm has {fw.size} values for {len(fps)} field points",

@@ -19,6 +19,7 @@ position in the vector (static offsets for the kernel generator) and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -229,9 +230,11 @@ def constants(shape: LensShape, surf: np.ndarray, media: np.ndarray, iris_row: n
     return v
 
 
+@lru_cache(maxsize=256)
 def specialisable(shape: LensShape) -> bool:
     """False for shapes the generator leaves to the generic kernel (too many constants or blades,
-    mirrors or coordinate transforms, ideal paraxial lenses, surface kinds beyond the even asphere)."""
+    mirrors or coordinate transforms, ideal paraxial lenses, surface kinds beyond the even asphere); memoised,
+    as every trace call asks."""
     return (not shape.geometry and not shape.ideal and not shape.shapes and shape.blades <= MAX_BLADES_UNROLLED
             and Layout(shape).size <= MAX_CONSTANTS)
 

@@ -29,7 +29,8 @@ only where the result is unchanged to rounding:
 * per-slot ray counts are int32 (a slot never holds 2^31 rays).
 
 Kernels are built on first use of a (precision, shape, options) key and cached
-in-process (``lru_cache``) and on disk (Warp's module cache, by content hash);
+in-process (``lru_cache``) and on disk (a folder keyed by lensrt's sources and Warp, loaded
+without Warp's code generation: :func:`ready`, :mod:`.kernel_cache`);
 :func:`lensrt.trace.stream.stream` and :func:`lensrt.trace.api.trace` choose
 between them and the generic kernels (``kernel="auto"``; see there).
 """
@@ -47,7 +48,8 @@ from .shape import ASPHERE, CONIC, IRIS_NONE, IRIS_POLYGON, PLANE, SPHERE, Layou
 from .status import INVALID, MISSED, NO_CONVERGE, OK, TIR, VIGNETTED
 from .reference import NEWTON_MAX_ITER
 
-__all__ = ["StreamOptions", "Tuning", "DEFAULT_TUNING", "GPU_TUNING", "stream_kernel", "store_kernel", "module_tag"]
+__all__ = ["StreamOptions", "Tuning", "DEFAULT_TUNING", "GPU_TUNING", "stream_kernel", "store_kernel", "module_tag",
+           "ready"]
 
 
 @dataclass(frozen=True)
@@ -436,8 +438,7 @@ def store_kernel(precision: str, shape: LensShape, tuning: Tuning = DEFAULT_TUNI
 
     assert RAY_OUT_COLS == 8
     return SimpleNamespace(kernel=trace_store_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
-                           layout=lay,
-                           trace_fast=trace_fast)
+                           layout=lay, trace_fast=trace_fast, key=repr(("store", precision, shape, tuning)))
 
 
 def _fast_samples(wp, real, module: str, sampler: int):
@@ -527,4 +528,12 @@ def stream_kernel(precision: str, shape: LensShape, opts: StreamOptions,
         sb.store_slot(stats, counts, tid, sums)
 
     return SimpleNamespace(kernel=trace_stream_fast, Consts=Consts, consts_mode=tuning.consts, module=mod, real=real,
-                           layout=lay, trace_fast=trace_fast)
+                           layout=lay, trace_fast=trace_fast, key=repr(("stream", precision, shape, opts, tuning)))
+
+
+def ready(kernels: SimpleNamespace, device: str) -> str:
+    """Load the module of a :func:`store_kernel` / :func:`stream_kernel` on ``device`` before its first launch,
+    from lensrt's keyed folder without Warp's code generation where it can (:mod:`.kernel_cache`); returns how
+    (``"cached"``, ``"compiled"`` or ``"warp"``)."""
+    from .kernel_cache import load_module
+    return load_module(kernels.module, kernels.key, device)

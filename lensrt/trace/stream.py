@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -51,7 +51,7 @@ from .pupil_boxes import PupilBox, box_wavelengths, pupil_box, pupil_boxes
 from .pack import index_table, pack_lens
 from .sampling import SPECTRUM_DISCRETE, Spectrum, sampler_code, spectrum_discrete
 from .shape import describe
-from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, stream_kernel
+from .specialised import DEFAULT_TUNING, GPU_TUNING, StreamOptions, ready, stream_kernel
 from ..core.telemetry import download
 from .stream_launch import LAUNCH_SLOTS, SLOT_MIN_RAYS, SLOTS_MAX, device_tables, launch_all, plan_slots, slot_layout
 from .variants import choose_kernel, params, shape_and_constants
@@ -219,12 +219,13 @@ class StreamResult:
         b["centre_mm"])`` with ``b = self.bins(source)`` (square bins; the trace stage does not
         import the analysis stage): ``lensrt.analysis.psf.geometric.psf_from_stream`` does both.
         Needs ``batch_histograms=True`` and one source per layer; rows run top-down (+y up)
-        as the analysis grids do.
+        as the analysis grids do (``hist`` is None when they were kept on the device).
         """
-        if self.batch_histograms is None:
+        on_device = "device_histograms" in self.extra
+        if self.batch_histograms is None and not on_device:
             raise LensrtError("psf_inputs needs a stream run with batch_histograms=True")
         layer = int(self.extra.get("layers_of_sources", list(range(len(self.pupil_area_mm2))))[source])
-        hist = self.batch_histograms[layer, :, channel, ::-1, :]
+        hist = None if on_device else self.batch_histograms[layer, :, channel, ::-1, :]
         return {"hist": hist, "moment_sums": self.moment_sums(source), "off_grid": self.off_grid_weight(source),
                 "reference_mm": tuple(float(v) for v in self.centre_mm[source]),
                 "samples": self.rays_per_source, "seconds": self.seconds,
@@ -368,7 +369,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
            device: str | None = None, iris: Iris | None = None, stop_radius_mm: float | None = None,
            clip: bool = True, rays_per_launch: int | None = None, threads_per_batch: int | None = None,
            replicas: int | None = None, cpu_workers: int | None = None,
-           device_reduce: bool | None = None, batch_histograms: bool = False, kernel: str = "auto",
+           device_reduce: bool | None = None, batch_histograms: bool | str = False, kernel: str = "auto",
            histogram: bool = True) -> StreamResult:
     """Trace ``rays_per_source`` Monte Carlo rays from each source and bin them (module docstring).
 
@@ -409,9 +410,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
         CPU cores this process may use); results do not depend on it.
     device_reduce : bool, optional
         Ignored (kept for compatibility): the slots are always added on the device, in slot order.
-    batch_histograms : bool
+    batch_histograms : bool or 'device'
         Keep one histogram per batch (``StreamResult.batch_histograms``, for per-pixel standard
-        errors); memory grows by the number of batches.
+        errors); memory grows by the number of batches. ``'device'``: not downloaded -- see :func:`_histograms`.
     kernel : {'auto', 'generic', 'specialised'}
         Kernel variant (:mod:`lensrt.trace.variants`); ``extra["kernel"]`` says which ran.
     histogram : bool
@@ -427,10 +428,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     from ..device import warp
     wp = warp()
     t_call = time.perf_counter()
-    if not sources:
-        raise LensrtError("a stream needs at least one source")
-    if batches < 2:
-        raise LensrtError("a stream needs at least 2 batches (for the standard error)")
+    _check_call(sources, batches, batch_histograms)
     code = sampler_code(sampler)
     packed = pack_lens(lens, precision, device, iris, stop_radius_mm)
     dev, k = packed.device, get_kernels(precision)
@@ -445,8 +443,9 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     chan_mode, chan, nm0, dnm = _channel_table(channels)
     _check_grid(grid, sources)
     plan = plan_slots(S, B, n_b, grid.nx * grid.ny, max(s.layer for s in sources) + 1, chan.shape[0],
-                      dev.startswith("cuda"), batch_histograms=batch_histograms, threads_per_batch=threads_per_batch,
-                      replicas=replicas, cpu_workers=cpu_workers, rays_per_launch=rays_per_launch)
+                      dev.startswith("cuda"), batch_histograms=bool(batch_histograms),
+                      threads_per_batch=threads_per_batch, replicas=replicas, cpu_workers=cpu_workers,
+                      rays_per_launch=rays_per_launch)
     src_int, seeds = _source_ints(sources, seed, spec_off, spec_n)
     t = device_tables(wp, dev, precision, plan, _source_rows(lens, sources, grid), src_int, nm, cdf, table, chan)
     use_table = int(mode == SPECTRUM_DISCRETE)
@@ -454,6 +453,7 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
     if variant == "specialised":
         spec = stream_kernel(precision, shape, StreamOptions(code, bool(use_table), chan_mode == 1, bool(histogram)),
                              GPU_TUNING[precision] if plan.is_gpu else DEFAULT_TUNING)
+        ready(spec, dev)
         kern, after = spec.kernel, []
         head = [params(spec, consts, dev), t.src, t.src_int, t.spec_nm, t.spec_cdf, t.table] + chan_args
     else:
@@ -463,10 +463,8 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
                 t.spec_cdf, use_table, t.table, chan_mode] + chan_args + [code]
     out, launches, kernel_seconds = launch_all(wp, dev, plan, t, grid.nx, grid.ny, strata(n_b, spectra), kern,
                                                head, after, k.fold_slots, k.sum_replicas)
-    h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
-    if not histogram:
-        h[...] = 0
     unit = 1.0 / float(2**FIXED_POINT_BITS)  # a power of two: the float64 values are exact
+    h = _histograms(out, plan, grid, batch_histograms == "device", histogram)
     extra = {"threads_per_batch": plan.n_slots, "slot_rays": plan.slot_rays, "replicas": plan.replicas,
              "cpu_workers": 1 if plan.is_gpu else plan.replicas, "kernel": variant, "shape": describe(shape),
              "layers_of_sources": [s.layer for s in sources], "stat_names": STAT_NAMES,
@@ -474,12 +472,43 @@ def stream(lens: Lens, sources: Sequence[StreamSource], grid: Grid, rays_per_sou
              "spectrum_totals": [spectra[s.spectrum].total * 1.0 for s in sources]}
     if any(s.pixel_mm is not None for s in sources):
         extra["pixel_mm"] = [_pixel_of(s, grid) for s in sources]
+    if batch_histograms == "device":
+        extra["device_histograms"] = dict(array=out, shape=h.shape[:3] + (grid.ny, grid.nx), unit=unit)
     return StreamResult((h.sum(axis=1) if plan.hb > 1 else h[:, 0]) * unit, n_b * B, B,
                         download(t.tot_stats).reshape(S, B, N_STATS), download(t.tot_counts).reshape(S, B, N_COUNTS),
                         np.array([s.box.area_mm2 for s in sources]), spectra[0].total,
                         np.array([s.centre_mm for s in sources], dtype=np.float64), grid,
                         time.perf_counter() - t_call, precision, dev, sampler, int(seed), launches,
-                        h * unit if batch_histograms else None, extra)
+                        h * unit if (batch_histograms and batch_histograms != "device") else None, extra)
+
+
+def _check_call(sources: Sequence[StreamSource], batches: int, batch_histograms: bool | str) -> None:
+    """The errors of a bad :func:`stream` call (no source, fewer than 2 batches, an unknown ``batch_histograms``)."""
+    if not sources:
+        raise LensrtError("a stream needs at least one source")
+    if batches < 2:
+        raise LensrtError("a stream needs at least 2 batches (for the standard error)")
+    _check_keep(batch_histograms)
+
+
+def _check_keep(batch_histograms: bool | str) -> None:
+    if batch_histograms not in (True, False, "device"):
+        raise LensrtError(f"batch_histograms={batch_histograms!r} is not one of True, False, 'device'")
+
+
+def _histograms(out: Any, plan: Any, grid: Grid, on_device: bool, histogram: bool) -> np.ndarray:
+    """The histogram array downloaded (layers, batches, channels, ny, nx), zeroed without ``histogram``.
+
+    ``stream(..., batch_histograms="device")`` (``on_device``): the per-batch histograms are not downloaded
+    (analyses that run on the device read them, :mod:`lensrt.analysis.psf.device_sums`):
+    ``extra["device_histograms"]`` holds the flat int64 Warp array (layers, batches, channels, ny, nx; row
+    0 = lowest y), its ``shape`` and the fixed-point ``unit``; the result's ``histogram`` is empty."""
+    if on_device:
+        return np.zeros((plan.layers, plan.hb, plan.n_chan, 0, 0), dtype=np.int64)
+    h = download(out).reshape(plan.layers, plan.hb, plan.n_chan, grid.ny, grid.nx)
+    if not histogram:
+        h[...] = 0
+    return h
 
 
 def _spectra_of(lens: Lens, spectrum: Spectrum | Sequence[Spectrum] | None,

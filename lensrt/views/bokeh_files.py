@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from ..colour import srgb_encode, xyz_to_linear_srgb
+from ..colour import srgb_encode8, xyz_to_linear_srgb
 
 __all__ = ["xyz_to_srgb8", "auto_exposure", "write_bokeh_files", "read_bokeh_exr"]
 
@@ -38,8 +38,7 @@ def xyz_to_srgb8(xyz: np.ndarray, exposure: float | None = None) -> tuple[np.nda
     """(rows, cols, 3) XYZ -> (uint8 sRGB image, the exposure multiplier used)."""
     k = auto_exposure(xyz[..., 1]) if exposure is None else float(exposure)
     rgb = xyz_to_linear_srgb(np.asarray(xyz, dtype=np.float64) * k)
-    enc = srgb_encode(np.clip(rgb, 0.0, 1.0))
-    return (enc * 255.0 + 0.5).astype(np.uint8), k
+    return srgb_encode8(rgb), k
 
 
 def _meta(image: Any, exposure: float) -> dict[str, Any]:

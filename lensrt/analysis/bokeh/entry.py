@@ -52,7 +52,7 @@ from .trace import Frame, pupil_boxes, stream_windows
 __all__ = ["Focus", "focus_lens", "BlurPrediction", "gaussian_blur", "BokehImage", "bokeh_spot", "bokeh_map",
            "SpotPlan", "prepare_spot",
            "map_sources", "spot_source", "sensor_frame", "stop_radius_for_f_number", "Frame", "INTENSITY_SCALINGS",
-           "near_far_depths_mm", "bokeh_near_far"]
+           "near_far_depths_mm", "bokeh_near_far", "default_sources_per_item", "ONE_DEVICE_ITEM_SOURCES"]
 
 #: a spot keeps per-batch XYZ histograms only while they fit in this many bytes
 _BATCH_HIST_LIMIT_BYTES = 1 << 30
@@ -171,13 +171,15 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
               light: str = "D65", intensity_cd: float = 1.0, intensity_scaling: str = "distance2",
               rays: int = 1_000_000, iris: Iris | None = None, stop_radius_mm: float | None = None,
               sampler: str = "sobol", seed: int = 0, batches: int = 32, precision: str = "float32", executor=None,
-              device: str | None = None, sources_per_item: int = 32, progress=None,
+              device: str | None = None, sources_per_item: int | None = None, progress=None,
               target_error: float | None = None) -> BokehImage:
     """A bokeh map: point sources on a ``grid`` (cols, rows) over the sensor at each depth, in one
     image of ``pixels`` on a sensor of ``sensor_mm`` (see :func:`map_sources`).
 
     Runs as a :class:`lensrt.parallel.Job` on ``executor`` (default: this process on
-    ``device``); the image is the same for any number of devices. The noise level is the
+    ``device``); the image is the same for any number of devices and any ``sources_per_item``
+    (default: :func:`default_sources_per_item` -- on one local device as few items as fit, elsewhere 32
+    sources per item). The noise level is the
     Poisson estimate (batch histograms of a full frame would cost batches x its memory).
     ``target_error``: add rays (doubling rounds, ``rays`` the cap) until every source's RMS
     relative standard error of Y over its disc is at most this.
@@ -196,8 +198,9 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
     t_place = time.perf_counter() - t0
     setup = BokehSetup(lens, focus, frame, light, intensity_cd, iris, stop_radius_mm, int(rays), sampler,
                        batches, precision, False, target_error=target_error)
-    job = bokeh_job(setup, sources, seed, sources_per_item)
     ex = LocalExecutor(device) if executor is None else executor
+    per_item = default_sources_per_item(len(sources), ex) if sources_per_item is None else sources_per_item
+    job = bokeh_job(setup, sources, seed, per_item)
     result = ex.run(job, progress=progress)
     img: BokehImage = result.value
     img.seconds = time.perf_counter() - t0
@@ -205,6 +208,23 @@ def bokeh_map(lens: Lens, focus: Focus, *, grid: tuple[int, int] = (15, 10), dep
     img.timing.update({"placement_seconds": t_place, "job_seconds": result.seconds,
                        "executor": result.executor, "devices": list(result.devices)})
     return img
+
+
+#: most sources in one work item of a map on one local device: each item is one pupil-box search and one
+#: stream call for all its sources, and the reduction holds its windows until it pastes them
+ONE_DEVICE_ITEM_SOURCES = 128
+
+
+def default_sources_per_item(n_sources: int, executor) -> int:
+    """Sources per work item of a map: on a :class:`lensrt.parallel.LocalExecutor` of one device as few
+    items as hold at most :data:`ONE_DEVICE_ITEM_SOURCES` sources each, split evenly (items there run one
+    after another, and each costs its own launches and set-up); with several devices, processes or a
+    cluster 32, so that every worker gets several items."""
+    from ...parallel import LocalExecutor
+    if isinstance(executor, LocalExecutor) and len(executor.devices) == 1:
+        items = max(1, -(-int(n_sources) // ONE_DEVICE_ITEM_SOURCES))
+        return max(1, -(-int(n_sources) // items))
+    return 32
 
 
 def near_far_depths_mm(focus_distance_mm: float, far_factor: float = 20.0) -> tuple[float, float]:

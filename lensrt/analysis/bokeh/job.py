@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -21,7 +21,11 @@ from ...errors import LensrtError
 from ...prescription.model import Iris, Lens
 from .trace import Frame, pupil_boxes, stream_windows
 
-__all__ = ["BokehSetup", "bokeh_job", "bokeh_map_workload", "WORKLOAD_PRESETS"]
+__all__ = ["BokehSetup", "bokeh_job", "bokeh_map_workload", "WORKLOAD_PRESETS", "MIN_CELLS_ACROSS_PUPIL"]
+
+#: a map's coarse pupil-box grid has at least this many cells across the paraxial entrance pupil (up to
+#: 128 per side): a front element much wider than the pupil (wide angles, fisheyes) gets a finer grid
+MIN_CELLS_ACROSS_PUPIL = 16
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,8 @@ def _run(item, prepared: dict, device: str) -> dict:
     t0 = time.perf_counter()
     boxes, foot = pupil_boxes(setup.lens, obj, box_wavelengths(setup, light), setup.focus.sensor_z_mm,
                               iris=setup.iris, stop_radius_mm=setup.stop_radius_mm, device=device,
-                              coarse=setup.box_grid[0], fine=setup.box_grid[1], min_cells_across_pupil=16)
+                              coarse=setup.box_grid[0], fine=setup.box_grid[1],
+                              min_cells_across_pupil=MIN_CELLS_ACROSS_PUPIL)
     t_box = time.perf_counter() - t0
     outs = stream_windows(setup.lens, obj, boxes, foot, setup.frame, setup.focus.sensor_z_mm, light,
                           setup.rays_per_source, intensity_cd=item.params["intensity_cd"], iris=setup.iris,
@@ -160,9 +165,15 @@ def bokeh_job(setup: BokehSetup, sources: Sequence[dict], seed: int = 0, sources
     ``sources_per_item`` and any number of devices or workers of one kind (fixed ray counts).
     """
     from ...parallel import Job, make_items
+    from ...trace.pupil_boxes import coarse_grid
     if not sources:
         raise LensrtError("a bokeh image needs at least one source")
     n = max(1, int(sources_per_item))
+    # one coarse pupil-box grid for all the sources, whatever items they fall in (the boxes do not depend on
+    # the chunking)
+    obj = np.array([s["object_mm"] for s in sources], dtype=np.float64)
+    setup = replace(setup, box_grid=(coarse_grid(setup.lens, obj, setup.box_grid[0], MIN_CELLS_ACROSS_PUPIL),
+                                     setup.box_grid[1]))
     params = [{"first": i, "seed": int(seed),
                "object_mm": [[float(v) for v in s["object_mm"]] for s in sources[i:i + n]],
                "intensity_cd": [float(s.get("intensity_cd", setup.intensity_cd)) for s in sources[i:i + n]]}

@@ -1,18 +1,18 @@
 """Bokeh sources through the real lens: placement by the real chief ray, pupil boxes, windows, streaming.
 
 Used by :mod:`lensrt.analysis.bokeh.entry`; everything here works on many sources at
-once (vectorised float64 host work and batched store-kernel traces), so that a
-map of hundreds of sources costs a handful of kernel launches before the
-stream launch.
+once (kernels over all sources, vectorised float64 host work), so that a map of
+hundreds of sources costs a handful of kernel launches before the stream launch.
 
 * :func:`object_heights_for_image` -- where to put a point source at depth s
   so that its real chief ray (through the centre of the real stop, primary
   wavelength) meets the sensor plane at a given height: Newton on the aim
   point for the chief ray inside a secant iteration on the object height
   (steps into heights that have no chief ray are halved back toward the axis:
-  strongly distorting lenses), vectorised over heights and depths. A
-  rotationally symmetric lens maps azimuths one to one, so one radial solve
-  serves every azimuth.
+  strongly distorting lenses), for every height and depth in one kernel
+  launch (one thread each; general lenses: on the host, a batched trace per
+  step). A rotationally symmetric lens maps azimuths one to one, so one
+  radial solve serves every azimuth.
 * :func:`pupil_boxes` -- the box of each source's *real* (vignetted) entrance
   pupil and its *footprint* on the sensor plane (the bounding box of its blur
   spot): :func:`lensrt.trace.stream.pupil_boxes` (maps use grids of 64 and 48;
@@ -47,12 +47,17 @@ from ...prescription.model import Iris, Lens
 from ...units import MM_PER_M
 
 __all__ = ["Frame", "object_heights_for_image", "pupil_boxes", "stream_windows", "SourceOut",
-           "WINDOW_MARGIN", "DISC_THRESHOLD", "disc_noise", "disc_noise_rms"]
+           "WINDOW_MARGIN", "DISC_THRESHOLD", "GROUP_HIST_BYTES", "disc_noise", "disc_noise_rms", "stream_estimates",
+           "percentile99"]
 
 #: windows extend the traced footprint by this fraction of its size on every side (plus 2 px)
 WINDOW_MARGIN = 0.04
 #: "in the disc": pixels at or above this fraction of the 99th percentile of the source's lit pixels
 DISC_THRESHOLD = 0.1
+#: most bytes of one stream launch group's histogram: a GPU then keeps at least 8 histogram replicas against
+#: atomic contention (``LENSRT_REPLICA_MB``, 256 MiB, over this), as work items of 32 sources had when a map
+#: on one device ran several; a map of small discs (the report's: 4.4 MB for 108 sources) is one group
+GROUP_HIST_BYTES = 32 << 20
 
 
 @dataclass(frozen=True)
@@ -93,19 +98,72 @@ def _trace(lens: Lens, o: np.ndarray, d: np.ndarray, wl: float, device: str | No
 
 
 def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm, wavelength_nm: float,
-                             device: str | None = None, tol_mm: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+                             device: str | None = None, tol_mm: float = 1e-7,
+                             on_device: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Object heights y (object points (0, y, -depth)) whose real chief rays meet the plane z =
     ``plane_z_mm`` at (0, r); ``depth_mm`` and ``image_r_mm`` broadcast together. Also a mask of
     converged solves.
 
-    y is negative for a lens that inverts the image. Rays are traced without clipping.
+    y is negative for a lens that inverts the image. Rays are traced without clipping. For a
+    rotationally symmetric lens the whole search runs in one kernel launch, one thread per height
+    (:func:`lensrt.trace.kernels.boxes.chief_heights`: the host search's arithmetic, operation for
+    operation -- the same bits on the CPU); ``on_device=False``, or a general lens, runs it on the host
+    (a batched trace per Newton step of every secant step).
     """
     from ...trace.aiming import pupil_geometry
+    from ...trace.pack import pack_lens
     depth, r = np.broadcast_arrays(np.asarray(depth_mm, dtype=np.float64), np.asarray(image_r_mm, dtype=np.float64))
     depth, r = depth.ravel().copy(), r.ravel().copy()
+    y = np.zeros_like(r)
+    ok = np.ones(len(r), dtype=bool)
+    todo = r != 0.0
+    if not todo.any():
+        return y, ok
     geom = pupil_geometry(lens)
-    stop, z_ep = lens.stop_index, geom.ep_z_mm
-    h_fd = 1e-6 * max(geom.ep_radius_mm, 1.0)
+    args = (lens, r[todo], depth[todo], geom.ep_z_mm, 1e-6 * max(geom.ep_radius_mm, 1.0), float(plane_z_mm),
+            float(wavelength_nm), device, float(tol_mm))
+    if on_device is not False and not pack_lens(lens, "float64", device).general:
+        y[todo], ok[todo] = _heights_device(*args)
+    else:
+        y[todo], ok[todo] = _heights_host(*args)
+    return y, ok
+
+
+def _no_chief_ray(depth_mm: float) -> LensrtError:
+    return LensrtError(f"no real chief ray from a point {depth_mm:g} mm in front of the lens reaches the sensor plane")
+
+
+def _heights_device(lens: Lens, rt: np.ndarray, st: np.ndarray, z_ep: float, h_fd: float, plane_z_mm: float,
+                    wavelength_nm: float, device: str | None, tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_heights_for_image`'s search for image heights ``rt`` at depths ``st`` in one launch."""
+    from ...core.telemetry import download, launch, upload
+    from ...device import warp
+    from ...trace.kernels import N_RECORD
+    from ...trace.kernels.boxes import CHIEF_CONVERGED, CHIEF_NO_PROBE, chief_heights_symmetric
+    from ...trace.kernels.surfaces import SymmetricLens
+    from ...trace.pack import pack_lens
+    wp = warp()
+    packed = pack_lens(lens, "float64", device)
+    dev, n = packed.device, len(rt)
+    y_out = wp.zeros(n, dtype=wp.float64, device=dev)
+    flags = wp.zeros(n, dtype=wp.int32, device=dev)
+    launch(chief_heights_symmetric, dim=n, device=dev,
+           inputs=[packed.surf, packed.media, packed.iris, lens.n_surfaces, lens.stop_index, float(z_ep), float(h_fd),
+                   float(wavelength_nm), float(plane_z_mm) - lens.image_z_mm, float(tol_mm),
+                   upload(rt, wp.float64, dev), upload(st, wp.float64, dev),
+                   wp.zeros((1, 1), dtype=wp.float64, device=dev),
+                   wp.zeros((1, 1, N_RECORD), dtype=wp.float64, device=dev), SymmetricLens(), y_out, flags])
+    y, f = download(y_out), download(flags)
+    if np.any(f == CHIEF_NO_PROBE):
+        raise _no_chief_ray(float(st[np.argmax(f == CHIEF_NO_PROBE)]))
+    return y, (f & CHIEF_CONVERGED) != 0
+
+
+def _heights_host(lens: Lens, rt: np.ndarray, st: np.ndarray, z_ep: float, h_fd: float, plane_z_mm: float,
+                  wavelength_nm: float, device: str | None, tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_heights_for_image`'s search on the host: Newton on the aim point for the chief ray
+    inside a secant iteration on the object height, every step one batched trace of all heights."""
+    stop = lens.stop_index
 
     def chief(y: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Image height of the real chief ray of each object point (0, y, -s), and whether it was found."""
@@ -138,18 +196,11 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         res = _trace(lens, *rays(b), wavelength_nm, device, clip=False, plane_z_mm=plane_z_mm)
         return res.position_mm[:, 1], ok & res.ok
 
-    y = np.zeros_like(r)
-    ok = np.ones(len(r), dtype=bool)
-    todo = r != 0.0
-    if not todo.any():
-        return y, ok
-    rt, st = r[todo], depth[todo]
     # a probe near the axis gives each depth's scale; then secant steps on every height at once
     probe = 1e-3 * (st + abs(z_ep))
     hp, okp = chief(-probe, st)
     if not np.all(okp & (hp != 0.0)):
-        bad = float(st[~(okp & (hp != 0.0))][0])
-        raise LensrtError(f"no real chief ray from a point {bad:g} mm in front of the lens reaches the sensor plane")
+        raise _no_chief_ray(float(st[~(okp & (hp != 0.0))][0]))
     y0 = rt * (-probe / hp)
     h0, ok0 = chief(y0, st)
     for _ in range(20):  # a paraxial start with no chief ray (strong distortion): move it toward the axis
@@ -177,9 +228,7 @@ def object_heights_for_image(lens: Lens, depth_mm, plane_z_mm: float, image_r_mm
         y0, h0, ok0 = np.where(good, y1, y0), np.where(good, h1, h0), np.where(good, ok1, ok0)
         y1, h1, ok1 = np.where(good, y2, y1), np.where(good, h2, h1), np.where(good, ok2, ok1)
         conv |= ok1 & (np.abs(h1 - rt) <= tol_mm)
-    y[todo] = y1
-    ok[todo] = conv
-    return y, ok
+    return y1, conv
 
 
 # ---- pupil boxes of many sources ------------------------------------------------------------
@@ -236,27 +285,101 @@ def _window(foot: np.ndarray, frame: Frame) -> tuple[int, int, int, int] | None:
     return ix0, ix1, iy0, iy1
 
 
-def disc_noise(y: np.ndarray, var_y: np.ndarray) -> tuple[float, int]:
-    """Median per-pixel relative standard error of Y over the disc, and the disc's pixel count.
+def percentile99(values: np.ndarray) -> float:
+    """``np.percentile(values, 99.0)`` of a 1-d float64 array without NaNs, the same bits: the two order
+    statistics around the virtual index (n - 1) q found by a partition and interpolated as NumPy's
+    'linear' method does (its overhead, not the arithmetic, is what this saves: a map has one per source)."""
+    n = values.size
+    v = (n - 1) * (99.0 / 100)
+    if v >= n - 1:
+        i = j = n - 1
+    else:
+        i = int(math.floor(v))
+        j = i + 1
+    part = np.partition(values, (i, j)) if j != i else np.partition(values, i)
+    a, b = part[i], part[j]
+    t = v - i
+    diff = b - a
+    return b - diff * (1 - t) if t >= 0.5 else a + diff * t
 
-    The disc: pixels at or above :data:`DISC_THRESHOLD` of the 99th percentile of the lit pixels.
-    """
+
+def _disc(y: np.ndarray) -> np.ndarray | None:
+    """The disc of :func:`disc_noise` (a mask of ``y``), None when no pixel is lit."""
     lit = y[y > 0]
     if lit.size == 0:
+        return None
+    return y >= DISC_THRESHOLD * percentile99(lit)
+
+
+def disc_noise(y: np.ndarray, var_y: np.ndarray, disc: np.ndarray | None = None) -> tuple[float, int]:
+    """Median per-pixel relative standard error of Y over the disc, and the disc's pixel count.
+
+    The disc: pixels at or above :data:`DISC_THRESHOLD` of the 99th percentile of the lit pixels
+    (``disc``: that mask when already known).
+    """
+    disc = _disc(y) if disc is None else disc
+    if disc is None:
         return math.nan, 0
-    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
     rel = np.sqrt(np.maximum(var_y[disc], 0.0)) / y[disc]
     return float(np.median(rel)), int(disc.sum())
 
 
-def disc_noise_rms(y: np.ndarray, var_y: np.ndarray) -> float:
+def disc_noise_rms(y: np.ndarray, var_y: np.ndarray, disc: np.ndarray | None = None) -> float:
     """RMS over the disc (as :func:`disc_noise`) of the per-pixel relative standard error of Y: the
     error measure of a target error (what the RMS relative error against the truth estimates)."""
-    lit = y[y > 0]
-    if lit.size == 0:
+    disc = _disc(y) if disc is None else disc
+    if disc is None:
         return math.nan
-    disc = y >= DISC_THRESHOLD * np.percentile(lit, 99.0)
     return float(np.sqrt(np.mean(np.maximum(var_y[disc], 0.0) / (y[disc] * y[disc]))))
+
+
+def _per_batch(fn, s: np.ndarray, pooled_n: int, batch_n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``StreamResult._estimate`` for every source of a stream at once: ``fn`` (whole arrays, per source
+    and batch) on the pooled sums (S, ...) and the standard error (S, ...) from the finite batch values."""
+    pooled = fn(s.sum(axis=1), pooled_n)
+    per = fn(s, batch_n)  # (S, B, ...)
+    good = np.all(np.isfinite(per.reshape(per.shape[0], per.shape[1], -1)), axis=2)
+    se = np.empty_like(pooled)
+    full = good.all(axis=1)
+    if full.any() and per.shape[1] > 1:
+        se[full] = per[full].std(axis=1, ddof=1) / math.sqrt(per.shape[1])
+    for k in np.nonzero(~full | (per.shape[1] < 2))[0]:  # a batch with a non-finite value is left out
+        v = per[k][good[k]]
+        se[k] = v.std(axis=0, ddof=1) / math.sqrt(len(v)) if len(v) > 1 else np.inf
+    return pooled, se
+
+
+def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return num / den
+
+
+def _transmission(v: np.ndarray, n: int) -> np.ndarray:
+    return v[..., 0] / n
+
+
+def _centroid(v: np.ndarray, n: int) -> np.ndarray:
+    c = np.stack([_ratio(v[..., 2], v[..., 1]), _ratio(v[..., 3], v[..., 1])], axis=-1)
+    return np.where((v[..., 1] > 0)[..., None], c, np.nan)
+
+
+def _rms(v: np.ndarray, n: int) -> np.ndarray:
+    mx, my = _ratio(v[..., 2], v[..., 1]), _ratio(v[..., 3], v[..., 1])
+    r = np.sqrt(np.maximum(_ratio(v[..., 4], v[..., 1]) - mx * mx + _ratio(v[..., 5], v[..., 1]) - my * my, 0.0))
+    return np.where(v[..., 1] > 0, r, np.nan)
+
+
+def stream_estimates(res) -> dict:
+    """Transmission, centroid (mm, on the plane) and RMS radius (mm) of every source of a stream result,
+    each with its standard error: what ``StreamResult.transmission`` / ``centroid`` / ``rms_radius`` give
+    one source at a time (the same formulas, sums and reductions), as (S,) and (S, 2) arrays."""
+    s, n = res.batch_stats, res.rays_per_source
+    n_b = n // res.batches
+    out = {}
+    for name, fn in (("transmission", _transmission), ("centroid", _centroid), ("rms_radius", _rms)):
+        out[name], out[name + "_se"] = _per_batch(fn, s, n, n_b)
+    out["centroid"] = out["centroid"] + res.centre_mm
+    return out
 
 
 def _merge_rounds(a, b):
@@ -271,8 +394,9 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                    plane_z_mm: float, light, rays_per_source: int, *, intensity_cd=1.0,
                    iris: Iris | None = None, stop_radius_mm: float | None = None, sampler: str = "sobol",
                    seed: int = 0, batches: int = 32, precision: str = "float32", device: str | None = None,
-                   batch_noise: bool = False, hist_budget_bytes: int = 96 << 20, target_error: float | None = None,
-                   time_budget_s: float | None = None, source_ids: Sequence[int] | None = None) -> list[SourceOut]:
+                   batch_noise: bool = False, hist_budget_bytes: int = GROUP_HIST_BYTES,
+                   target_error: float | None = None, time_budget_s: float | None = None,
+                   source_ids: Sequence[int] | None = None) -> list[SourceOut]:
     """Stream every source into its own window of ``frame`` (module docstring); one record per source.
 
     Sources go into stream launches in groups whose histograms (3 channels per window, int64)
@@ -324,6 +448,7 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
     if cur:
         groups.append(cur)
     spectrum, channels = light.spectrum(), light.channels()
+    kappa_y = float(light.kappa[1])
     p = frame.pitch_mm
     for g, members in enumerate(groups):
         gx = max(wins[k][1] - wins[k][0] for k in members)
@@ -351,8 +476,9 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
             if not progressive:
                 break
             if target_error is not None:
+                est = dict(stream_estimates(res), kappa_y=kappa_y)
                 worst = max(_source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                        batch_noise, 0.0, source_seed(k, 0)).stats["noise_rms"]
+                                        batch_noise, 0.0, source_seed(k, 0), est).stats["noise_rms"]
                             for j, k in enumerate(members))
                 if worst <= target_error:
                     reason = "target_error"
@@ -368,9 +494,10 @@ def stream_windows(lens: Lens, obj: np.ndarray, boxes: list, footprint: np.ndarr
                 reason = "rays"
                 break
         share = res.seconds / len(members)
+        est = dict(stream_estimates(res), kappa_y=kappa_y)
         for j, k in enumerate(members):
             outs[k] = _source_out(res, j, k, wins[k], obj[k], boxes[k], frame, light, float(inten[k]),
-                                  batch_noise, share, source_seed(k, 0))
+                                  batch_noise, share, source_seed(k, 0), est)
             if progressive:
                 outs[k].stats.update({"rounds": r, "stop_reason": reason, "target_error": target_error,
                                       "time_budget_s": time_budget_s})
@@ -393,7 +520,9 @@ def poisson_var_y(y_raw: np.ndarray, rays_landed: int, kappa_y: float) -> np.nda
 
 
 def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.ndarray, box, frame: Frame,
-                light, intensity_cd: float, batch_noise: bool, seconds: float, seed: int) -> SourceOut:
+                light, intensity_cd: float, batch_noise: bool, seconds: float, seed: int, est: dict) -> SourceOut:
+    """Source ``k`` (layer ``j`` of ``res``; ``est``: :func:`stream_estimates` of ``res`` and ``kappa_y``, the
+    light's Poisson factor of Y) as a window in lux with its statistics."""
     ix0, ix1, iy0, iy1 = win
     gy, gx = res.histogram.shape[2], res.histogram.shape[3]
     raw = res.histogram[j]  # (3, gy, gx)
@@ -403,18 +532,20 @@ def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.nda
     scale = intensity_cd / float(light.mean_t[1]) * box.area_mm2 / (n * dist * dist) / frame.pixel_area_m2
     counts = res.status_counts(j)
     landed = counts["OK"] - counts["OUTSIDE_GRID"]
-    var_p = poisson_var_y(raw[1], landed, float(light.kappa[1])) * scale * scale
+    var_p = poisson_var_y(raw[1], landed, est["kappa_y"]) * scale * scale
     var_b = batch_xyz = None
     if batch_noise and res.batch_histograms is not None:
         bh = res.batch_histograms[j]  # (B, 3, gy, gx)
         var_b = bh.shape[0] * bh[:, 1].var(axis=0, ddof=1) * scale * scale
         batch_xyz = (bh * (scale * bh.shape[0])).astype(np.float32)
     xyz = raw * scale
-    noise_p, disc_px = disc_noise(xyz[1], var_p)
-    trans, trans_se = res.transmission(j)
-    area, area_se = res.transmitted_area_mm2(j)
-    cen, cen_se = res.centroid(j)
-    rms, rms_se = res.rms_radius(j)
+    disc = _disc(xyz[1])
+    noise_p, disc_px = disc_noise(xyz[1], var_p, disc)
+    trans, trans_se = float(est["transmission"][j]), float(est["transmission_se"][j])
+    a = float(res.pupil_area_mm2[j])
+    area, area_se = trans * a, trans_se * a
+    cen, cen_se = est["centroid"][j], est["centroid_se"][j]
+    rms, rms_se = float(est["rms_radius"][j]), float(est["rms_radius_se"][j])
     sum_w = float(res.batch_stats[j][:, 1].sum())
     stats = {
         "rays": int(n), "reached_sensor": True, "seed": int(seed), "seconds": float(seconds),
@@ -432,12 +563,12 @@ def _source_out(res, j: int, k: int, win: tuple[int, int, int, int], obj: np.nda
         "disc_pixels": disc_px, "noise_poisson": noise_p, "status_counts": counts,
     }
     if var_b is not None:
-        stats["noise_batch"] = disc_noise(xyz[1], var_b)[0]
+        stats["noise_batch"] = disc_noise(xyz[1], var_b, disc)[0]
     stats["noise"] = stats["noise_batch"] if var_b is not None else noise_p
     stats["noise_method"] = (f"batch means over {res.batches} batches" if var_b is not None
                              else "Poisson estimate from the ray weights")
     var = var_b if var_b is not None else var_p
-    stats["noise_rms"] = disc_noise_rms(xyz[1], var)
+    stats["noise_rms"] = disc_noise_rms(xyz[1], var, disc)
     # the luminous flux in the window with its standard error: batch means over the batches' window
     # sums, else the Poisson variances of the pixels added up (independent counts)
     if batch_xyz is not None:

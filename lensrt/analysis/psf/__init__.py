@@ -9,6 +9,7 @@ Files:
 - ``geometric``   one field point's geometric PSF from the stream kernel
 - ``groups``      many field points' geometric PSFs in one launch
 - ``bulk``        the passes over many fields' per-batch histograms at once (a map's analysis)
+- ``device_sums`` the same passes as Warp kernels where the histograms are (a map's analysis on a GPU)
 - ``diffraction`` the diffraction PSF from the real-ray pupil function, and the method choice
 - ``auto``        many field points' ``auto`` PSFs: wavefronts traced together, geometric fields in one launch
 - ``energy``      encircled/ensquared energy, centroid and moments of a sampled PSF

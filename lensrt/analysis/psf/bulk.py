@@ -18,16 +18,18 @@ of one). The per-field code without ``sums`` is kept as the float64 reference: t
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
+from ...errors import LensrtError
 from ..grid import ImageGrid
 from .energy import Rings
 from .otf import mtf_directions, tangential_angle_rad, usable_freqs
 
-__all__ = ["FieldSums", "field_sums", "mtf_requests", "FIELDS_PER_PASS"]
+__all__ = ["FieldSums", "field_sums", "mtf_requests", "FIELDS_PER_PASS", "analysis_on_device", "shape_only"]
 
 #: fields per whole-array pass: bounds the temporaries (4 fields of 32 x 128^2 float64 are 16 MiB) and
 #: gives a map's analysis threads runs of fields to share out
@@ -53,16 +55,46 @@ class FieldSums:
     otf : dict
         ``(fx.tobytes(), fy.tobytes())`` -> per-batch Fourier sums (B, K) complex of
         :func:`mtf_requests`' frequency sets.
+    complete : bool
+        Made on the histograms' device (:mod:`lensrt.analysis.psf.device_sums`): the fields below hold
+        what would otherwise need the per-batch histograms, which the host does not have (``lit_n`` and
+        ``rings`` are None).
+    geometric_radius : (float, float) or None
+        The geometric radius and its jackknife error (device sums).
+    ee_radii : dict or None
+        Encircled-energy fraction -> (radius mm, jackknife error) (device sums; fractions the grid cannot
+        hold left out).
     """
 
     H: np.ndarray
     s_b: np.ndarray
     sx_b: np.ndarray
     sy_b: np.ndarray
-    lit_n: np.ndarray
+    lit_n: np.ndarray | None
     psf_stderr: np.ndarray
-    rings: Rings
+    rings: Rings | None
     otf: dict
+    complete: bool = False
+    geometric_radius: tuple[float, float] | None = None
+    ee_radii: dict | None = None
+
+
+def analysis_on_device(device: str) -> bool:
+    """Whether a map's passes over its per-batch histograms run on the histograms' device
+    (:mod:`lensrt.analysis.psf.device_sums`) rather than here: on GPUs, where the histograms are and the
+    host would first have to download them; on the CPU NumPy's passes (threads over fields) are faster than
+    Warp's one-thread-per-launch CPU kernels. ``LENSRT_PSF_ANALYSIS`` = ``host`` / ``device`` chooses."""
+    mode = os.environ.get("LENSRT_PSF_ANALYSIS", "auto").strip().lower() or "auto"
+    if mode not in ("auto", "host", "device"):
+        raise LensrtError(f"LENSRT_PSF_ANALYSIS={mode!r} is not one of auto, host, device",
+                          hint="unset it, or set it to host or device")
+    return mode == "device" or (mode == "auto" and str(device).startswith("cuda"))
+
+
+def shape_only(batches: int, rows: int, cols: int) -> np.ndarray:
+    """A read-only stand-in of zeros (batches, rows, cols) that takes no memory: the per-batch histograms' shape
+    for the analysis functions when complete (device) :class:`FieldSums` hold every pass over them."""
+    return np.broadcast_to(np.zeros((1, 1, 1)), (int(batches), int(rows), int(cols)))
 
 
 def mtf_requests(grid: ImageGrid, reference_mm: tuple[float, float], freqs_ref, freqs_curve

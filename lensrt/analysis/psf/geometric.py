@@ -188,7 +188,8 @@ class StreamTotals:
         inp = res.psf_inputs(source)
         n_ok = np.asarray(res.batch_stats[source][:, 0], dtype=np.float64)
         self.ok = n_ok if self.ok is None else self.ok + n_ok
-        self.hist += inp["hist"]
+        if inp["hist"] is not None:  # None: kept on the device (analysed there, device_sums)
+            self.hist += inp["hist"]
         self.moments += inp["moment_sums"]
         self.off_grid += inp["off_grid"]
         for k, v in res.status_counts(source).items():
@@ -361,7 +362,7 @@ def finish_geometric(setup: PsfSetup, f: FieldSpec, seed: int, geom: FieldGeomet
         meta["target_quantity"] = setup.target_quantity
     if tot.counts.get("GRAZING", 0):
         meta["grazing_rays"] = tot.counts["GRAZING"]
-    if not tot.hist.sum() > 0:
+    if not (sums.H.sum() if sums is not None and sums.complete else tot.hist.sum()) > 0:
         raise LensrtError(f"field {f.label}: no ray reached the PSF grid", hint="check the focus and the field")
     if sums is None:
         from .bulk import field_sums

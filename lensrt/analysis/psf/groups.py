@@ -52,7 +52,7 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
     fields' :func:`~lensrt.analysis.psf.geometric.prepare_fields` geometries when already found."""
     from ...device import resolve_device
     from ...trace.stream import Grid, StreamSource, stream
-    from .bulk import FIELDS_PER_PASS, field_sums
+    from .bulk import FIELDS_PER_PASS, analysis_on_device, field_sums, shape_only
     from .geometric import StreamTotals, finish_geometric, geometric_psf_at, prepare_fields, psf_windows, round_seed
     fields = list(fields)
     reasons = [reason] * len(fields) if isinstance(reason, str) else list(reason)
@@ -68,6 +68,7 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
     B = int(setup.batches)
     n_rays = max(B, (int(setup.rays) // B) * B)
     results: list[PsfResult | None] = [None] * len(fields)
+    on_device = analysis_on_device(dev)
     for pixels in sorted({w[1] for w in windows}):
         members = [k for k, w in enumerate(windows) if w[1] == pixels]
         per_field = 8 * B * pixels * pixels
@@ -84,22 +85,31 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
                                             pixel_mm=grid.pitch_mm))
             res = stream(setup.lens, sources, Grid(pixels, pixels, grids[0].pitch_mm), n_rays, spectrum=spectrum,
                          sampler=setup.sampler, batches=B, precision=setup.precision, device=dev,
-                         batch_histograms=True)
+                         batch_histograms="device" if on_device else True)
             share = 1.0 / len(part)
             t_an = time.perf_counter()
             extra = {"group_fields": len(part), "group_trace_seconds": float(res.seconds),
-                     "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds))}
+                     "group_kernel_seconds": float(res.extra.get("kernel_seconds", res.seconds)),
+                     "analysis_device": dev if on_device else "host"}
+            dsums = _device_sums(res, part, grids, geoms, setup, dev) if on_device else None
 
-            def analyse(js: range, res=res, part=part, grids=grids, extra=extra) -> None:
+            def analyse(js: range, res=res, part=part, grids=grids, extra=extra, dsums=dsums) -> None:
                 # a run of fields: their totals (histograms stacked; a run's stack, not the group's, so
                 # that its memory is reused and stays in cache), the passes over all of them at once
-                # (bulk.field_sums), then each field's estimates from those sums
-                stack = np.zeros((len(js), B, pixels, pixels))
-                tots = [StreamTotals(stack[i], np.zeros((B, 6)), np.zeros(B)) for i in range(len(js))]
-                for i, j in enumerate(js):
-                    tots[i].add(res, j, share)
-                sums = field_sums(stack, np.stack([t.off_grid for t in tots]), grids[js.start:js.stop],
-                                  [geoms[part[j]].reference_mm for j in js], setup)
+                # (bulk.field_sums; made on the device for the whole group when dsums), then each field's
+                # estimates from those sums
+                if dsums is not None:
+                    tots = [StreamTotals(shape_only(B, pixels, pixels), np.zeros((B, 6)), np.zeros(B)) for _ in js]
+                    for i, j in enumerate(js):
+                        tots[i].add(res, j, share)
+                    sums = dsums[js.start:js.stop]
+                else:
+                    stack = np.zeros((len(js), B, pixels, pixels))
+                    tots = [StreamTotals(stack[i], np.zeros((B, 6)), np.zeros(B)) for i in range(len(js))]
+                    for i, j in enumerate(js):
+                        tots[i].add(res, j, share)
+                    sums = field_sums(stack, np.stack([t.off_grid for t in tots]), grids[js.start:js.stop],
+                                      [geoms[part[j]].reference_mm for j in js], setup)
                 for i, j in enumerate(js):
                     k = part[j]
                     results[k] = finish_geometric(setup, fields[k], int(seeds[k]), geoms[k], grids[j], windows[k][2],
@@ -123,3 +133,14 @@ def geometric_psfs(setup: PsfSetup, fields: Sequence[FieldSpec], seeds: Sequence
             for k in part:
                 results[k].metadata.update(group)
     return [r for r in results if r is not None]
+
+
+def _device_sums(res, part: list[int], grids: list[ImageGrid], geoms: Sequence, setup: PsfSetup, dev: str) -> list:
+    """The group's :class:`~lensrt.analysis.psf.bulk.FieldSums`, made where its histograms are
+    (:func:`~lensrt.analysis.psf.device_sums.device_field_sums`)."""
+    from .device_sums import DeviceHistograms, device_field_sums
+    d = res.extra["device_histograms"]
+    layers, hb, chan, ny, nx = d["shape"]
+    dh = DeviceHistograms(d["array"], res.extra["layers_of_sources"], hb, chan, ny, nx, d["unit"], dev)
+    off = np.stack([res.off_grid_weight(j) for j in range(len(part))])
+    return device_field_sums(dh, range(len(part)), off, grids, [geoms[k].reference_mm for k in part], setup)

@@ -104,6 +104,9 @@ def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], 
         raise LensrtError(f"frequency {f.max():g} cycles/mm is beyond this PSF grid's Nyquist {nyq:g}",
                           hint="sample the PSF on a finer grid or ask for lower frequencies")
     nb = sums.otf.get((fx.tobytes(), fy.tobytes())) if sums is not None else None
+    if nb is None and sums is not None and sums.complete:
+        raise LensrtError("internal: the device sums hold no Fourier sums at these frequencies",
+                          hint="ask the PSF map for its MTF frequencies in its setup")
     nb = _otf_sums(h, grid, fx, fy) if nb is None else nb  # (B, A*F)
     tb = h.sum(axis=(1, 2)) if sums is None else sums.s_b
     tot = tb.sum()
@@ -121,7 +124,10 @@ def mtf_jackknife(hb: np.ndarray, grid: ImageGrid, freqs_cpmm: Sequence[float], 
 
 def geometric_radius_jackknife(hb: np.ndarray, grid: ImageGrid, sums: FieldSums | None = None) -> tuple[float, float]:
     """The farthest lit bin centre from the centroid (mm) and its jackknife error (module docstring);
-    ``sums``: the field's :class:`~lensrt.analysis.psf.bulk.FieldSums` when already computed."""
+    ``sums``: the field's :class:`~lensrt.analysis.psf.bulk.FieldSums` when already computed (with the
+    radius itself when they were made on the device)."""
+    if sums is not None and sums.geometric_radius is not None:
+        return sums.geometric_radius
     b = hb.shape[0]
     flat = hb.reshape(b, -1)
     gx, gy = (v.ravel() for v in grid.mesh_mm())
@@ -218,8 +224,12 @@ def ee_radii_jackknife(hb: np.ndarray, off: np.ndarray, grid: ImageGrid, fractio
     """Encircled-energy radii about the centroid holding ``fractions`` of all landed light (on and off the
     grid) and their linearised jackknife errors, as :func:`lensrt.analysis.psf.result._ee_radius_jackknife`
     computes them one fraction at a time; fractions the grid cannot hold are left out. ``sums``: the field's
-    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed."""
+    :class:`~lensrt.analysis.psf.bulk.FieldSums` (per-batch sums and ring geometry) when already computed --
+    or the radii and errors themselves, when they were made on the device
+    (:mod:`lensrt.analysis.psf.device_sums`, the same steps)."""
     from .energy import Rings
+    if sums is not None and sums.ee_radii is not None:
+        return {frac: sums.ee_radii[float(frac)] for frac in fractions if float(frac) in sums.ee_radii}
     nb = hb.shape[0]
     flat_b = hb.reshape(nb, -1)
     gx, gy = (v.ravel() for v in grid.mesh_mm())

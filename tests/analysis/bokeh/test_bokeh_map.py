@@ -172,3 +172,28 @@ def test_report_entry_point_bokeh_near_far(dgauss):
     img = bokeh_near_far(dgauss, 2000.0, grid=(2, 1), pixels=(120, 80), rays=2048, device="cpu")
     assert [r["depth_mm"] for r in img.sources] == pytest.approx([1025.64, 40000.0, 1025.64, 40000.0], rel=1e-4)
     assert img.picture().shape == (80, 120, 3) and img.rays == 4 * 2048
+
+
+def test_a_map_on_one_device_launches_the_same_for_few_or_many_sources(dgauss):
+    # one device: the placement is one launch, every source in one item -- one pupil-box search (2 passes) and
+    # one stream (the kernel, the slot fold and, on several CPU cores, the replica sum) -- whatever the map's size
+    from lensrt.core.telemetry import measure
+    f = focus_lens(dgauss, 2000.0)
+    kw = dict(pixels=(180, 120), rays=2048, device="cpu")
+    bokeh_map(dgauss, f, grid=(1, 1), depths_mm=[1000.0], **kw)  # pack the lens, load the kernels
+    with measure() as few:
+        bokeh_map(dgauss, f, grid=(2, 1), depths_mm=[1000.0], **kw)
+    with measure() as many:
+        img = bokeh_map(dgauss, f, grid=(6, 4), depths_mm=[1000.0, 20000.0], **kw)
+    assert len(img.sources) == 48
+    assert many.launches == few.launches <= 6  # was 1 + 4 x (Newton steps) + 5 per item of 32 sources
+
+
+def test_sources_per_item_on_one_device_and_on_several():
+    from lensrt.analysis.bokeh.entry import ONE_DEVICE_ITEM_SOURCES, default_sources_per_item
+    one, two = LocalExecutor("cpu"), LocalExecutor("cpu,cpu")
+    assert default_sources_per_item(108, one) == 108  # the report's map: one item
+    assert default_sources_per_item(ONE_DEVICE_ITEM_SOURCES, one) == ONE_DEVICE_ITEM_SOURCES
+    assert default_sources_per_item(ONE_DEVICE_ITEM_SOURCES + 1, one) == 65  # two even items
+    assert default_sources_per_item(450, one) == 113  # four items
+    assert default_sources_per_item(450, two) == 32  # several devices share the work item by item
