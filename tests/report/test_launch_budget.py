@@ -141,8 +141,9 @@ def test_ray_fraction_scales_the_monte_carlo_counts_only():
 #: boxes and chief rays of the 9 fields, 7 + 5, their wavefronts in one round of 2 traces, then the geometric
 #: fields' pilot grids and one stream, 4; the wavefront-error table: its own pupil boxes and chief rays, 7, the
 #: wavefronts' chief rays traced, 1 (aimed above), and one round of 2 traces; was 96, each field on its own),
-#: bokeh 6 (the sources' object heights, one launch for the whole chief-ray search; all 108 sources in one work item: the pupil boxes' two passes, the stream's kernel, slot
-#: fold and replica sum; was 48: a launch per Newton step of every secant step, 28, and 4 items of 32 sources):
+#: bokeh 6 (the sources' object heights, one launch for the whole chief-ray search; all 108 sources in one work
+#: item: the pupil boxes' two passes, the stream's kernel, slot fold and replica sum; was 48: a launch per Newton
+#: step of every secant step, 28, and 4 items of 32 sources):
 #: 146 -- the issue's <= 200.
 REPORT_LAUNCH_BUDGET = 200
 
