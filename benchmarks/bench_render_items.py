@@ -4,9 +4,9 @@
 For the ``render`` workload of ``benchmarks/bench_multigpu.py`` (a Job of row-band tiles, each running
 all its passes) on one device, this prints per item: wall seconds, seconds inside kernel launches,
 host seconds (the rest: argument packing, NumPy, copies), and the number of device-to-host copies
-(``wp.array.numpy`` calls: on a GPU each one waits for the device); and for the parent: seconds in
-the reduction's ``add`` (placing tiles, all of them and the last one) and ``finish`` (what no device
-overlaps at the end of the job).
+(``wp.array.numpy`` calls and copies into the image in place: on a GPU each one waits for the device);
+and for the parent: seconds in the reduction's ``add`` (placing tiles, all of them and the last one)
+and ``finish`` (what no device overlaps at the end of the job).
 
 On the CPU a launch runs the kernel before it returns, so "inside launches" is kernel time and the
 host seconds are what a GPU run would spend on the host per item (on a faster core); the copies are
@@ -71,8 +71,17 @@ def main(argv: list[str] | None = None) -> int:
         counts["launch_s"] += time.perf_counter() - t0
         counts["launches"] += 1
 
+    replay = tel.replay
+
+    def timed_replay(*a, **k):  # a launch recorded once per tile and replayed pass by pass
+        t0 = time.perf_counter()
+        replay(*a, **k)
+        counts["launch_s"] += time.perf_counter() - t0
+        counts["launches"] += 1
+
     for mod in (jobs, pupil_table):
         mod.launch = timed_launch
+    pupil_table.replay = timed_replay
     numpy_of = wp.array.numpy
 
     def counted_numpy(self):
@@ -80,6 +89,13 @@ def main(argv: list[str] | None = None) -> int:
         return numpy_of(self)
 
     wp.array.numpy = counted_numpy
+    copy_to_host = jobs._copy_to_host
+
+    def counted_copy(dest, src):  # a tile's sums copied from the device straight into the image
+        counts["copies"] += 1
+        return copy_to_host(dest, src)
+
+    jobs._copy_to_host = counted_copy
     base = jobs.render_workload(args.size, 2024)
     print(f"render {args.size}: {len(base.items)} items, image {base.context.shape}, {base.context.n_bands} bands, "
           f"device {args.device}")

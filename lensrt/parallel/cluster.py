@@ -223,6 +223,8 @@ class DaskExecutor:
         token = uuid.uuid4().hex[:12]
         spec = None if self._local_devices is not None else (self._spec if isinstance(self._spec, str)
                                                               else ",".join(self._spec or ()) or None)
+        fold = OrderedFold(job.reduction, len(job.items))  # before any task runs: a reduction may make
+        # arrays that the items write into (lensrt.parallel.shm.SharedArrays)
         order = job.schedule_order()
         k = self._chunk(job)
         chunks = [tuple(job.items[i] for i in order[j:j + k]) for j in range(0, len(order), k)]
@@ -233,7 +235,6 @@ class DaskExecutor:
         pending = {f.key: f for f in futures}
         del futures
         stream = distributed.as_completed(list(pending.values()), with_results=True)
-        fold = OrderedFold(job.reduction, len(job.items))
         n = len(job.items)
         try:
             for fut, outcomes in stream:

@@ -22,16 +22,28 @@ waiting), so there every result gets a segment of its own, unlinked by the reade
 A segment is registered with the resource tracker that a ``spawn``-ed worker shares with its parent:
 when a worker dies after writing a segment and before the parent has read it, the tracker unlinks it
 when the parent exits, so nothing is left in ``/dev/shm``.
+
+**Results written in place** (:class:`SharedArrays`, :func:`attach_shared`): a job whose items fill
+disjoint parts of large arrays (the tiles of a render) can skip the result copies altogether. The
+parent makes the arrays once per run -- in one segment named by a token that the items carry, or in
+plain memory when shared memory has no room -- and an item that finds them (:func:`attach_shared`:
+the same process's arrays for a device thread, the segment by its name for a worker process on this
+machine) writes its part into them and returns only small data; an item that does not (a worker on
+another machine) returns its arrays as before, and the reduction places them. The parent then
+neither copies a result out of a segment nor into its image: each byte is written once, by the
+worker that made it, and the parent's serial work per item no longer grows with the item's size.
 """
 from __future__ import annotations
 
 import os
 import pickle
-from typing import Any
+import threading
+from typing import Any, Dict, Tuple
 
 import numpy as np
 
-__all__ = ["SHM_MIN_BYTES", "Packed", "SegmentPool", "Attached", "pack", "unpack"]
+__all__ = ["SHM_MIN_BYTES", "Packed", "SegmentPool", "Attached", "pack", "unpack", "SharedArrays", "attach_shared",
+           "Layout"]
 
 #: results whose out-of-band buffers add up to less than this travel through the pipe (bytes)
 SHM_MIN_BYTES = 1 << 20
@@ -174,3 +186,146 @@ def unpack(obj: Any, attached: Attached | None = None) -> Any:
             seg.close()
             seg.unlink()
     return pickle.loads(meta, buffers=own)
+
+
+#: named arrays of :class:`SharedArrays`: name -> (shape, NumPy dtype string), laid out in this order
+Layout = Dict[str, Tuple[Tuple[int, ...], str]]
+
+#: the live :class:`SharedArrays` of this process, by token (what a device thread of the parent writes into)
+_LOCAL: dict[str, Any] = {}
+_LOCAL_LOCK = threading.Lock()
+
+
+def _views(buf: Any, layout: Layout) -> dict[str, np.ndarray]:
+    """The arrays of ``layout`` over ``buf``, each one 64-byte aligned, in layout order."""
+    out, off = {}, 0
+    for name, (shape, dtype) in layout.items():
+        dt = np.dtype(dtype)
+        count = int(np.prod(shape, dtype=np.int64))
+        out[name] = np.frombuffer(buf, dtype=dt, count=count, offset=off).reshape(shape)
+        off += -(-count * dt.itemsize // 64) * 64
+    return out
+
+
+def _layout_bytes(layout: Layout) -> int:
+    return sum(-(-int(np.prod(shape, dtype=np.int64)) * np.dtype(dt).itemsize // 64) * 64
+               for shape, dt in layout.values())
+
+
+class SharedArrays:
+    """Zeroed arrays that the items of one job run write in place, in one shared-memory segment named
+    ``token`` (plain memory of this process when shared memory has no room: then only this process's
+    device threads find them).
+
+    Parameters
+    ----------
+    token : str
+        The segment's name, which the job's items carry (a job's token; at most one run of a job at a time).
+    layout : dict
+        name -> (shape, NumPy dtype string).
+
+    Notes
+    -----
+    Made in the parent (a reduction's ``start``); :meth:`release` unlinks the segment and forgets the
+    token (when the run ends, or when the object is collected after a failed run); the arrays stay
+    valid for as long as they are referenced. A worker process maps the segment per item
+    (:func:`attach_shared`) and unmaps it when the item's views are gone.
+    """
+
+    def __init__(self, token: str, layout: Layout) -> None:
+        import mmap
+        import weakref
+        self.token, self.layout = str(token), dict(layout)
+        self.shared = False
+        with _LOCAL_LOCK:
+            ref = _LOCAL.get(self.token)
+        old = ref() if ref is not None else None
+        if old is not None:  # a run of the same job that failed and is not collected yet
+            old.release()
+        size = max(_layout_bytes(self.layout), 1)
+        buf: Any = None
+        try:
+            seg = _new_named_segment(self.token, size)
+        except (ImportError, OSError):
+            seg = None
+        if seg is not None:
+            # our own mapping of the segment's file (the arrays keep it alive); the SharedMemory object is
+            # kept only to unlink the name (and for the resource tracker, should this process die first)
+            try:
+                fd = os.open(os.path.join(SHM_DIR, self.token), os.O_RDWR)
+                try:
+                    buf = mmap.mmap(fd, size)
+                finally:
+                    os.close(fd)
+                self.shared = True
+            except OSError:
+                buf = None
+            seg.close()
+            if buf is None:
+                seg.unlink()
+                seg = None
+        if buf is None:
+            buf = bytearray(size)  # zeroed; found by this process's threads only
+        self._seg = seg
+        self.arrays = _views(buf, self.layout)
+        with _LOCAL_LOCK:
+            _LOCAL[self.token] = weakref.ref(self)
+        self._finalizer = weakref.finalize(self, _release, self.token, seg)
+
+    def release(self) -> None:
+        """Unlink the segment and forget the token (idempotent); the arrays stay valid."""
+        self._finalizer()
+
+
+def _release(token: str, seg: Any) -> None:
+    with _LOCAL_LOCK:
+        _LOCAL.pop(token, None)
+    if seg is not None:
+        try:
+            seg.unlink()
+        except FileNotFoundError:
+            pass
+
+
+def _new_named_segment(name: str, size: int) -> Any:
+    """A new segment called ``name`` (a stale one of that name, left by a run that failed, is replaced);
+    OSError when /dev/shm is missing or would keep less than :data:`SHM_HEADROOM_BYTES` free."""
+    import shutil
+    from multiprocessing import shared_memory
+    if not os.path.isdir(SHM_DIR) or shutil.disk_usage(SHM_DIR).free < size + SHM_HEADROOM_BYTES:
+        raise OSError(f"{SHM_DIR} has no room for {size} bytes of shared arrays")
+    try:
+        return shared_memory.SharedMemory(name=name, create=True, size=size)
+    except FileExistsError:
+        stale = shared_memory.SharedMemory(name=name)
+        stale.close()
+        stale.unlink()
+        return shared_memory.SharedMemory(name=name, create=True, size=size)
+
+
+def attach_shared(token: str | None, layout: Layout) -> dict[str, np.ndarray] | None:
+    """The arrays of the :class:`SharedArrays` called ``token``: this process's own, else the segment of
+    that name on this machine, mapped for as long as the returned views live; None when there is
+    neither (a worker on another machine, a run that has ended) or its size does not fit ``layout``."""
+    if not token:
+        return None
+    with _LOCAL_LOCK:
+        ref = _LOCAL.get(token)
+    mine = ref() if ref is not None else None
+    if mine is not None:
+        return mine.arrays if mine.layout == dict(layout) else None
+    import mmap
+    size = _layout_bytes(layout)
+    try:
+        fd = os.open(os.path.join(SHM_DIR, token), os.O_RDWR)
+    except OSError:
+        return None
+    try:
+        if os.fstat(fd).st_size < size:
+            return None
+        buf = mmap.mmap(fd, size)
+    except (OSError, ValueError):
+        return None
+    finally:
+        os.close(fd)
+    return _views(buf, layout)

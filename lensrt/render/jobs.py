@@ -17,20 +17,31 @@ devices driven from one process do not queue for the interpreter lock pass by pa
 reduced :class:`lensrt.render.passes.PassSum` carries the per-pass data of a pass-by-pass render:
 the same hit counts, and region means equal to about 1e-15 relative (row-segment sums added tile by
 tile instead of one sum over the region).
+
+The image is written in place: each run of the job makes its image arrays once in the parent
+(:class:`lensrt.parallel.shm.SharedArrays`, named by the job's token, which every item carries), and a
+tile that finds them -- a device thread of the parent, or a worker process or Dask worker on the same
+machine -- copies its sums from the device straight into its rows and computes its XYZ mean and
+standard error there, returning only its per-pass counts. The parent's work per tile is then a few
+hundred bytes whatever the tile's size (before: unpacking ~32 MB of a large-render tile from shared
+memory and copying it into the image, serially for every device, with the last round's tiles
+unpacked one after the other after the last device had finished). A tile that finds no arrays (a
+worker on another machine) returns its sums as before and the reduction places them: the same bits.
 :func:`lensrt.render.integrator.render` runs this job for a fixed sample count on an executor;
 ``render_workload`` registers it as the ``render`` workload of ``benchmarks/bench_multigpu.py``.
 """
 from __future__ import annotations
 
+import uuid
 from dataclasses import dataclass
 
 import numpy as np
 
 from .passes import REGIONS, PassSum, RenderSetup, moments_stderr, prepare_setup, region_slices, run_pass_item
-from ..core.telemetry import launch
 
 __all__ = ["PassReduction", "RenderSums", "render_job", "render_tiles_job", "TileResult", "TileReduction",
-           "run_tile_item", "region_cuts", "region_sums_from_segments", "render_workload", "WORKLOAD_SIZES"]
+           "run_tile_item", "region_cuts", "region_sums_from_segments", "render_workload", "WORKLOAD_SIZES",
+           "image_layout"]
 
 
 @dataclass
@@ -87,17 +98,47 @@ def render_job(setup: RenderSetup, passes: int, first: int = 0):
 class TileResult:
     """One tile's sums over all passes (float64): spectral (pixels * bands), XYZ and XYZ squared, paths through;
     per pass: ``pass_hits`` (passes,) paths through the lens and ``region_y`` (passes, regions) the sums of
-    the per-pixel Y sums over the tile's part of each region (:func:`region_sums_from_segments`)."""
+    the per-pixel Y sums over the tile's part of each region (:func:`region_sums_from_segments`).
+    ``placed``: the tile wrote its sums, XYZ mean and standard error into the run's image arrays itself
+    (:func:`image_layout`); then ``spec_sum``, ``xyz1`` and ``xyz2`` are None."""
 
     first: int
     end: int
-    spec_sum: np.ndarray
-    xyz1: np.ndarray
-    xyz2: np.ndarray
+    spec_sum: np.ndarray | None
+    xyz1: np.ndarray | None
+    xyz2: np.ndarray | None
     hits: int
     pass_hits: np.ndarray
     region_y: np.ndarray
     seconds: float = 0.0
+    placed: bool = False
+
+
+def image_layout(n_pixels: int, n_bands: int) -> dict:
+    """The arrays of a tiled render's image (a :data:`lensrt.parallel.shm.Layout`): spectral sums, XYZ sums and
+    sums of squares, XYZ mean and its standard error, per pixel, float64."""
+    px3 = ((int(n_pixels), 3), "float64")
+    return {"spec": ((int(n_pixels) * int(n_bands),), "float64"), "xyz1": px3, "xyz2": px3, "xyz": px3,
+            "stderr": px3}
+
+
+def _place_moments(image: dict, p0: int, p1: int, passes: int, spp_per_pass: int) -> None:
+    """XYZ mean and standard error of pixels [p0, p1) from the sums already in ``image`` (element by element:
+    the bits of the whole-image computation)."""
+    x1, x2 = image["xyz1"][p0:p1], image["xyz2"][p0:p1]
+    image["xyz"][p0:p1] = x1 / max(int(passes) * int(spp_per_pass), 1)
+    image["stderr"][p0:p1] = moments_stderr(x1, x2, int(passes), int(spp_per_pass))
+
+
+def _copy_to_host(dest: np.ndarray, src) -> None:
+    """Device array ``src`` into the host array ``dest`` (same shape and dtype, C-contiguous), without an
+    intermediate host array; returns when the copy is done."""
+    from ..device import warp
+    wp = warp()
+    host = wp.array(dest, dtype=src.dtype, shape=src.shape, device="cpu", copy=False)
+    wp.copy(host, src)
+    if src.device.is_cuda:
+        wp.synchronize_stream(src.device.stream)
 
 
 #: the longest column segment of :func:`region_cuts` (one device thread sums one segment of a row)
@@ -131,78 +172,106 @@ def region_sums_from_segments(seg: np.ndarray, row0: int, shape: tuple[int, int]
 
 
 def run_tile_item(item, prep, device: str) -> TileResult:
-    """The ``run`` of a tiled render Job: ``item.params`` = (first pixel, end pixel, passes); every pass of
-    the tile summed on the device in pass order (the arithmetic of the one-device render), with each
-    pass's paths through the lens and Y sums over the tile's part of the regions kept on the device
-    (:mod:`lensrt.render.tile_kernels`): the passes are queued without a wait between them, and the tile
-    comes to the host once, at its end."""
+    """The ``run`` of a tiled render Job: ``item.params`` = (first pixel, end pixel, passes, image token);
+    every pass of the tile summed on the device in pass order (the arithmetic of the one-device render),
+    with each pass's paths through the lens and Y sums over the tile's part of the regions kept on the
+    device (:mod:`lensrt.render.tile_kernels`): the passes are queued without a wait between them, and
+    the tile comes to the host once, at its end -- into the run's image arrays when this process finds
+    them (:func:`lensrt.parallel.shm.attach_shared`), else into the result. Per pass: the camera kernel
+    and one :func:`lensrt.render.tile_kernels.tile_pass_sums` launch, both recorded once per tile
+    (:class:`lensrt.render.passes.RecordedPasses`) and replayed."""
     import time
     from ..device import warp
-    from .passes import device_pass
-    from .pupil_table import launch_sliced
-    from .tile_kernels import HITS_BLOCK, block_hits, row_segment_sums
+    from ..parallel.shm import attach_shared
+    from .passes import RecordedPasses
+    from .pupil_table import record_sliced, replay_sliced
+    from .tile_kernels import tile_pass_sums
     wp = warp()
     t0 = time.perf_counter()
-    p0, p1, passes = (int(v) for v in item.params)
+    p0, p1, passes = (int(v) for v in item.params[:3])
+    token = item.params[3] if len(item.params) > 3 else None
     s = prep.setup
     n = p1 - p0
-    k = prep.kernels
     cols = s.shape[1]
     ra, rb = p0 // cols, -(-p1 // cols)
     cuts_h = region_cuts(s.shape)
     cuts = wp.array(cuts_h, dtype=wp.int32, device=device)
-    n_blocks = -(-n // HITS_BLOCK)
-    spec_sum = wp.zeros(n * s.n_bands, dtype=wp.float64, device=device)
+    n_segs = len(cuts_h) - 1
+    n_cells = (rb - ra) * n_segs
+    n_spec = n * s.n_bands
+    spec_sum = wp.zeros(n_spec, dtype=wp.float64, device=device)
     s1 = wp.zeros((n, 3), dtype=wp.float64, device=device)
     s2 = wp.zeros((n, 3), dtype=wp.float64, device=device)
-    hits = wp.zeros((passes, n_blocks), dtype=wp.int64, device=device)
-    seg = wp.zeros((passes, rb - ra, len(cuts_h) - 1), dtype=wp.float64, device=device)
-    buf = None
+    seg_y = wp.zeros((passes, rb - ra, n_segs), dtype=wp.float64, device=device)
+    seg_hits = wp.zeros((passes, rb - ra, n_segs), dtype=wp.int64, device=device)
+    # both launches of a pass recorded once (arguments packed once), replayed with the pass's seed and slot
+    camera = RecordedPasses(prep, (p0, p1))
+    buf = camera.out
+    sums = record_sliced(tile_pass_sums, max(n_spec, n, n_cells),
+                         lambda base: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0, p1, ra,
+                                       cols, cuts, n_segs, n_cells, 0, seg_y, seg_hits], device)
     for index in range(passes):
-        buf = device_pass(prep, index, buf, (p0, p1))
-        launch_sliced(k.accumulate, n * s.n_bands, lambda base: [buf.spec[base:], spec_sum[base:]], device)
-        launch(k.accumulate_moments, dim=n, inputs=[buf.xyz, s1, s2], device=device)
-        launch(block_hits, dim=n_blocks, inputs=[buf.hits, n, HITS_BLOCK, index, hits], device=device)
-        launch(row_segment_sums, dim=(rb - ra, len(cuts_h) - 1), inputs=[buf.xyz, p0, p1, ra, cols, cuts, index, seg],
-               device=device)
-    pass_hits = hits.numpy().sum(axis=1)
-    region_y = region_sums_from_segments(seg.numpy(), ra, s.shape, cuts_h)
-    return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), int(pass_hits.sum()), pass_hits, region_y,
-                      time.perf_counter() - t0)
+        camera.run(index)
+        for _, cmd in sums:
+            cmd.set_param_by_name("slot", index)
+        replay_sliced(sums)
+    pass_hits = seg_hits.numpy().sum(axis=(1, 2))
+    region_y = region_sums_from_segments(seg_y.numpy(), ra, s.shape, cuts_h)
+    image = attach_shared(token, image_layout(s.n_pixels, s.n_bands))
+    if image is None:
+        return TileResult(p0, p1, spec_sum.numpy(), s1.numpy(), s2.numpy(), int(pass_hits.sum()), pass_hits,
+                          region_y, time.perf_counter() - t0)
+    _copy_to_host(image["spec"][p0 * s.n_bands:p1 * s.n_bands], spec_sum)
+    _copy_to_host(image["xyz1"][p0:p1], s1)
+    _copy_to_host(image["xyz2"][p0:p1], s2)
+    _place_moments(image, p0, p1, passes, s.spp_per_pass)
+    del image  # a worker process unmaps the run's segment when its views are gone
+    return TileResult(p0, p1, None, None, None, int(pass_hits.sum()), pass_hits, region_y,
+                      time.perf_counter() - t0, placed=True)
 
 
 @dataclass(frozen=True)
 class TileReduction:
     """Places :class:`TileResult` s into the image and adds their per-pass counts in tile order; finishes as
     :class:`RenderSums` whose ``pass_sum`` has the per-pass hits and region means (a
-    :class:`lensrt.parallel.Reduction`). Each tile's XYZ mean and standard error are computed as it is
-    placed (element by element: the bits of the whole-image computation), so that the end of the job,
-    which no device overlaps, only wraps the arrays."""
+    :class:`lensrt.parallel.Reduction`). With a ``token`` each run makes the image as
+    :class:`lensrt.parallel.shm.SharedArrays` of that name, which tiles fill in place (module docstring);
+    a tile that returns its sums instead is placed here, its XYZ mean and standard error computed as it
+    is placed (element by element: the bits of the whole-image computation), so that the end of the
+    job, which no device overlaps, only wraps the arrays."""
 
     n_pixels: int
     n_bands: int
     shape: tuple[int, int]
     spp_per_pass: int
     passes: int
+    token: str | None = None
 
     def start(self) -> dict:
-        return {"spec": np.zeros(self.n_pixels * self.n_bands), "xyz1": np.zeros((self.n_pixels, 3)),
-                "xyz2": np.zeros((self.n_pixels, 3)), "xyz": np.zeros((self.n_pixels, 3)),
-                "stderr": np.zeros((self.n_pixels, 3)), "pass_hits": np.zeros(self.passes, dtype=np.int64),
-                "region_y": np.zeros((self.passes, len(REGIONS)))}
+        layout = image_layout(self.n_pixels, self.n_bands)
+        if self.token:
+            from ..parallel.shm import SharedArrays
+            shared = SharedArrays(self.token, layout)
+            acc = dict(shared.arrays, shared=shared)
+        else:
+            acc = {name: np.zeros(shape, dtype=dt) for name, (shape, dt) in layout.items()}
+        acc["pass_hits"] = np.zeros(self.passes, dtype=np.int64)
+        acc["region_y"] = np.zeros((self.passes, len(REGIONS)))
+        return acc
 
     def add(self, acc: dict, index: int, result: TileResult) -> dict:
-        acc["spec"][result.first * self.n_bands:result.end * self.n_bands] = result.spec_sum
-        acc["xyz1"][result.first:result.end] = result.xyz1
-        acc["xyz2"][result.first:result.end] = result.xyz2
-        acc["xyz"][result.first:result.end] = result.xyz1 / max(self.passes * self.spp_per_pass, 1)
-        acc["stderr"][result.first:result.end] = moments_stderr(result.xyz1, result.xyz2, self.passes,
-                                                                self.spp_per_pass)
+        if not result.placed:
+            acc["spec"][result.first * self.n_bands:result.end * self.n_bands] = result.spec_sum
+            acc["xyz1"][result.first:result.end] = result.xyz1
+            acc["xyz2"][result.first:result.end] = result.xyz2
+            _place_moments(acc, result.first, result.end, self.passes, self.spp_per_pass)
         acc["pass_hits"] += result.pass_hits
         acc["region_y"] += result.region_y
         return acc
 
     def finish(self, acc: dict) -> RenderSums:
+        if acc.get("shared") is not None:
+            acc.pop("shared").release()  # the name goes; the arrays stay (they map the segment)
         ps = PassSum(self.n_pixels, self.n_bands, self.shape, self.spp_per_pass)
         ps.spec, ps.xyz1, ps.xyz2, ps.passes = acc["spec"], acc["xyz1"], acc["xyz2"], self.passes
         ps.pass_hits = [int(h) for h in acc["pass_hits"]]
@@ -213,32 +282,37 @@ class TileReduction:
                           ps.passes, ps.samples_per_pixel, ps.hits, ps)
 
 
-def render_tiles_job(setup: RenderSetup, passes: int, tiles: int):
-    """The Job of ``passes`` passes of ``setup`` in ``tiles`` row bands (module docstring)."""
+def render_tiles_job(setup: RenderSetup, passes: int, tiles: int, in_place: bool = True):
+    """The Job of ``passes`` passes of ``setup`` in ``tiles`` row bands (module docstring); ``in_place=False``:
+    every tile returns its sums and the reduction places them (the path of a worker on another machine)."""
     from ..parallel import Job, make_items
     rows, cols = setup.shape
     n = max(1, min(int(tiles), rows))
     bounds = [rows * t // n * cols for t in range(n + 1)]
-    items = make_items([(bounds[t], bounds[t + 1], int(passes)) for t in range(n)], setup.seed,
+    token = f"lensrt-img-{uuid.uuid4().hex[:16]}" if in_place else None
+    items = make_items([(bounds[t], bounds[t + 1], int(passes), token) for t in range(n)], setup.seed,
                        costs=[float(bounds[t + 1] - bounds[t]) for t in range(n)])
-    red = TileReduction(setup.n_pixels, setup.n_bands, setup.shape, setup.spp_per_pass, int(passes))
+    red = TileReduction(setup.n_pixels, setup.n_bands, setup.shape, setup.spp_per_pass, int(passes), token)
     return Job(items, run_tile_item, red, context=setup, prepare=prepare_setup, name=f"render-tiles-{setup.scene.name}")
 
 
 #: workload sizes: scene, image width, samples per pixel per pass, passes, tiles (0: one item per pass,
 #: each returning the whole image -- the host reduction then grows with the passes). "large" keeps one
 #: H100 busy for seconds (1920 x 1080 x 512 paths per pixel: 2.8 s measured, 1.1e9 paths).
+#: ``in_place=0``: tiles return their sums to the reduction instead of writing the image in place (the path
+#: before in-place writes, kept for comparison and for workers on other machines).
 WORKLOAD_SIZES = {
-    "tiny": {"scene": "default", "width": 64, "spp_per_pass": 2, "passes": 4, "tiles": 4},
-    "small": {"scene": "still_life_mesh", "width": 480, "spp_per_pass": 8, "passes": 8, "tiles": 8},
-    "large": {"scene": "still_life_mesh", "width": 1920, "spp_per_pass": 8, "passes": 64, "tiles": 16},
+    "tiny": {"scene": "default", "width": 64, "spp_per_pass": 2, "passes": 4, "tiles": 4, "in_place": 1},
+    "small": {"scene": "still_life_mesh", "width": 480, "spp_per_pass": 8, "passes": 8, "tiles": 8, "in_place": 1},
+    "large": {"scene": "still_life_mesh", "width": 1920, "spp_per_pass": 8, "passes": 64, "tiles": 16,
+              "in_place": 1},
 }
 
 
 def render_workload(size: str, seed: int):
     """Workload factory for ``benchmarks/bench_multigpu.py --workload render`` (sizes: :data:`WORKLOAD_SIZES`,
-    or ``scene=...,width=...,spp_per_pass=...,passes=...,tiles=...``). The set-up (focus, exit-pupil table) runs
-    here, on the first device Warp sees."""
+    or ``scene=...,width=...,spp_per_pass=...,passes=...,tiles=...,in_place=0|1``). The set-up (focus,
+    exit-pupil table) runs here, on the first device Warp sees."""
     from ..parallel.workloads import parse_size
     from .setup import RenderOptions, prepare_render
     from .scene.load import load_scene
@@ -248,5 +322,5 @@ def render_workload(size: str, seed: int):
                          samples_per_pixel=int(p["spp_per_pass"]) * int(p["passes"]), seed=int(seed))
     setup, _ = prepare_render(scene, None, opts)
     if int(p["tiles"]) > 0:
-        return render_tiles_job(setup, int(p["passes"]), int(p["tiles"]))
+        return render_tiles_job(setup, int(p["passes"]), int(p["tiles"]), in_place=bool(p["in_place"]))
     return render_job(setup, int(p["passes"]))

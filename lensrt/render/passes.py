@@ -26,7 +26,7 @@ from .plan import Plan
 from ..colour import cie_xyz_cmfs
 
 __all__ = ["RenderSetup", "Prepared", "PassResult", "PassSum", "pass_seed", "prepare_setup", "render_pass",
-           "run_pass_item", "device_pass", "sensor_frame", "moments_stderr", "REGIONS"]
+           "run_pass_item", "device_pass", "RecordedPasses", "sensor_frame", "moments_stderr", "REGIONS"]
 
 #: image regions whose mean Y (and its standard error) every render reports: (name, row0, row1, col0, col1)
 #: as fractions of the image (the whole image first); the corners are 10 % x 10 % boxes
@@ -147,11 +147,12 @@ class DevicePass:
 
 def device_pass(prep: Prepared, index: int, out: DevicePass | None = None,
                 pixels: tuple[int, int] | None = None) -> DevicePass:
-    """Run pass ``index`` on ``prep.device`` into ``out`` (zeroed here; allocated when None), for every
-    pixel or for the pixel range ``pixels`` = (first, end) (a tile: ``out`` holds that range only; its
-    pixels are the same bits as in the whole image)."""
+    """Run pass ``index`` on ``prep.device`` into ``out`` (allocated when None), for every pixel or for the
+    pixel range ``pixels`` = (first, end) (a tile: ``out`` holds that range only; its pixels are the same
+    bits as in the whole image). The camera kernel adds each path into ``out.spec`` (zeroed here) and
+    writes every pixel's ``xyz`` and ``hits`` (so a reused ``out`` needs no zeroing of those: one memset
+    per pass instead of three)."""
     from ..device import warp
-    from ..units import LUMINOUS_EFFICACY_LM_PER_W
     from .pupil_table import launch_sliced
     wp = warp()
     s = prep.setup
@@ -163,8 +164,16 @@ def device_pass(prep: Prepared, index: int, out: DevicePass | None = None,
                          wp.zeros(n, dtype=wp.int32, device=dev))
     else:
         out.spec.zero_()
-        out.xyz.zero_()
-        out.hits.zero_()
+    kernel, inputs_of = _camera_launch(prep, index, p0, out)
+    launch_sliced(kernel, n, inputs_of, dev)
+    return out
+
+
+def _camera_launch(prep: Prepared, index: int, p0: int, out: DevicePass):
+    """The camera kernel of ``prep`` and its inputs (a function of the slice's first thread id) for pass
+    ``index`` of the pixels from ``p0`` on, into ``out``."""
+    from ..units import LUMINOUS_EFFICACY_LM_PER_W
+    s = prep.setup
     cam = s.camera
     ax0, ax1, ay0, ay1 = s.affine()
     plan = s.plan
@@ -178,8 +187,37 @@ def device_pass(prep: Prepared, index: int, out: DevicePass | None = None,
               int(s.spp_per_pass), pass_seed(s.seed, index)]
     frame = prep.frame if prep.frame is not None else sensor_frame(cam)
     kernel = prep.kernels.camera_pass_tilted if cam.is_tilt_shift else prep.kernels.camera_pass
-    launch_sliced(kernel, n, lambda base: common + [int(base) + p0, p0, out.spec, out.xyz, out.hits, frame], dev)
-    return out
+    return kernel, lambda base: common + [int(base) + p0, p0, out.spec, out.xyz, out.hits, frame]
+
+
+class RecordedPasses:
+    """Pass after pass of the camera kernel over the pixels [p0, p1) into one :class:`DevicePass`, its
+    arguments packed once (Warp's recorded launches): a pass sets the seed, zeroes the spectral sums
+    and replays the launch -- the bits of :func:`device_pass`, without packing some thirty arguments
+    per pass under the interpreter lock (several device threads share it)."""
+
+    def __init__(self, prep: Prepared, pixels: tuple[int, int]) -> None:
+        from ..device import warp
+        from .pupil_table import record_sliced
+        wp = warp()
+        s = prep.setup
+        self.prep, p0 = prep, int(pixels[0])
+        n = int(pixels[1]) - p0
+        self.out = DevicePass(wp.zeros(n * s.n_bands, dtype=float, device=prep.device),
+                              wp.zeros(n, dtype=wp.vec3, device=prep.device),
+                              wp.zeros(n, dtype=wp.int32, device=prep.device))
+        kernel, inputs_of = _camera_launch(prep, 0, p0, self.out)
+        self.cmds = record_sliced(kernel, n, inputs_of, prep.device)
+
+    def run(self, index: int) -> DevicePass:
+        """Pass ``index`` into :attr:`out` (returned)."""
+        from .pupil_table import replay_sliced
+        self.out.spec.zero_()
+        seed = pass_seed(self.prep.setup.seed, index)
+        for _, cmd in self.cmds:
+            cmd.set_param_by_name("seed", seed)
+        replay_sliced(self.cmds)
+        return self.out
 
 
 @dataclass

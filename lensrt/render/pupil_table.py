@@ -34,9 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LensrtError
-from ..core.telemetry import launch
+from ..core.telemetry import launch, replay
 
-__all__ = ["ExitPupilTable", "exit_pupil_table", "launch_sliced", "circular_iris", "table_wavelengths", "sensor_span"]
+__all__ = ["ExitPupilTable", "exit_pupil_table", "launch_sliced", "record_sliced", "replay_sliced", "circular_iris",
+           "table_wavelengths", "sensor_span"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +102,28 @@ def launch_sliced(kernel, n: int, inputs_of, device: str, workers: int | None = 
     from concurrent.futures import ThreadPoolExecutor
     with ThreadPoolExecutor(w) as pool:
         list(pool.map(run, range(w)))
+
+
+def record_sliced(kernel, n: int, inputs_of, device: str, workers: int | None = None) -> list:
+    """The launches of :func:`launch_sliced` recorded, not run (``wp.launch(..., record_cmd=True)``: arguments
+    packed once): a list of (first thread id, ``wp.Launch``) for :func:`replay_sliced`, after any
+    ``set_param_by_name`` on each of them."""
+    from ..device import warp
+    wp = warp()
+    w = _cpu_workers(device, n) if workers is None else max(1, int(workers))
+    bounds = [n * k // w for k in range(w + 1)]
+    return [(bounds[k], wp.launch(kernel, dim=bounds[k + 1] - bounds[k], inputs=inputs_of(bounds[k]), device=device,
+                                  record_cmd=True)) for k in range(w) if bounds[k + 1] > bounds[k]]
+
+
+def replay_sliced(cmds: list) -> None:
+    """Run the launches of :func:`record_sliced` (on the CPU, its slices on as many cores)."""
+    if len(cmds) == 1:
+        replay(cmds[0][1], slice_of=cmds[0][0])
+        return
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(len(cmds)) as pool:
+        list(pool.map(lambda c: replay(c[1], slice_of=c[0]), cmds))
 
 
 def _region_half_mm(camera, r_max: float, dist_mm: float) -> float:

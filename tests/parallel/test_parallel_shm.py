@@ -2,6 +2,7 @@
 gone afterwards, small results left in the message; and large results through the process executor."""
 from __future__ import annotations
 
+import os
 import pickle
 from multiprocessing import shared_memory
 from pathlib import Path
@@ -121,3 +122,92 @@ def test_large_results_from_a_local_dask_cluster_equal_the_thread_run(monkeypatc
         assert _segments() <= before
     assert np.array_equal(got.value, want) and got.n_items == 4
     assert seen == [True] * 4                     # every result came as a shared-memory segment
+
+
+# --- results written in place: SharedArrays made by the parent, filled by the items -----------------------
+
+_PART = 50_000
+
+
+def _fill(item: WorkItem, context: object, device: str) -> dict:
+    """Item ``index`` writes its random part into the run's shared arrays when it finds them."""
+    from lensrt.parallel.shm import attach_shared
+    token, n = item.params
+    values = item.rng().random(_PART)
+    arrays = attach_shared(token, {"v": ((n * _PART,), "float64")})
+    if arrays is None:
+        return {"placed": False, "values": values, "pid": os.getpid()}
+    arrays["v"][item.index * _PART:(item.index + 1) * _PART] = values
+    return {"placed": True, "values": None, "pid": os.getpid()}
+
+
+class _InPlace:
+    """Reduction: the run's arrays in shared memory; places the parts that came back instead."""
+
+    def __init__(self, token: str, n: int) -> None:
+        self.token, self.n = token, n
+
+    def start(self) -> dict:
+        from lensrt.parallel.shm import SharedArrays
+        shared = SharedArrays(self.token, {"v": ((self.n * _PART,), "float64")})
+        return {"shared": shared, "v": shared.arrays["v"], "placed": [], "pids": set()}
+
+    def add(self, acc: dict, index: int, result: dict) -> dict:
+        if not result["placed"]:
+            acc["v"][index * _PART:(index + 1) * _PART] = result["values"]
+        acc["placed"].append(result["placed"])
+        acc["pids"].add(result["pid"])
+        return acc
+
+    def finish(self, acc: dict) -> tuple:
+        acc["shared"].release()
+        return acc["v"], acc["placed"], acc["pids"], acc["shared"].shared
+
+
+def _in_place_job(n: int = 5) -> Job:
+    token = f"lensrt-test-{os.getpid()}-{n}"
+    return Job(make_items([(token, n)] * n, 11), _fill, _InPlace(token, n), uses_device=False, name="in-place")
+
+
+def _want(n: int) -> np.ndarray:
+    return np.concatenate([WorkItem(i, None, 11).rng().random(_PART) for i in range(n)])
+
+
+def test_worker_processes_write_the_parents_shared_arrays_in_place() -> None:
+    """Every part is written by a worker process straight into the parent's segment (no result arrays
+    come back), the values are the thread run's, and the segment is gone once the run has finished."""
+    job = _in_place_job()
+    with ProcessExecutor("cpu,cpu") as ex:
+        v, placed, pids, shared = ex.run(job).value
+    assert shared and placed == [True] * 5 and os.getpid() not in pids
+    assert np.array_equal(v, _want(5))
+    assert not Path("/dev/shm", job.items[0].params[0]).exists()
+    v2, placed2, pids2, _ = LocalExecutor("cpu,cpu").run(job).value   # threads: the same arrays, in process
+    assert placed2 == [True] * 5 and pids2 == {os.getpid()} and np.array_equal(v2, v)
+
+
+def test_without_room_the_arrays_stay_in_the_parent_and_processes_return_their_parts(monkeypatch) -> None:
+    import lensrt.parallel.shm as shm
+    monkeypatch.setattr(shm, "SHM_HEADROOM_BYTES", 1 << 62)
+    job = _in_place_job(3)
+    v, placed, _, shared = LocalExecutor("cpu").run(job).value
+    assert not shared and placed == [True] * 3 and np.array_equal(v, _want(3))
+    assert shm.attach_shared(job.items[0].params[0], {"v": ((3 * _PART,), "float64")}) is None   # released
+    with ProcessExecutor("cpu") as ex:
+        v2, placed2, _, _ = ex.run(job).value
+    assert placed2 == [False] * 3 and np.array_equal(v2, v)
+
+
+def test_a_run_that_failed_leaves_no_segment_and_does_not_block_the_next() -> None:
+    from lensrt.parallel.shm import SharedArrays, attach_shared
+    layout = {"a": ((4, 3), "float64"), "b": ((7,), "int64")}
+    first = SharedArrays("lensrt-test-stale", layout)
+    first.arrays["b"][:] = 5
+    second = SharedArrays("lensrt-test-stale", layout)   # the first run never finished: replaced
+    assert attach_shared("lensrt-test-stale", layout)["b"].sum() == 0
+    assert attach_shared("lensrt-test-stale", {"a": ((5, 3), "float64")}) is None   # another layout: not these
+    del second
+    import gc
+    gc.collect()
+    assert not Path("/dev/shm/lensrt-test-stale").exists() and attach_shared("lensrt-test-stale", layout) is None
+    assert first.arrays["b"].sum() == 35                  # the first run's arrays stay valid

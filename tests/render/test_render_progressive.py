@@ -98,39 +98,72 @@ def test_progressive_runs_on_an_executor_keep_pass_rounds():
 
 
 def test_region_sums_from_row_segments_add_up_to_the_region_sums(device):
-    """Any split of the pixels into ranges (row-aligned or not): the row-segment sums that the device
-    kernel writes for each range give, added range by range, the sums over each region (numpy on the
-    whole image); the hit blocks give the paths through of each range."""
+    """Any split of the pixels into ranges (row-aligned or not): the row-segment sums that the tile's
+    per-pass kernel writes for each range give, added range by range, the sums over each region (numpy
+    on the whole image) and the paths through of each range; the same launch adds the range's
+    spectral values and XYZ moments to its float64 sums (numpy in float64: the same bits), on the
+    CPU in slices that start at any thread id."""
     from lensrt.device import warp
     from lensrt.render.jobs import region_cuts, region_sums_from_segments
     from lensrt.render.passes import region_slices
-    from lensrt.render.tile_kernels import block_hits, row_segment_sums
+    from lensrt.render.pupil_table import launch_sliced
+    from lensrt.render.tile_kernels import tile_pass_sums
     wp = warp()
-    shape = (23, 17)
+    shape, bands = (23, 17), 2
     rng = np.random.default_rng(1)
     y = rng.random(shape).astype(np.float32)
     hits = rng.integers(0, 9, shape[0] * shape[1]).astype(np.int32)
+    spec = rng.random(y.size * bands).astype(np.float32)
     want = [y.astype(np.float64)[r0:r1, c0:c1].sum() for r0, r1, c0, c1 in region_slices(shape)]
     cuts = region_cuts(shape, longest=4)
     assert cuts[0] == 0 and cuts[-1] == shape[1] and np.all(np.diff(cuts) <= 4) and np.all(np.diff(cuts) > 0)
-    xyz = np.zeros((y.size, 3), dtype=np.float32)
+    xyz = rng.random((y.size, 3)).astype(np.float32)
     xyz[:, 1] = y.reshape(-1)
     got, through = np.zeros(len(want)), 0
     bounds = [0, 5, 17, 40, 41, 200, 17 * 3 * 4, 391]
     for p0, p1 in zip(bounds[:-1], bounds[1:]):
         ra, rb = p0 // shape[1], -(-p1 // shape[1])
-        seg = wp.zeros((2, rb - ra, len(cuts) - 1), dtype=wp.float64, device=device)
-        wp.launch(row_segment_sums, dim=(rb - ra, len(cuts) - 1), device=device,
-                  inputs=[wp.array(xyz[p0:p1], dtype=wp.vec3, device=device), p0, p1, ra, shape[1],
-                          wp.array(cuts, dtype=wp.int32, device=device), 1, seg])
+        n, n_segs = p1 - p0, len(cuts) - 1
+        n_cells, n_spec = (rb - ra) * n_segs, (p1 - p0) * bands
+        seg = wp.zeros((2, rb - ra, n_segs), dtype=wp.float64, device=device)
+        seg_hits = wp.zeros((2, rb - ra, n_segs), dtype=wp.int64, device=device)
+        start = rng.random(n_spec)                           # sums so far (one pass before this one)
+        spec_sum = wp.array(start, dtype=wp.float64, device=device)
+        s1, s2 = (wp.array(np.full((n, 3), v), dtype=wp.float64, device=device) for v in (0.25, 0.5))
+        args = [wp.array(spec[p0 * bands:p1 * bands], dtype=float, device=device), spec_sum, n_spec,
+                wp.array(xyz[p0:p1], dtype=wp.vec3, device=device), s1, s2,
+                wp.array(hits[p0:p1], dtype=wp.int32, device=device), p0, p1, ra, shape[1],
+                wp.array(cuts, dtype=wp.int32, device=device), n_segs, n_cells, 1, seg, seg_hits]
+        launch_sliced(tile_pass_sums, max(n_spec, n, n_cells), lambda base: [int(base)] + args, device, workers=3)
         got += region_sums_from_segments(seg.numpy()[1], ra, shape, cuts)
-        assert not seg.numpy()[0].any()                       # slot 0 untouched
-        blocks = wp.zeros((1, -(-(p1 - p0) // 3)), dtype=wp.int64, device=device)
-        wp.launch(block_hits, dim=blocks.shape[1], device=device,
-                  inputs=[wp.array(hits[p0:p1], dtype=wp.int32, device=device), p1 - p0, 3, 0, blocks])
-        through += int(blocks.numpy().sum())
+        assert not seg.numpy()[0].any() and not seg_hits.numpy()[0].any()      # slot 0 untouched
+        through += int(seg_hits.numpy().sum())
+        x = xyz[p0:p1].astype(np.float64)
+        assert np.array_equal(spec_sum.numpy(), start + spec[p0 * bands:p1 * bands].astype(np.float64))
+        assert np.array_equal(s1.numpy(), 0.25 + x) and np.array_equal(s2.numpy(), 0.5 + x * x)
     assert np.allclose(got, want, rtol=1e-13, atol=0)
     assert through == int(hits.sum())
+
+
+def test_recorded_camera_passes_equal_launched_passes_and_count_as_launches(device):
+    """The camera kernel recorded once per tile and replayed with each pass's seed gives the bits of a pass
+    launched with all its arguments (every pass, not only the first), and telemetry counts each replay as
+    a launch."""
+    from lensrt.core.telemetry import measure
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.passes import RecordedPasses, device_pass, prepare_setup
+    prep = prepare_setup(get_workload("render")("tiles=2", 11).context, device)
+    p0, p1 = 100, 900
+    rec = RecordedPasses(prep, (p0, p1))
+    with measure() as t:
+        for index in (0, 1, 2):
+            got = rec.run(index)
+            want = device_pass(prep, index, None, (p0, p1))
+            for f in ("spec", "xyz", "hits"):
+                assert np.array_equal(getattr(got, f).numpy(), getattr(want, f).numpy()), (index, f)
+    assert t.launches == 6
+    first = rec.run(0).xyz.numpy().copy()                 # (on the CPU numpy() aliases the buffer)
+    assert not np.array_equal(first, rec.run(1).xyz.numpy())   # the seed did change
 
 
 def test_a_tile_copies_from_its_device_once_whatever_its_pass_count(monkeypatch):
@@ -151,6 +184,60 @@ def test_a_tile_copies_from_its_device_once_whatever_its_pass_count(monkeypatch)
         LocalExecutor("cpu").run(job)
         per_item.append(len(copies) / len(job.items))
     assert per_item[0] == per_item[1] <= 5
+
+
+def test_tiles_written_in_place_equal_tiles_returned_to_the_reduction():
+    """Tiles that copy their sums from the device straight into the run's image (and compute their XYZ
+    mean and standard error there) give the bits of tiles that return their sums for the reduction to
+    place: image, moments, per-pass hits and region means; every tile of a thread run finds the image,
+    and the run's shared-memory segment is gone at its end."""
+    import dataclasses as dc
+    from lensrt.parallel import LocalExecutor
+    from lensrt.parallel.shm import SHM_DIR
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.jobs import render_tiles_job, run_tile_item
+    setup = get_workload("render")("tiles=3", 7).context
+    placed = []
+
+    def spy(item, prep, device):
+        r = run_tile_item(item, prep, device)
+        placed.append(r.placed)
+        return r
+
+    values = []
+    for in_place in (False, True):
+        job = render_tiles_job(setup, 3, 5, in_place=in_place)
+        job = dc.replace(job, run=spy)
+        placed.clear()
+        values.append(LocalExecutor("cpu,cpu").run(job).value)
+        assert placed == [in_place] * 5
+    ret, inp = values
+    for f in ("spec_sum", "xyz", "xyz_stderr", "passes", "samples_per_pixel", "hits"):
+        assert np.array_equal(getattr(ret, f), getattr(inp, f)), f
+    assert inp.pass_sum.pass_hits == ret.pass_sum.pass_hits and inp.pass_sum.region_means == ret.pass_sum.region_means
+    assert np.array_equal(inp.pass_sum.xyz2, ret.pass_sum.xyz2)
+    assert not Path(SHM_DIR, job.items[0].params[3]).exists()
+    assert get_workload("render")("tiles=2,in_place=0", 3).items[0].params[3] is None   # the benchmark's switch
+
+
+@pytest.mark.gpu
+def test_tiles_in_place_on_every_gpu_equal_returned_tiles_on_one() -> None:
+    """On a CUDA machine: tiles written in place by one thread and by one worker process per GPU give the
+    bits of tiles returned from cuda:0 alone (the copy straight from the device into the image)."""
+    from lensrt.device import cuda_available
+    if not cuda_available():
+        pytest.skip("no CUDA device")
+    from lensrt.parallel import LocalExecutor, ProcessExecutor
+    from lensrt.parallel.workloads import get_workload
+    from lensrt.render.jobs import render_tiles_job
+    setup = get_workload("render")("small", 5).context
+    want = LocalExecutor("cuda:0").run(render_tiles_job(setup, 4, 8, in_place=False)).value
+    with ProcessExecutor("all") as px:
+        for ex in (LocalExecutor("cuda:0"), LocalExecutor("all"), px):
+            got = ex.run(render_tiles_job(setup, 4, 8)).value
+            for f in ("spec_sum", "xyz", "xyz_stderr", "hits"):
+                assert np.array_equal(getattr(got, f), getattr(want, f)), (ex.describe(), f)
+            assert got.pass_sum.region_means == want.pass_sum.region_means
 
 
 def test_render_job_workload_reduces_in_pass_order():

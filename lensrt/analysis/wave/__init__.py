@@ -5,6 +5,7 @@ Files:
 - ``pupil_grid``   pupil coordinates, aperture shapes (circular, iris, vignetted), Zernike polynomials and fits,
   scattered real-ray data resampled onto a pupil grid
 - ``point_location`` which triangle of the rays' triangulation holds each query point (a bucket grid)
+- ``ray_mesh``     triangles of rays traced on a regular grid (two a cell) and linear interpolation on them
 - ``wavefront``    reference spheres, OPD of real rays, the pupil function of a field point
 - ``propagation``  pupil function -> PSF by FFT, matrix Fourier transform or Huygens sum; through-focus PSFs
 """

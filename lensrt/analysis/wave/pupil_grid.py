@@ -31,12 +31,15 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
 from ...errors import LensrtError
 from ...prescription.model import Iris
+
+if TYPE_CHECKING:
+    from .ray_mesh import GridLinear
 
 __all__ = ["pupil_coordinates", "aperture_mask", "aperture_fine_mask", "clear_fraction", "circular_aperture", "iris_aperture",
            "aperture_from_iris", "vignetted_aperture", "noll_to_nm", "zernike", "fit_zernike",
@@ -327,9 +330,42 @@ def _extrapolate(pts: np.ndarray, values: np.ndarray, qx: np.ndarray, qy: np.nda
     return coef[:, 0]
 
 
+def _valid_ray_interpolant(px: np.ndarray, py: np.ndarray, ok: np.ndarray,
+                           ray_grid: tuple[int, np.ndarray] | GridLinear | None, gx: np.ndarray,
+                           gy: np.ndarray) -> Callable[..., np.ndarray]:
+    """``lin(values, fill=nan, every=False)``: values on the valid rays (all rays with ``every``) interpolated
+    linearly at the grid points (gx, gy) -- on the valid rays' Delaunay triangulation (every ray's, with
+    ``every``), or along the ray grid (:class:`~lensrt.analysis.wave.ray_mesh.GridLinear`, one point location
+    for all)."""
+    if ray_grid is None:
+        def lin(values: np.ndarray, fill: float = np.nan, every: bool = False) -> np.ndarray:
+            tri = TriLinear(px, py) if every else TriLinear.of(px[ok], py[ok])
+            return tri.interp(values, gx, gy, fill=fill)
+        return lin
+    from .ray_mesh import GridLinear
+    if isinstance(ray_grid, GridLinear):
+        mesh = ray_grid
+        if mesh.index.size != px.size:
+            raise LensrtError(f"a ray mesh of {mesh.index.size} rays for {px.size} rays")
+    else:
+        index = np.ravel(np.asarray(ray_grid[1], dtype=np.int64))
+        if index.size != px.size:
+            raise LensrtError(f"{index.size} ray grid indices for {px.size} rays")
+        mesh = GridLinear.of(int(ray_grid[0]), index, px, py)
+
+    def lin(values: np.ndarray, fill: float = np.nan, every: bool = False) -> np.ndarray:
+        if every:
+            return mesh.interp(values, gx, gy, fill=fill)
+        full = np.zeros(px.size)
+        full[ok] = values
+        return mesh.interp(full, gx, gy, fill=fill, use=ok)
+    return lin
+
+
 def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: np.ndarray, n: int, *,
                     method: str = "linear", amplitude: np.ndarray | None = None,
-                    aperture: np.ndarray | None = None, n_zernike: int = 36
+                    aperture: np.ndarray | None = None, n_zernike: int = 36,
+                    ray_grid: tuple[int, np.ndarray] | GridLinear | None = None
                     ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Grid scattered real-ray pupil data: the glue from the tracer's *store* output to the FFT.
 
@@ -361,6 +397,11 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         Known amplitude mask (e.g. :func:`aperture_from_iris`). Without it the
         mask comes from the rays: the validity of the rays, interpolated
         linearly and cut at 1/2 (edge placed midway between valid and invalid rays).
+    ray_grid : (m, index) or GridLinear, optional
+        The rays were traced on an m x m grid, ray k at flat index ``index[k]``: the linear interpolation then
+        runs on the grid's cells cut in two (:class:`~lensrt.analysis.wave.ray_mesh.GridLinear`) rather than on
+        a Delaunay triangulation -- the same interpolant but for ties and the hull's slivers, without qhull.
+        A ``GridLinear`` given here must be the one of these rays (``GridLinear(m, index, px, py)``).
 
     Returns
     -------
@@ -384,17 +425,17 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
                           hint="scale the pupil coordinates with a larger NA, e.g. enclosing_na(...)")
     gx, gy = pupil_coordinates(n)
     pts = np.column_stack([px[ok], py[ok]])
-    tri = TriLinear.of(px[ok], py[ok])  # one triangulation of the valid rays for the OPD and the amplitude
+    lin = _valid_ray_interpolant(px, py, ok, ray_grid, gx, gy)
     info: dict = {"method": method, "rays": int(px.size), "valid_rays": int(ok.sum())}
     if aperture is None:
-        frac = TriLinear(px, py).interp(ok.astype(np.float64), gx, gy, fill=0.0)
+        frac = lin(ok.astype(np.float64), 0.0, every=True)
         mask = (frac >= 0.5).astype(np.float64)
     else:
         mask = np.asarray(aperture, dtype=np.float64)
         if mask.shape != (n, n):
             raise LensrtError(f"aperture mask has shape {mask.shape}, expected ({n}, {n})")
     if method == "linear":
-        grid_w = tri.interp(w[ok], gx, gy)
+        grid_w = lin(w[ok])
         hole = ~np.isfinite(grid_w) & (mask > 0)  # lit edge cells outside the valid rays' hull
         if hole.any():
             grid_w[hole] = _extrapolate(pts, w[ok], gx[hole], gy[hole])
@@ -409,8 +450,10 @@ def pupil_from_rays(px: np.ndarray, py: np.ndarray, opd_mm: np.ndarray, valid: n
         raise LensrtError(f"unknown pupil gridding method {method!r}", hint="use 'linear' or 'zernike'")
     if amplitude is not None:
         a = np.ravel(np.asarray(amplitude, dtype=np.float64))[ok]
-        grid_a = tri.interp(a, gx, gy)
+        grid_a = lin(a)
         hole = ~np.isfinite(grid_a)
+        grid_a[hole & (mask <= 0)] = 0.0   # dark cells: their amplitude is multiplied by 0 below
+        hole &= mask > 0
         if hole.any():
             grid_a[hole] = NearestNDInterpolator(pts, a)(gx[hole], gy[hole])
         mask = mask * np.clip(grid_a, 0.0, None)

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
@@ -56,6 +56,9 @@ from ...prescription.model import Lens
 from ...units import NM_PER_MM
 from .pupil_grid import enclosing_na, pupil_coordinates_from_directions, pupil_from_rays
 from ..pupil_rays import PupilRays, pupil_grid_rays
+
+if TYPE_CHECKING:
+    from .ray_mesh import GridLinear
 
 __all__ = ["ReferenceSphere", "RayWavefront", "reference_sphere", "opd_to_sphere_mm", "trace_wavefronts",
            "trace_wavefronts_many", "pupil_function_from_wavefront"]
@@ -119,8 +122,9 @@ class RayWavefront:
     ``px, py`` (k,) normalised pupil positions of every placed ray, ``valid`` (k,) ray passed,
     ``opd_mm`` (k,) OPD (valid rays), ``amplitude`` (k,) relative amplitude (valid rays),
     ``spot_half_mm`` the largest |x|, |y| of a valid ray's landing point from Q (geometric spot),
-    ``na`` the grid scale, ``grid_shape`` the (m, m) ray grid and ``grid_index`` (k,) each ray's
-    flat index in it; ``sphere`` the reference sphere; ``ray_step_waves`` the largest OPD change
+    ``na`` the grid scale, ``grid_m`` the m of the m x m ray grid the rays were traced on and ``grid_index``
+    (k,) each ray's flat index in it (0 and None for rays not from a grid: they are then triangulated by
+    Delaunay); ``sphere`` the reference sphere; ``ray_step_waves`` the largest OPD change
     between neighbouring rays and ``interp_error_waves`` an estimate of the linear interpolation
     error (max |second difference| / 8).
     """
@@ -140,6 +144,31 @@ class RayWavefront:
     opd_pv_waves: float
     opd_rms_waves: float
     spot_half_mm: float
+    grid_m: int = 0
+    grid_index: np.ndarray | None = None
+
+    @property
+    def ray_grid(self) -> tuple[int, np.ndarray] | None:
+        """``(m, grid_index)`` for :func:`~lensrt.analysis.wave.pupil_grid.pupil_from_rays`, None off a grid."""
+        return None if self.grid_index is None or self.grid_m < 2 else (int(self.grid_m), self.grid_index)
+
+    @property
+    def mesh(self) -> GridLinear | None:
+        """The rays' :class:`~lensrt.analysis.wave.ray_mesh.GridLinear` (built once per wavefront; a pupil
+        function at any size uses it), None off a grid. Two threads asking at once may both build it (the
+        same mesh): no lock, so analysis threads never wait on each other here."""
+        from .ray_mesh import GridLinear
+        got = self.__dict__.get("_mesh")
+        if got is None or got[0] is not self.px:
+            grid = self.ray_grid
+            got = (self.px, None if grid is None else GridLinear(grid[0], grid[1], self.px, self.py))
+            self.__dict__["_mesh"] = got
+        return got[1]
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_mesh", None)   # rebuilt on demand
+        return state
 
 
 def _grid_stats(opd: np.ndarray, valid: np.ndarray, m: int, wavelength_mm: float) -> tuple[float, float]:
@@ -269,7 +298,8 @@ def _wavefronts_of(lens: Lens, rays: PupilRays, wls: list[float], chief_all, all
         o = opd[ok] / lam
         out.append(RayWavefront(wl, px[keep], py[keep], ok[keep], opd[keep], amp[keep], na, na_real, sphere,
                                 int(m * m), step, interp, float(o.max() - o.min()) if o.size else 0.0,
-                                float(np.sqrt(np.mean((o - o.mean()) ** 2))) if o.size else 0.0, half))
+                                float(np.sqrt(np.mean((o - o.mean()) ** 2))) if o.size else 0.0, half,
+                                int(m), np.nonzero(keep)[0]))
     return out
 
 
@@ -281,7 +311,8 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> tuple[np.ndarray, n
     """(clear fraction of each pupil cell, the hard-edged fine mask for the OTF) where ``inside_value(px, py)
     >= 1/2``. The fractions sub-sample (s x s points) only the cells at the edge (where the value at the centres
     of the cell and its neighbours is not all 0 or 1); the fine mask has f x f sub-cells a cell
-    (f = OTF_FINE_CELLS // n, at least 1), the edge cells' sub-cells sampled at their centres."""
+    (f = OTF_FINE_CELLS // n, at least 1), the edge cells' sub-cells sampled at their centres -- the same
+    points as the fractions' when f = s, which are then not sampled again."""
     from .pupil_grid import pupil_coordinates
     gx, gy = pupil_coordinates(n)
     v = inside_value(gx, gy)
@@ -301,6 +332,9 @@ def _ray_mask(inside_value, n: int, supersample: int = 4) -> tuple[np.ndarray, n
         rows = edge[0][:, None, None] * f + k[None, :, None]
         cols = edge[1][:, None, None] * f + k[None, None, :]
         fine[rows, cols] = inside_value(fx[rows, cols], fy[rows, cols]) >= 0.5
+        if f == supersample:  # the s x s sub-samples are the fine sub-cells' centres: already found
+            mask[edge] = np.mean(fine[rows, cols].reshape(-1, f * f), axis=1)
+            return mask, fine
     if edge[0].size and supersample > 1:
         s = int(supersample)
         off = ((np.arange(s) + 0.5) / s - 0.5) * (2.0 / n)
@@ -315,10 +349,12 @@ def pupil_function_from_wavefront(wf: RayWavefront, n: int):
     """The :class:`~lensrt.analysis.wave.propagation.PupilFunction` of a traced wavefront on an n x n pupil grid."""
     from .propagation import PupilFunction
     from .pupil_grid import TriLinear
-    lin = TriLinear.of(wf.px, wf.py)
+    mesh = wf.mesh  # rays from a regular grid are triangulated along it (ray_mesh), others by Delaunay
+    lin = TriLinear.of(wf.px, wf.py) if mesh is None else mesh
     valid = wf.valid.astype(np.float64)
     mask, fine = _ray_mask(lambda qx, qy: lin.interp(valid, qx, qy, fill=0.0), n, supersample=4)
-    amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude)
+    amp, opd, info = pupil_from_rays(wf.px, wf.py, wf.opd_mm, wf.valid, n, aperture=mask, amplitude=wf.amplitude,
+                                     ray_grid=mesh)
     # the clear pupil's area in direction-cosine space -> the NA of the circle of equal area
     info["equivalent_na"] = float(wf.na * math.sqrt(mask.sum() * (2.0 / n) ** 2 / math.pi))
     a_cell = np.where(mask > 0, amp / np.where(mask > 0, mask, 1.0), 0.0)
