@@ -14,7 +14,8 @@ outlines, focus moments and the like -- so the measured run launches fewer kerne
 fresh process: count launches with ``--no-warmup``), and prints the :mod:`lensrt.core.telemetry` record of each
 section: ``wall s``, ``kernel s`` (CUDA events on a GPU; on the CPU the wall time of the launch calls,
 summed over the cores a launch runs on), kernel ``launches``, host<->device ``copies`` (lensrt's own
-NumPy uploads and ``.numpy()`` downloads) and ``busy`` = kernel s / wall s.
+NumPy uploads and ``.numpy()`` downloads) and ``busy`` = kernel s / wall s. A last line says how many figure
+and file jobs figure worker processes ran and how long the report waited for them at its end.
 """
 from __future__ import annotations
 
@@ -78,6 +79,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"lensrt report {report.lens_name}, quality {args.quality}{fraction}, on {report.device_name} "
           f"({platform.processor() or platform.machine()}, python {platform.python_version()})")
     print(table(rows))
+    figs = report.summary.get("figure_telemetry")
+    if figs:
+        print(f"figures and files: {figs['jobs']} jobs, {figs['jobs_in_workers']} by {figs['workers']} worker "
+              f"processes ({figs['worker_s']:.2f} s there), {figs['caller_s']:.2f} s run in the report's process; "
+              f"the report waited {figs['wait_s']:.2f} s for them at its end (LENSRT_FIGURE_WORKERS)")
     return 0
 
 

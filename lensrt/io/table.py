@@ -4,11 +4,12 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["format_table", "format_cell", "Table", "to_jsonable", "dumps_json"]
+__all__ = ["format_table", "format_cell", "Table", "to_jsonable", "dumps_json", "write_json"]
 
 
 def _cell(value: Any, digits: int) -> str:
@@ -80,3 +81,10 @@ def to_jsonable(value: Any) -> Any:
 def dumps_json(value: Any, indent: int | None = 2) -> str:
     """Strict JSON text (no NaN/Infinity tokens) of ``value``."""
     return json.dumps(to_jsonable(value), indent=indent, allow_nan=False)
+
+
+def write_json(path: str | Path, value: Any, indent: int | None = 2) -> Path:
+    """Write :func:`dumps_json` of ``value`` and a newline to the file ``path``; returns the path."""
+    p = Path(path)
+    p.write_text(dumps_json(value, indent) + "\n")
+    return p

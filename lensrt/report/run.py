@@ -120,65 +120,55 @@ def build_report(lens, out_dir: str | Path, options: ReportOptions | None = None
 
 
 def _figure_errors(outcomes, sections: list[Section]) -> None:
-    """A figure that a worker process could not draw: an error of the section that made it."""
+    """A figure or file that could not be made (by a worker process, nor then here): an error of the
+    section that made it."""
     for owner, path, err in outcomes:
         if err is None:
             continue
         for sec in sections:
             if sec.key == owner:
                 sec.errors.append(f"figure {Path(path).name} could not be drawn: {type(err).__name__}: {err} "
-                                  "(a bug in lensrt; set LENSRT_FIGURE_WORKERS=0 to draw figures in this process)")
+                                  "(a bug in lensrt; with LENSRT_FIGURE_WORKERS=0 report.json keeps its traceback)")
+
+
+def _worker_trouble(renderer, sections: list[Section], stream, quiet: bool) -> None:
+    """The renderer's one message (a worker process could not start, stopped, or failed a job, which then
+    ran here): a warning of the first section with a job that ran here, and one line on ``stream``."""
+    if not renderer.message:
+        return
+    owners = [j.owner for j in renderer.jobs if j.where == "caller"]
+    for sec in sections:
+        if sec.key in owners[:1]:
+            sec.warnings.append(renderer.message)
+    if not quiet:
+        print(f"lensrt report: {renderer.message}", file=stream or sys.stderr)
 
 
 def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str], stream, quiet: bool) -> Report:
-    """Run the sections (each one measured) and gather the report; :func:`build_report` writes it."""
-    from ..views.progress import StepProgress
+    """Run the sections (each one measured) and gather the report; :func:`build_report` writes it.
+    The figure worker processes start first, so that they have loaded Matplotlib by the first figure;
+    the report then waits only for the figures and files they have not finished."""
     from ..device import describe_device, resolve_device
     t0 = time.perf_counter()
-    family = None
-    if isinstance(lens, MultiConfigLens):
-        family, lens = lens, lens.configuration()
-    analysed, notes = prepare_lens(lens, options)
-    device = resolve_device(options.device)
-    out = output_dir(out_dir)
-    ctx = ReportContext(analysed, lens, options, out, device, notes)
-    if family is not None:
-        ctx.cache["configurations"] = family
-    steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
-    sections = []
     with deferred_figures() as renderer:
-        for key, title, label, spec in SECTIONS:
-            sec = Section(key, title)
-            sections.append(sec)
-            if key in skip:
-                sec.data["skipped"] = True
-                continue
-            ctx.progress = steps.start(label)
-            if renderer is not None:
-                renderer.owner = key
-            t_sec = time.perf_counter()
-            with warnings.catch_warnings(record=True) as caught, measure() as rec:
-                warnings.simplefilter("always")
-                try:
-                    _function(spec)(ctx, sec)
-                except LensrtError as err:
-                    sec.errors.append(str(err))
-                except Exception as err:  # noqa: BLE001 - a failing section must not take the report with it
-                    sec.errors.append(f"internal error: {type(err).__name__}: {err} (a bug in lensrt; the traceback is "
-                                      "in report.json)")
-                    sec.traceback = traceback.format_exc()
-            sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
-                                              if not issubclass(w.category, DeprecationWarning)))
-            sec.seconds = time.perf_counter() - t_sec
-            sec.telemetry = rec.to_dict()
-            note = sec.errors[0][:100] if not sec.ok else \
-                (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
-            steps.finish(sec.ok, note)
-        if renderer is not None:  # figures drawn by worker processes: their files exist from here on
+        family = None
+        if isinstance(lens, MultiConfigLens):
+            family, lens = lens, lens.configuration()
+        analysed, notes = prepare_lens(lens, options)
+        device = resolve_device(options.device)
+        out = output_dir(out_dir)
+        ctx = ReportContext(analysed, lens, options, out, device, notes)
+        if family is not None:
+            ctx.cache["configurations"] = family
+        sections = _sections(ctx, skip, stream, quiet, renderer)
+        if renderer is not None:  # figures and files made by worker processes: they exist from here on
             _figure_errors(renderer.wait(), sections)
+            _worker_trouble(renderer, sections, stream, quiet)
     env = _environment(options.command_line)
     report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
                     0.0, env, notes, _lens_summary(analysed))
+    if renderer is not None:
+        report.summary["figure_telemetry"] = renderer.stats()
     try:
         from .key_numbers import key_numbers
         report.key_numbers = key_numbers(ctx, sections)
@@ -191,3 +181,38 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
     report.json_path = out / "report.json"
     report.html_path = out / "index.html"
     return report
+
+
+def _sections(ctx: ReportContext, skip: Sequence[str], stream, quiet: bool, renderer) -> list[Section]:
+    """Run every section not skipped, each measured, its warnings and errors kept; progress on ``stream``."""
+    from ..views.progress import StepProgress
+    steps = StepProgress(len([s for s in SECTIONS if s[0] not in skip]), stream, quiet)
+    sections = []
+    for key, title, label, spec in SECTIONS:
+        sec = Section(key, title)
+        sections.append(sec)
+        if key in skip:
+            sec.data["skipped"] = True
+            continue
+        ctx.progress = steps.start(label)
+        if renderer is not None:
+            renderer.owner = key
+        t_sec = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught, measure() as rec:
+            warnings.simplefilter("always")
+            try:
+                _function(spec)(ctx, sec)
+            except LensrtError as err:
+                sec.errors.append(str(err))
+            except Exception as err:  # noqa: BLE001 - a failing section must not take the report with it
+                sec.errors.append(f"internal error: {type(err).__name__}: {err} (a bug in lensrt; the traceback is "
+                                  "in report.json)")
+                sec.traceback = traceback.format_exc()
+        sec.warnings = list(dict.fromkeys(str(w.message) for w in caught
+                                          if not issubclass(w.category, DeprecationWarning)))
+        sec.seconds = time.perf_counter() - t_sec
+        sec.telemetry = rec.to_dict()
+        note = sec.errors[0][:100] if not sec.ok else \
+            (f"{len(sec.warnings)} warning{'s' * (len(sec.warnings) > 1)} on the page" if sec.warnings else "")
+        steps.finish(sec.ok, note)
+    return sections

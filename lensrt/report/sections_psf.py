@@ -139,8 +139,9 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
     from ..analysis.psf.setup import make_setup
     from ..analysis.fields import image_height_fields
     from ..views.plots.psf import plot_mtf_curves, plot_mtf_vs_field, plot_system_mtf
-    from ..io.table import dumps_json
+    from ..io.table import write_json
     from ..paraxial.photographic import sensor_format
+    from ..views.plots.figure import defer
     o, q = ctx.options, ctx.options.preset
     fmt = sensor_format(o.sensor)
     detector = Detector(o.pixel_pitch_um)
@@ -222,7 +223,7 @@ def mtf_section(ctx: ReportContext, sec: Section) -> None:
     out = {"lens": ctx.lens.name, "setup": setup.to_dict(), "sensor": fmt.name, "detector": detector.to_dict(),
            "reference_freqs_cpmm": list(ref), "seconds": pmap.seconds, "rays_total": pmap.rays,
            "fields": [dict(label=f.label, **c) for f, c in zip(fields, curves)], "mtf_vs_field": vs_field}
-    ctx.path("mtf.json").write_text(dumps_json(out) + "\n")
+    defer(write_json, ctx.path("mtf.json"), out)  # by a figure worker process where there is one
     sec.files([("mtf.json", "curves (lens, diffraction limit, detector, OLPF, system) with standard errors, and "
                             "MTF against field")])
     sec.data["mtf"] = {"reference_freqs_cpmm": list(ref), "mtf_vs_field": vs_field, "seconds": pmap.seconds,

@@ -59,11 +59,15 @@ def write_bokeh_files(image: Any, out_dir: str | Path, name: str = "bokeh", expo
                       json_summary: bool = True) -> dict[str, Path]:
     """Write ``<name>.png`` (sRGB, 8 bit), ``<name>.exr`` (linear XYZ + noise) and ``<name>.json``.
 
-    ``image`` is a :class:`lensrt.analysis.bokeh.entry.BokehImage`. Returns the paths by kind.
+    ``image`` is a :class:`lensrt.analysis.bokeh.entry.BokehImage`. Returns the paths by kind. Inside
+    :func:`lensrt.views.plots.figure.deferred_figures` (the report) the files are written by figure
+    worker processes from the arrays made here.
     """
     from ..io.exr import write_exr
+    from ..io.paths import output_file
     from ..io.png import write_png
-    from ..io.table import dumps_json
+    from ..io.table import write_json
+    from .plots.figure import defer
     out = Path(out_dir)
     pic = image.picture()
     rgb8, k = xyz_to_srgb8(pic, exposure)
@@ -73,17 +77,19 @@ def write_bokeh_files(image: Any, out_dir: str | Path, name: str = "bokeh", expo
             "lensrt:seconds": f"{meta['lensrt:seconds']:.4g}", "lensrt:noise": json.dumps(meta["lensrt:noise"]),
             "lensrt:seed": str(meta["lensrt:seed"]), "lensrt:exposure": repr(k),
             "lensrt:orientation": "upright (sensor image turned by 180 deg)"}
-    paths = {"png": write_png(out / f"{name}.png", rgb8, 8, text)}
+    paths = {"png": output_file(out / f"{name}.png", ".png")}
+    defer(write_png, paths["png"], rgb8, 8, text)
     rel = image.picture_rel_stderr().astype(np.float32)
     chans = {"XYZ.X": pic[..., 0].astype(np.float32), "XYZ.Y": pic[..., 1].astype(np.float32),
              "XYZ.Z": pic[..., 2].astype(np.float32), "noise.Y_rel_stderr": rel}
-    paths["exr"] = write_exr(out / f"{name}.exr", chans, meta)
+    paths["exr"] = output_file(out / f"{name}.exr", ".exr")
+    defer(write_exr, paths["exr"], chans, meta)
     if json_summary:
         p = out / f"{name}.json"
         d = image.to_dict()
         d["files"] = {"png": str(paths["png"]), "exr": str(paths["exr"])}
         d["png_exposure"] = k
-        p.write_text(dumps_json(d) + "\n")
+        defer(write_json, p, d)
         paths["json"] = p
     return paths
 

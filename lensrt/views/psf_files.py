@@ -33,7 +33,8 @@ import numpy as np
 from ..errors import LensrtError
 from ..io.paths import output_dir
 
-__all__ = ["layer_names", "write_psf_map_exr", "read_psf_map_exr", "field_summary", "write_psf_outputs"]
+__all__ = ["layer_names", "write_psf_map_exr", "psf_map_exr_content", "read_psf_map_exr", "field_summary",
+           "write_psf_outputs"]
 
 
 def layer_names(pmap) -> list[str]:
@@ -58,6 +59,11 @@ def field_summary(f, r, name: str) -> dict:
 def write_psf_map_exr(path: str | Path, pmap) -> Path:
     """Write a :class:`~lensrt.analysis.psf.map.PsfMap` as one multi-layer EXR (module docstring)."""
     from ..io.exr import write_exr
+    return write_exr(path, *psf_map_exr_content(pmap))
+
+
+def psf_map_exr_content(pmap) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """The channels (layer.channel -> float32 image) and metadata of :func:`write_psf_map_exr`."""
     names = layer_names(pmap)
     rows = max(r.psf.shape[0] for r in pmap.results)
     cols = max(r.psf.shape[1] for r in pmap.results)
@@ -89,7 +95,7 @@ def write_psf_map_exr(path: str | Path, pmap) -> Path:
         rec["grid_x0_mm"], rec["grid_y0_mm"] = float(x0), float(y0)
     if len(set(pitches)) == 1:
         meta["lensrt:pixel_pitch_um"] = pitches[0]
-    return write_exr(path, channels, meta)
+    return channels, meta
 
 
 def read_psf_map_exr(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
@@ -113,13 +119,18 @@ def read_psf_map_exr(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str,
 
 
 def write_psf_outputs(out_dir: str | Path, pmap, stem: str = "psf", log: bool = False) -> dict[str, str]:
-    """JSON summary, multi-layer EXR and PNG (mosaic, or one PSF image) of a map into ``out_dir``."""
+    """JSON summary, multi-layer EXR and PNG (mosaic, or one PSF image) of a map into ``out_dir``.
+
+    Inside :func:`lensrt.views.plots.figure.deferred_figures` (the report) the three files are written
+    by figure worker processes from the data pickled here."""
+    from .plots.figure import defer
     from .plots.psf import plot_psf, plot_psf_mosaic
-    from ..io.table import dumps_json
+    from ..io.exr import write_exr
+    from ..io.table import write_json
     d = output_dir(out_dir)
     paths = {"json": d / f"{stem}.json", "exr": d / f"{stem}.exr", "png": d / f"{stem}.png"}
-    paths["json"].write_text(dumps_json(pmap.to_dict()) + "\n")
-    write_psf_map_exr(paths["exr"], pmap)
+    defer(write_json, paths["json"], pmap.to_dict())
+    defer(write_exr, paths["exr"], *psf_map_exr_content(pmap))
     lens = pmap.setup.lens.name or "lens"
     if len(pmap.results) == 1:
         plot_psf(paths["png"], pmap.results[0], log=log, title=f"{lens}, {pmap.fields[0].label}")

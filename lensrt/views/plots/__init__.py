@@ -2,8 +2,8 @@
 
 Files:
 
-- ``figure``       one Agg figure/save helper for every plot module; figures drawn by worker processes
-- ``figure_worker`` the worker process that draws pickled figures
+- ``figure``       one Agg figure/save helper for every plot module; figures and files made by worker processes
+- ``figure_worker`` the worker process that runs figure and file jobs (plot data or a pickled figure)
 - ``layout``       the lens layout drawing (meridional section) with rays
 - ``analysis``     compare figures: field curves, distortion, fans, spots, pupils, relative illumination
 - ``psf``          PSF maps, MTF curves, convergence of the PSF

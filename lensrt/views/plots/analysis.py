@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...analysis.compare.pupils import RealPupils
     from ...analysis.compare.vignetting import Vignetting
 
-from .figure import new_figure, save_figure
+from .figure import drawn_by_workers, new_figure, save_figure
 
 __all__ = ["plot_spots", "plot_ray_fans", "plot_opd_fans", "plot_field_curvature_distortion",
            "plot_grid_distortion", "plot_relative_illumination", "plot_longitudinal", "plot_pupils",
@@ -48,6 +48,7 @@ def _field_title(label: str) -> str:
     return f"field {label}"
 
 
+@drawn_by_workers
 def plot_spots(path: str | Path, spots: Sequence["SpotDiagram"], airy_radius_mm: float | None = None,
                title: str = "") -> Path:
     """Spot diagrams, one panel per field, wavelengths coloured, all panels on one scale (um)."""
@@ -107,6 +108,7 @@ def _fan_axes(fig, fans, key_t: str, key_s: str, scale: float, ylabel: str, titl
     fig.suptitle(title, fontsize=10)
 
 
+@drawn_by_workers
 def plot_ray_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], title: str = "") -> Path:
     """Transverse ray aberration (um) against pupil coordinate: tangential e_y(Py) and sagittal e_x(Px)."""
     if not fans:
@@ -118,6 +120,7 @@ def plot_ray_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], t
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_opd_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], title: str = "") -> Path:
     """OPD (waves) against pupil coordinate, tangential and sagittal fans."""
     if not fans:
@@ -129,6 +132,7 @@ def plot_opd_fans(path: str | Path, fans: Sequence[tuple["RayFan", "RayFan"]], t
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_field_curvature_distortion(path: str | Path, fc: "FieldCurvature", dist: "DistortionCurve",
                                     title: str = "") -> Path:
     """Field curvature (S, T, Petzval, third order; mm along z) and distortion (%) against field."""
@@ -179,6 +183,7 @@ def plot_field_curvature_distortion(path: str | Path, fc: "FieldCurvature", dist
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_grid_distortion(path: str | Path, grid: "GridDistortion", title: str = "") -> Path:
     """Ideal grid (grey) and real chief-ray points (mm); displacements exaggerated when small (said in the title)."""
     fig = _fig110(5.6, 5.6)
@@ -206,6 +211,7 @@ def plot_grid_distortion(path: str | Path, grid: "GridDistortion", title: str = 
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_relative_illumination(path: str | Path, vig: "Vignetting", title: str = "") -> Path:
     """Relative illumination (both methods) and the unvignetted fraction against field, with cos^4."""
     fig = _fig110(6.6, 4.3)
@@ -233,6 +239,7 @@ def plot_relative_illumination(path: str | Path, vig: "Vignetting", title: str =
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_longitudinal(path: str | Path, lsa: "LongitudinalAberration", chrom: "ChromaticFocalShift",
                       title: str = "") -> Path:
     """Longitudinal spherical aberration against zone (per wavelength) and the chromatic focal shift."""
@@ -264,6 +271,7 @@ def plot_longitudinal(path: str | Path, lsa: "LongitudinalAberration", chrom: "C
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_pupils(path: str | Path, pupils: "RealPupils", title: str = "") -> Path:
     """The real entrance pupil seen from each field point (every aperture), across the beam (mm)."""
     fig = _fig110(5.8, 5.4)

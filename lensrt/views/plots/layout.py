@@ -16,6 +16,7 @@ as before).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -24,9 +25,9 @@ import numpy as np
 from ...prescription.frames import surface_frames
 from ...prescription.model import Lens
 
-from .figure import new_figure, save_figure
+from .figure import drawn_by_workers, new_figure, save_figure
 
-__all__ = ["plot_layout", "element_outlines", "to_plane"]
+__all__ = ["plot_layout", "layout_fans", "draw_layout", "LayoutFan", "element_outlines", "to_plane"]
 
 _FIELD_COLOURS = ("#1f4fb4", "#2a9d3b", "#d2361f", "#8b3fb0", "#c98a00", "#138c8c")
 
@@ -92,17 +93,87 @@ def _draw_obscurations(ax, lens: Lens, i: int) -> None:
 
 def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None, wavelength_nm: float | None = None,
                 rays_per_field: int = 9, device: str | None = None, title: str = "") -> Path:
-    """Cross-section of ``lens`` (y-z plane) with meridional ray bundles at normalised fields ``hy``."""
-    from ...analysis.raysets import aim_batches, field_spec, object_field_point, trace64_many
-    from ...trace.status import OK, TIR, VIGNETTED
+    """Cross-section of ``lens`` (y-z plane) with meridional ray bundles at normalised fields ``hy``.
+
+    The rays are traced here (:func:`layout_fans`); the drawing (:func:`draw_layout`) may go to a
+    figure worker process (:mod:`lensrt.views.plots.figure`)."""
     hy = [0.0, 0.7, 1.0] if hy is None else list(hy)
     wl = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    fans, img_h = layout_fans(lens, hy, wl, rays_per_field, device)
+    return draw_layout(path, lens, fans, img_h, wl, title)
+
+
+@dataclass(frozen=True)
+class LayoutFan:
+    """The drawn rays of one field: its label, and per ray (z_mm, y_mm, labelled) -- the global polyline
+    from its start to where it ends (the image surface, or the surface that stops it), and whether its
+    line carries the field's legend entry. ``vignetted``: every probe ray of the field was stopped, so no
+    ray is drawn and the legend says so."""
+    label: str
+    polylines: tuple[tuple[np.ndarray, np.ndarray, bool], ...]
+    vignetted: bool = False
+
+
+def layout_fans(lens: Lens, hy: Sequence[float], wavelength_nm: float, rays_per_field: int = 9,
+                device: str | None = None) -> tuple[list[LayoutFan], float]:
+    """The meridional rays of :func:`plot_layout` at normalised fields ``hy``, traced in float64, and the
+    largest image height of the rays that reach the image (mm).
+
+    Rays are spread evenly across the meridional extent of the real (vignetted) pupil of every field
+    (97 probe rays aimed together), then aimed and traced with every surface's intersection recorded."""
+    from ...analysis.raysets import aim_batches, field_spec, object_field_point, trace64_many
+    from ...trace.status import OK, TIR, VIGNETTED
+    wl = float(wavelength_nm)
     vz = lens.vertex_z_mm()
+    n = lens.n_surfaces
+    ymax = max(s.semi_diameter_mm or 1.0 for s in lens.surfaces)
+    z_start = -0.25 * max(float(vz[-1] - vz[0]), 4 * ymax)
+    specs = [field_spec(lens, h) for h in hy]
+    fps = [object_field_point(lens, spec.object_value) for spec in specs]
+    probe = np.linspace(-1.2, 1.2, 97)
+    probes = aim_batches(lens, [(fp, np.zeros_like(probe), probe, wl) for fp in fps], "real", device)
+    passed = [r.ok & pr.aimed for r, pr in zip(trace64_many(lens, probes, device, clip=True), probes)]
+    spread = []
+    for ok in passed:
+        step = probe[1] - probe[0]
+        py = np.linspace(probe[ok].min() + 0.02 * step, probe[ok].max() - 0.02 * step, rays_per_field) \
+            if ok.any() else np.zeros(0)
+        spread.append(py)
+    fans = aim_batches(lens, [(fp, np.zeros_like(py), py, wl) for fp, py in zip(fps, spread) if len(py)], "real",
+                       device)
+    fans = _traced_with_records(lens, fans, device)[::-1]  # every field's fan in one trace
+    out, img_h = [], 0.0
+    for k, spec in enumerate(specs):
+        fp, py = fps[k], spread[k]
+        lines = []
+        if len(py):
+            rays, res = fans.pop()
+            for j in range(len(py)):
+                st, where = int(res.status[j]), int(res.surface[j])
+                rows = n + 1 if st == OK else (where + 1 if st in (VIGNETTED, TIR) else max(where, 0))
+                if rows == 0:
+                    continue
+                rec = res.records[j, :rows]
+                pts = [to_plane(lens, q, rec[q:q + 1, 1], rec[q:q + 1, 2], rec[q:q + 1, 0]) for q in range(rows)]
+                z = np.array([float(p[0][0]) for p in pts])
+                y = np.array([float(p[1][0]) for p in pts])
+                o, d = rays.origin_mm[j], rays.direction[j]
+                start = o + ((z_start - o[2]) / d[2]) * d if fp.infinite else o
+                lines.append((np.concatenate([[start[2]], z]), np.concatenate([[start[1]], y]), j == 0))
+                if st == OK:
+                    img_h = max(img_h, abs(float(rec[-1, 1])))
+        out.append(LayoutFan(spec.label, tuple(lines), not len(py)))
+    return out, img_h
+
+
+@drawn_by_workers
+def draw_layout(path: str | Path, lens: Lens, fans: Sequence[LayoutFan], image_height_mm: float,
+                wavelength_nm: float, title: str = "") -> Path:
+    """Draw the cross-section of ``lens`` with the rays of :func:`layout_fans` (no tracing here)."""
+    wl = float(wavelength_nm)
     n = lens.n_surfaces
     sds = [s.semi_diameter_mm or 1.0 for s in lens.surfaces]
     ymax = max(sds)
-    length = float(vz[-1] - vz[0])
-    z_start = -0.25 * max(length, 4 * ymax)
     fig = new_figure(8.6, 4.6)
     ax = fig.add_subplot()
     for poly in element_outlines(lens):
@@ -125,53 +196,13 @@ def plot_layout(path: str | Path, lens: Lens, hy: Sequence[float] | None = None,
         if s.mirror or (lone and not (s.is_plane and s.apertures and all(a.obscuration for a in s.apertures))):
             pz, py_ = _profile(lens, i, r)  # a lone surface (a mirror drawn thicker); not a plane that only obscures
             ax.plot(pz, py_, color="#1b3a57", lw=2.0 if s.mirror else 1.0, zorder=3)
-    # rays
-    img_h = 0.0
-    specs = [field_spec(lens, h) for h in hy]
-    fps = [object_field_point(lens, spec.object_value) for spec in specs]
-    # the meridional extent of the real (vignetted) pupil of every field (aimed together), then rays spread
-    # evenly across it
-    probe = np.linspace(-1.2, 1.2, 97)
-    probes = aim_batches(lens, [(fp, np.zeros_like(probe), probe, wl) for fp in fps], "real", device)
-    passed = [r.ok & pr.aimed for r, pr in zip(trace64_many(lens, probes, device, clip=True), probes)]
-    spread = []
-    for ok in passed:
-        step = probe[1] - probe[0]
-        py = np.linspace(probe[ok].min() + 0.02 * step, probe[ok].max() - 0.02 * step, rays_per_field) \
-            if ok.any() else np.zeros(0)
-        spread.append(py)
-    fans = aim_batches(lens, [(fp, np.zeros_like(py), py, wl) for fp, py in zip(fps, spread) if len(py)], "real",
-                       device)
-    fans = _traced_with_records(lens, fans, device)[::-1]  # every field's fan in one trace
-    for k, spec in enumerate(specs):
-        fp, py = fps[k], spread[k]
+    for k, fan in enumerate(fans):
         colour = _FIELD_COLOURS[k % len(_FIELD_COLOURS)]
-        if not len(py):
-            ax.plot([], [], color=colour, ls=":", label=f"{spec.label}: every ray vignetted")
-            continue
-        rays, res = fans.pop()
-        for j in range(len(py)):
-            st, where = int(res.status[j]), int(res.surface[j])
-            rows = n + 1 if st == OK else (where + 1 if st in (VIGNETTED, TIR) else max(where, 0))
-            if rows == 0:
-                continue
-            rec = res.records[j, :rows]
-            pts = [to_plane(lens, q, rec[q:q + 1, 1], rec[q:q + 1, 2], rec[q:q + 1, 0]) for q in range(rows)]
-            z = np.array([float(p[0][0]) for p in pts])
-            y = np.array([float(p[1][0]) for p in pts])
-            o, d = rays.origin_mm[j], rays.direction[j]
-            if fp.infinite:
-                t = (z_start - o[2]) / d[2]
-                start = o + t * d
-            else:
-                start = o
-            zz = np.concatenate([[start[2]], z])
-            yy = np.concatenate([[start[1]], y])
-            ax.plot(zz, yy, color=colour, lw=0.7, alpha=0.9, zorder=2,
-                    label=spec.label if j == 0 else None)
-            if st == OK:
-                img_h = max(img_h, abs(float(rec[-1, 1])))
-    hi = max(img_h, ymax) * 1.1
+        if fan.vignetted:
+            ax.plot([], [], color=colour, ls=":", label=f"{fan.label}: every ray vignetted")
+        for zz, yy, labelled in fan.polylines:
+            ax.plot(zz, yy, color=colour, lw=0.7, alpha=0.9, zorder=2, label=fan.label if labelled else None)
+    hi = max(image_height_mm, ymax) * 1.1
     iz, iy = to_plane(lens, n, np.array([-hi, hi]), np.zeros(2))
     ax.plot(iz, iy, color="k", lw=1.2, zorder=3)
     ax.annotate("image", (float(iz[1]), float(iy[1])), xytext=(0, 3), textcoords="offset points", ha="center",

@@ -5,6 +5,7 @@ matplotlib is imported inside each function, so importing this module is cheap.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -15,10 +16,10 @@ from ...units import UM_PER_MM
 if TYPE_CHECKING:  # pragma: no cover
     from ...analysis.psf.result import PsfResult
 
-from .figure import new_figure, save_figure
+from .figure import drawn_by_workers, new_figure, save_figure
 
 __all__ = ["plot_mtf_curves", "plot_mtf_vs_field", "plot_through_focus", "plot_psf", "plot_psf_mosaic",
-           "nice_length", "plot_system_mtf", "plot_convergence"]
+           "nice_length", "plot_system_mtf", "plot_convergence", "PsfTile", "draw_psf", "draw_psf_mosaic"]
 
 
 def nice_length(span: float) -> float:
@@ -28,6 +29,7 @@ def nice_length(span: float) -> float:
     return max(m * e for m in (1.0, 2.0, 5.0) if m * e <= target)
 
 
+@drawn_by_workers
 def plot_mtf_curves(path: str | Path, freqs_cpmm: np.ndarray, curves: Sequence[tuple[str, np.ndarray, np.ndarray]],
                     diffraction: np.ndarray | None = None, nyquist_cpmm: float | None = None,
                     title: str = "") -> Path:
@@ -56,6 +58,7 @@ def plot_mtf_curves(path: str | Path, freqs_cpmm: np.ndarray, curves: Sequence[t
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_mtf_vs_field(path: str | Path, data: dict, title: str = "") -> Path:
     """MTF against image height at fixed frequencies (``lensrt.analysis.psf.otf.mtf_vs_field`` output)."""
     fig = new_figure(6.4, 4.2)
@@ -72,6 +75,7 @@ def plot_mtf_vs_field(path: str | Path, data: dict, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
     """Through-focus MTF (``lensrt.analysis.psf.otf.through_focus_mtf`` output), focus shift in um."""
     fig = new_figure(6.4, 4.2)
@@ -87,6 +91,7 @@ def plot_through_focus(path: str | Path, data: dict, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_through_focus_spots(path: str | Path, spots, title: str = "") -> Path:
     """A row of spot diagrams (``lensrt.analysis.psf.focus_spots.FocusSpots``), one per focus shift, on one um
     scale, each with its RMS radius about its centroid; wavelengths in colour."""
@@ -110,12 +115,25 @@ def plot_through_focus_spots(path: str | Path, spots, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
-def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> None:
-    g = result.grid
-    l, r, b, t = g.extent_mm
-    cx, cy = result.reference_mm
+@dataclass(frozen=True)
+class PsfTile:
+    """What a PSF figure draws of a :class:`~lensrt.analysis.psf.result.PsfResult`: the PSF image (rows
+    top-down), the grid's extent (left, right, bottom, top; mm) and the reference point (mm) -- a few
+    arrays that a figure worker process receives instead of the whole result."""
+    psf: np.ndarray
+    extent_mm: tuple[float, float, float, float]
+    reference_mm: tuple[float, float]
+
+    @classmethod
+    def of(cls, result: "PsfResult") -> "PsfTile":
+        return cls(np.asarray(result.psf), tuple(result.grid.extent_mm), tuple(result.reference_mm))
+
+
+def _psf_axes(ax, tile: PsfTile, log: bool, show_axes: bool = True) -> None:
+    l, r, b, t = tile.extent_mm
+    cx, cy = tile.reference_mm
     ext_um = [(l - cx) * UM_PER_MM, (r - cx) * UM_PER_MM, (b - cy) * UM_PER_MM, (t - cy) * UM_PER_MM]
-    img = np.asarray(result.psf, dtype=np.float64)
+    img = np.asarray(tile.psf, dtype=np.float64)
     img = img / img.max() if img.max() > 0 else img
     if log:
         img = np.log10(np.clip(img, 1e-6, None))
@@ -135,39 +153,53 @@ def _psf_axes(ax, result: "PsfResult", log: bool, show_axes: bool = True) -> Non
 
 def plot_psf(path: str | Path, result: "PsfResult", log: bool = False, title: str = "") -> Path:
     """One PSF image (peak-normalised; ``log``: log10 down to 1e-6) with a um scale bar."""
-    fig = new_figure(5.0, 4.4)
-    ax = fig.add_subplot()
-    _psf_axes(ax, result, log)
     rms = result.estimates.get("rms_radius_mm")
     wl = ", ".join(f"{w:g}" for w in result.wavelengths_nm)
     sub = f"{result.kind}, {wl} nm, pitch {result.grid.pitch_um:g} um"
     if rms is not None:
         err = f" +- {rms.stderr * UM_PER_MM:.2g}" if rms.stderr else ""
         sub += f"\nRMS radius {rms.value * UM_PER_MM:.3g}{err} um"
-    ax.set_title((title + "\n" if title else "") + sub, fontsize=9)
+    return draw_psf(path, PsfTile.of(result), log, (title + "\n" if title else "") + sub)
+
+
+@drawn_by_workers
+def draw_psf(path: str | Path, tile: PsfTile, log: bool, title: str) -> Path:
+    """The figure of :func:`plot_psf` from its tile and full title."""
+    fig = new_figure(5.0, 4.4)
+    ax = fig.add_subplot()
+    _psf_axes(ax, tile, log)
+    ax.set_title(title, fontsize=9)
     return save_figure(fig, path)
 
 
 def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int | None = None,
                     log: bool = False, title: str = "") -> Path:
     """PSF map: one tile per field point (each peak-normalised), labelled with its image position."""
-    n = len(results)
-    if n == 0:
+    if len(results) == 0:
         raise ValueError("no PSFs to draw")
+    return draw_psf_mosaic(path, [PsfTile.of(r) for r in results], ncols, log,
+                           title or f"PSF map ({results[0].kind}, tiles peak-normalised)")
+
+
+@drawn_by_workers
+def draw_psf_mosaic(path: str | Path, tiles: Sequence[PsfTile], ncols: int | None, log: bool, title: str) -> Path:
+    """The figure of :func:`plot_psf_mosaic` from its tiles and title."""
+    n = len(tiles)
     ncols = ncols or int(math.ceil(math.sqrt(n)))
     nrows = int(math.ceil(n / ncols))
     fig = new_figure(1.6 * ncols + 0.4, 1.6 * nrows + 0.6)
     axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
-    for ax, res in zip(axes.ravel(), results):
-        _psf_axes(ax, res, log, show_axes=False)
-        x, y = res.reference_mm
+    for ax, tile in zip(axes.ravel(), tiles):
+        _psf_axes(ax, tile, log, show_axes=False)
+        x, y = tile.reference_mm
         ax.set_title(f"({x:.1f}, {y:.1f}) mm", fontsize=7)
-    fig.suptitle(title or f"PSF map ({results[0].kind}, tiles peak-normalised)", fontsize=10)
+    fig.suptitle(title, fontsize=10)
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_system_mtf(path: str | Path, curves: dict, title: str = "") -> Path:
     """Lens, OLPF, detector and system MTF of one field point (``lensrt.analysis.psf.mtf_curves.mtf_curves``
     output with a detector), sagittal solid, tangential dashed, the diffraction limit and Nyquist marked."""

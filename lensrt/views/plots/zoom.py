@@ -7,11 +7,12 @@ from typing import Sequence
 
 import numpy as np
 
-from .figure import new_figure, save_figure
+from .figure import drawn_by_workers, new_figure, save_figure
 
 __all__ = ["plot_breathing", "plot_breathing_family", "plot_zoom_curve", "plot_zoom_mtf"]
 
 
+@drawn_by_workers
 def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
     """AFoV (deg) against focus distance (m): real rays for the lens's mechanism and the unit-focus formula."""
     fig = new_figure(6.0, 4.0)
@@ -34,6 +35,7 @@ def plot_breathing(path: str | Path, curve: dict, title: str = "") -> Path:
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_breathing_family(path: str | Path, curves: Sequence[dict], title: str = "") -> Path:
     """AFoV (deg) against focus distance (m) of several configurations: real rays solid, the unit-focus formula
     dashed, one colour per configuration (each curve a ``focus_breathing(...).to_dict()`` with a ``name``)."""
@@ -57,6 +59,7 @@ def plot_breathing_family(path: str | Path, curves: Sequence[dict], title: str =
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_zoom_curve(path: str | Path, names: Sequence[str], efl_mm: Sequence[float], f_number: Sequence[float],
                     title: str = "") -> Path:
     """EFL and f-number per configuration."""
@@ -74,6 +77,7 @@ def plot_zoom_curve(path: str | Path, names: Sequence[str], efl_mm: Sequence[flo
     return save_figure(fig, path)
 
 
+@drawn_by_workers
 def plot_zoom_mtf(path: str | Path, mtf: Sequence[dict], title: str = "") -> Path:
     """Sagittal (solid) and tangential (dashed) MTF per configuration, one panel per reference frequency,
     one colour per field point (``mtf``: :func:`lensrt.analysis.configurations.configuration_mtf`)."""
