@@ -25,7 +25,8 @@ from typing import Any, Iterator
 
 from .compile_ahead import wait_for
 
-__all__ = ["Telemetry", "measure", "snapshot", "launch", "replay", "upload", "download", "count_copy"]
+__all__ = ["Telemetry", "measure", "snapshot", "launch", "launch_slices", "replay", "upload", "download",
+           "count_copy"]
 
 _LOCK = threading.Lock()
 _OPEN: list["Telemetry"] = []
@@ -137,6 +138,23 @@ def launch(kernel, dim, inputs=(), *, device=None, slice_of: int = 0, **kwargs) 
     t0 = time.perf_counter()
     wp.launch(kernel, dim=dim, inputs=list(inputs), device=device, **kwargs)
     _add(launches=1, kernel_s=time.perf_counter() - t0)
+
+
+def launch_slices(kernel, cuts, device, inputs_of) -> None:
+    """One logical launch cut into slices of threads ``cuts[w]`` .. ``cuts[w + 1] - 1`` (one per CPU core): slice w
+    launched with ``inputs_of(w, cuts[w])`` (:func:`launch`, ``slice_of=cuts[w]``), the slices side by side in
+    threads; a single slice in the calling thread. Empty slices are skipped."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def run(w: int) -> None:
+        if cuts[w + 1] > cuts[w]:
+            launch(kernel, dim=cuts[w + 1] - cuts[w], device=device, inputs=inputs_of(w, cuts[w]), slice_of=cuts[w])
+
+    if len(cuts) <= 2:
+        run(0)
+    else:
+        with ThreadPoolExecutor(len(cuts) - 1) as pool:
+            list(pool.map(run, range(len(cuts) - 1)))
 
 
 def replay(cmd, *, slice_of: int = 0) -> None:

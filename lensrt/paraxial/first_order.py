@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..core.keep import kept
 from ..errors import LensrtError
 from ..prescription.model import Lens
 from .ynu import ParaxialRay, ParaxialSystem, paraxial_system, trace_ynu
@@ -296,8 +297,24 @@ def first_order(lens: Lens, wavelength_nm: float | None = None,
     The entrance-pupil diameter follows the lens's aperture specification at
     this wavelength and object distance; the image is the paraxial image of the
     object plane (the lens's image surface is not moved: ``image_surface_distance_mm``
-    keeps the file's last thickness).
+    keeps the file's last thickness). Results are kept per (lens, wavelength, object distance) in this
+    process (a report asks for the same ones in many analyses; :class:`FirstOrder` is immutable).
     """
+    try:
+        key = (lens, None if wavelength_nm is None else float(wavelength_nm),
+               None if object_distance_mm is None else float(object_distance_mm))
+    except (TypeError, ValueError):  # an unusual argument: computed (and refused) as it is
+        return _first_order(lens, wavelength_nm, object_distance_mm)
+    return kept(_KNOWN, key, lambda: _first_order(lens, wavelength_nm, object_distance_mm), _KNOWN_KEPT)
+
+
+#: first-order data already found, per (lens, wavelength or None, object distance or None); at most _KNOWN_KEPT
+_KNOWN: dict = {}
+_KNOWN_KEPT = 512
+
+
+def _first_order(lens: Lens, wavelength_nm: float | None, object_distance_mm: float | None) -> FirstOrder:
+    """:func:`first_order`, computed."""
     sysm = paraxial_system(lens, wavelength_nm)
     d_obj = lens.object_distance_mm if object_distance_mm is None else float(object_distance_mm)
     if math.isnan(d_obj) or d_obj <= 0.0:

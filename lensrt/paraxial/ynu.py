@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.keep import kept
 from ..prescription.model import Lens
 
 __all__ = ["ParaxialSystem", "ParaxialRay", "paraxial_system", "trace_ynu", "trace_ynu_reverse"]
@@ -89,8 +90,27 @@ class ParaxialSystem:
 
 
 def paraxial_system(lens: Lens, wavelength_nm: float | None = None) -> ParaxialSystem:
-    """Reduce ``lens`` to paraxial data at ``wavelength_nm`` (default: the primary)."""
+    """Reduce ``lens`` to paraxial data at ``wavelength_nm`` (default: the primary).
+
+    Kept per (lens, wavelength) in this process (first-order data, paraxial chief rays and Seidel sums
+    ask for the same ones many times); the arrays of a kept system are read-only."""
     w = lens.wavelengths.primary_nm if wavelength_nm is None else float(wavelength_nm)
+    return kept(_KNOWN, (lens, w), lambda: _read_only(_paraxial_system(lens, w)), _KNOWN_KEPT)
+
+
+def _read_only(sysm: ParaxialSystem) -> ParaxialSystem:
+    for a in (sysm.curvature_per_mm, sysm.thickness_mm, sysm.index, sysm.power_per_mm):
+        a.flags.writeable = False
+    return sysm
+
+
+#: paraxial systems already reduced, per (lens, wavelength nm); at most _KNOWN_KEPT
+_KNOWN: dict = {}
+_KNOWN_KEPT = 512
+
+
+def _paraxial_system(lens: Lens, w: float) -> ParaxialSystem:
+    """:func:`paraxial_system` at wavelength ``w`` (nm), computed."""
     c = np.array([s.paraxial_curvature_per_mm for s in lens.surfaces])  # the vertex's osculating sphere
     t = np.array([s.thickness_mm for s in lens.surfaces], dtype=np.float64)
     n = np.asarray(lens.indices(w), dtype=np.float64)

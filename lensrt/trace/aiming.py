@@ -561,11 +561,18 @@ def _solve_many(fps: list, frames: list, rows: np.ndarray, groups: list, ab0: np
     e1 = np.array([fr[1] for fr in frames]).reshape(-1, 3)[rows]
     e2 = np.array([fr[2] for fr in frames]).reshape(-1, 3)[rows]
 
+    inf_f = np.array([fp.infinite for fp in fps], dtype=bool)
+    beam = np.array([fp.direction if fp.infinite else (0.0, 0.0, 1.0) for fp in fps], dtype=np.float64).reshape(-1, 3)
+
     def residual(ab: np.ndarray, idx: np.ndarray):
         pts = c + ab[:, :1] * e1[idx] + ab[:, 1:2] * e2[idx]
         o, d = np.empty_like(pts), np.empty_like(pts)
         fr = rows[idx]
-        for f in np.unique(fr):  # the rays of each field point as ray_through_point makes them
+        inf = inf_f[fr]
+        if inf.any():  # collimated beams, all fields at once: ray_through_point's arithmetic, row by row
+            a, di = pts[inf], beam[fr[inf]]
+            o[inf], d[inf] = a - np.sum(a * di, axis=1, keepdims=True) * di, di
+        for f in np.unique(fr[~inf]):  # object points: the rays of each as ray_through_point makes them
             m = fr == f
             o[m], d[m] = ray_through_point(fps[f], pts[m])
         x, y, ok = to_stop(o, d, wl[idx])

@@ -34,8 +34,7 @@ import numpy as np
 
 from ..errors import LensrtError
 from ..prescription.model import Lens
-from .aiming import FieldPoint, field_point, ray_through_point
-from .api import RayBatch, trace
+from .aiming import FieldPoint, field_point
 from .pupil_boxes import PupilBox, box_wavelengths, pupil_boxes
 
 __all__ = ["BEST_FOCUS_DEFINITION", "FocusMoments", "focus_moments", "focus_moments_fields", "focus_moments_many",
@@ -62,40 +61,6 @@ class FocusMoments:
     pt: float            # E[p . t]
     tt: float            # E[t . t]
     rays: int
-
-
-def _grid_rays(fp: FieldPoint, box: PupilBox, a: np.ndarray, b: np.ndarray, wavelength_nm: float):
-    """Rays through the pupil-plane points (a, b) of ``box`` and their stream-kernel weights."""
-    pts = box.points(a, b)
-    o, d = ray_through_point(fp, pts)
-    if fp.infinite:
-        w = np.ones(len(d))
-    else:  # the kernel's weight: cos(theta_plane) (dist / rho)^2, times cos(theta_object) (Lambertian)
-        obj = np.asarray(fp.point_mm, dtype=np.float64)
-        axis = np.asarray(box.axis, dtype=np.float64)
-        dist = float(np.dot(np.asarray(box.centre) - obj, axis))
-        rho = np.linalg.norm(pts - obj, axis=1)
-        w = (d @ axis) * (dist / rho) ** 2 * d[:, 2]
-    return RayBatch(o, d, wavelength_nm), w
-
-
-def _boundary_cells(ok: np.ndarray) -> np.ndarray:
-    """Cells near the pupil's edge: within one cell (8-neighbourhood) of a cell whose centre ray's fate
-    differs from a neighbour's, or passing cells on the box's border (the edge may cut a corner of a cell
-    whose centre and neighbours all agree, so the band is one cell wider than the change of state)."""
-    padded = np.pad(ok, 1, mode="constant", constant_values=False)
-    n0, n1 = ok.shape
-    differs = np.zeros_like(ok)
-    for da in (-1, 0, 1):
-        for db in (-1, 0, 1):
-            if da or db:
-                differs |= padded[1 + da:1 + da + n0, 1 + db:1 + db + n1] != ok
-    band = np.pad(differs, 1, mode="constant", constant_values=False)
-    near = np.zeros_like(ok)
-    for da in (-1, 0, 1):
-        for db in (-1, 0, 1):
-            near |= band[1 + da:1 + da + n0, 1 + db:1 + db + n1]
-    return near
 
 
 def _chief_cell_ab(lens: Lens, fp: FieldPoint, box: PupilBox) -> tuple[float, float]:
@@ -135,26 +100,62 @@ def main_pupil_box(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray) ->
 
 def focus_moments(lens: Lens, wavelength_nm: float, *, fp: FieldPoint | None = None, z0_mm: float | None = None,
                   n: int = 128, sub: int = 8, stop_radius_mm: float | None = None,
-                  device: str | None = None) -> FocusMoments:
+                  device: str | None = None, reuse: bool = True) -> FocusMoments:
     """The focus moments of one wavelength (module docstring): an n x n grid, boundary cells sub x sub."""
     fp = field_point(lens, 0.0, 0.0) if fp is None else fp
     z0 = lens.image_z_mm if z0_mm is None else float(z0_mm)
     return focus_moments_fields(lens, [(fp, wavelength_nm, z0)], n=n, sub=sub, stop_radius_mm=stop_radius_mm,
-                                device=device)[0]
+                                device=device, reuse=reuse)[0]
+
+
+#: moments already found, per (lens, field point, wavelength, plane, n, sub, stop radius, device, path): the
+#: report asks for the same ones in several sections (the comparison's tables, the PSFs' best focus, focus
+#: breathing at infinity); at most _KNOWN_KEPT kept
+_KNOWN: dict = {}
+_KNOWN_KEPT = 256
 
 
 def focus_moments_fields(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, float]], *, n: int = 128,
-                         sub: int = 8, stop_radius_mm: float | None = None,
-                         device: str | None = None) -> list[FocusMoments]:
+                         sub: int = 8, stop_radius_mm: float | None = None, device: str | None = None,
+                         on_device: bool | None = None, reuse: bool = True) -> list[FocusMoments]:
     """:func:`focus_moments` of several (field point, wavelength nm, plane z0 mm) jobs of one lens, traced together.
 
     Each job gets its own pupil box, grid, main-pupil refinement and boundary sub-rays, as alone; the
     pupil boxes of a wavelength's jobs are found in one search, and each round of grids, then the
-    sub-rays, of all jobs are one trace. Where the jobs' planes differ, the rays are traced to the image
+    sub-rays, of all jobs are one launch. Where the jobs' planes differ, the rays are traced to the image
     surface and carried on in a straight line to each plane (the same rays; positions differ from a
-    trace to the plane by rounding). Raises :class:`LensrtError` as :func:`focus_moments` does.
+    trace to the plane by rounding). For rotationally symmetric lenses the rays are made, traced and
+    reduced to the moments' sums on the device (:mod:`lensrt.trace.focus_grids`; ``on_device=False``
+    takes the host path, which agrees to rounding). Jobs found before in this process (same lens, field
+    point, wavelength, plane, grid, stop radius, device and path) are not traced again (``reuse=False``
+    traces every job). Raises :class:`LensrtError` as :func:`focus_moments` does.
     """
+    from ..device import resolve_device
+    from .focus_grids import grids_on_device
+    if not (int(n) == n >= 2 and int(sub) == sub >= 1):
+        raise LensrtError(f"a best-focus grid needs n >= 2 cells a side and sub >= 1 sub-rays (got n={n!r}, "
+                          f"sub={sub!r})", hint="the defaults are n=128, sub=8")
     jobs = [(fp, float(w), float(z0)) for fp, w, z0 in jobs]
+    dev = resolve_device(device)
+    path = grids_on_device(lens, dev, stop_radius_mm, on_device)
+    keys = [(lens, fp, w, z0, int(n), int(sub), stop_radius_mm, dev, path) for fp, w, z0 in jobs]
+    known = {k: _KNOWN.get(k) for k in keys} if reuse else {}  # one look each (another thread may clear it)
+    missing = list(dict.fromkeys(k for k in keys if known.get(k) is None))
+    found = dict(zip(missing, _traced_moments(lens, [k[1:4] for k in missing], n, sub, stop_radius_mm, dev,
+                                              path))) if missing else {}
+    known.update(found)
+    out = [known[k] for k in keys]
+    if reuse and found:
+        if len(_KNOWN) + len(found) > _KNOWN_KEPT:
+            _KNOWN.clear()
+        _KNOWN.update(found)
+    return out
+
+
+def _traced_moments(lens: Lens, jobs: list, n: int, sub: int, stop_radius_mm: float | None, device: str,
+                    on_device: bool) -> list[FocusMoments]:
+    """:func:`focus_moments_fields` of ``jobs``, all traced."""
+    from .focus_grids import focus_grids
     boxes: list = [None] * len(jobs)
     for w in sorted({j[1] for j in jobs}):
         ks = [k for k, j in enumerate(jobs) if j[1] == w]
@@ -165,32 +166,25 @@ def focus_moments_fields(lens: Lens, jobs: Sequence[tuple[FieldPoint, float, flo
     if not all(b.area_mm2 > 0 for b in boxes):
         raise LensrtError("no ray of this field point passes the lens: no best focus",
                           hint="choose a field point inside the lens's coverage")
-    da_db = [None] * len(jobs)
-    found: list = [None] * len(jobs)  # (position, direction, ok grid, weights) of each job's last grid
+    grids = focus_grids(lens, jobs, n, sub, stop_radius_mm, device, on_device)
+    oks: list = [None] * len(jobs)  # each job's last grid: which cells passed
     active = list(range(len(jobs)))
     for attempt in range(3):  # the grid, then again over the main pupil alone (module docstring)
-        parts = []
-        for k in active:
-            box = boxes[k]
-            da_db[k] = ((box.a1 - box.a0) / n, (box.b1 - box.b0) / n)
-            ia, ib = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-            parts.append(_grid_rays(jobs[k][0], box, box.a0 + (ia.ravel() + 0.5) * da_db[k][0],
-                                    box.b0 + (ib.ravel() + 0.5) * da_db[k][1], jobs[k][1]))
-        traced = _trace_to_planes(lens, [r for r, _ in parts], [jobs[k][2] for k in active], stop_radius_mm, device)
+        got = grids.grid(active, boxes) if active else {}
         still = []
-        for k, (pos, d, okr), (_, w) in zip(active, traced, parts):
-            ok = (okr & (d[:, 2] > 0)).reshape(n, n)
-            found[k] = (pos, d, ok, w)
-            main = main_pupil_box(lens, jobs[k][0], boxes[k], ok) if ok.any() else None
+        for k in active:
+            oks[k] = got[k]
+            main = main_pupil_box(lens, jobs[k][0], boxes[k], oks[k]) if oks[k].any() else None
             if main is None:
                 continue
             if attempt == 2:  # still disconnected pieces inside the refined box: keep the main region's cells only
-                found[k] = (pos, d, _main_region(lens, jobs[k][0], boxes[k], ok, n), w)
+                oks[k] = _main_region(lens, jobs[k][0], boxes[k], oks[k], n)
                 continue
             boxes[k] = main
             still.append(k)
         active = still
-    return _moments_of(lens, jobs, boxes, found, da_db, n, sub, stop_radius_mm, device)
+    return [FocusMoments(wl, z0, mp, mt, pp, pt, tt, rays)
+            for (_, wl, z0), (mp, mt, pp, pt, tt, rays) in zip(jobs, grids.moments(oks, boxes))]
 
 
 def _main_region(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray, n: int) -> np.ndarray:
@@ -201,62 +195,6 @@ def _main_region(lens: Lens, fp: FieldPoint, box: PupilBox, ok: np.ndarray, n: i
     ca = int(np.clip((a - box.a0) / ((box.a1 - box.a0) / n), 0, n - 1))
     cb = int(np.clip((b - box.b0) / ((box.b1 - box.b0) / n), 0, n - 1))
     return ok & (labels == labels[ca, cb]) if labels[ca, cb] else ok
-
-
-def _trace_to_planes(lens: Lens, batches: list, planes_mm: list[float], stop_radius_mm: float | None,
-                     device: str | None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(positions (m, 2) on its plane, directions (m, 3), ok (m,)) of each batch, all in one trace."""
-    if not batches:
-        return []
-    joined = RayBatch(np.concatenate([b.origin_mm for b in batches]), np.concatenate([b.direction for b in batches]),
-                      np.concatenate([b.wavelength_nm for b in batches]))
-    one = len(set(planes_mm)) == 1
-    res = trace(lens, joined, "float64", device, stop_radius_mm=stop_radius_mm,
-                plane_z_mm=planes_mm[0] if one else None)
-    ends = np.cumsum([0] + [len(b) for b in batches])
-    out = []
-    for z0, a, b in zip(planes_mm, ends[:-1], ends[1:]):
-        p, d = res.position_mm[a:b], res.direction[a:b]
-        if not one:  # on from the image surface to the plane z0 in a straight line
-            with np.errstate(divide="ignore", invalid="ignore"):
-                p = p + ((z0 - p[:, 2]) / d[:, 2])[:, None] * d
-        out.append((p[:, :2], d, res.ok[a:b]))
-    return out
-
-
-def _moments_of(lens: Lens, jobs: list, boxes: list, found: list, da_db: list, n: int, sub: int,
-                stop_radius_mm: float | None, device: str | None) -> list[FocusMoments]:
-    """Each job's moments: its grid's inner cells, and its boundary cells as sub x sub rays (one trace for all)."""
-    pos, dirs, wts, sub_parts = {}, {}, {}, []
-    off = (np.arange(sub) + 0.5) / sub
-    oa, ob = np.meshgrid(off, off, indexing="ij")
-    for k, (p, d, ok, w) in enumerate(found):
-        edge = _boundary_cells(ok)
-        keep = ok & ~edge
-        pos[k], dirs[k], wts[k] = [p.reshape(n, n, 2)[keep]], [d.reshape(n, n, 3)[keep]], [w.reshape(n, n)[keep]]
-        if edge.any():  # replace each boundary cell by sub x sub rays of 1/sub^2 of its weight
-            ea, eb = np.nonzero(edge)
-            box, (da, db) = boxes[k], da_db[k]
-            a = (box.a0 + (ea[:, None] + oa.ravel()[None, :]) * da).ravel()
-            b = (box.b0 + (eb[:, None] + ob.ravel()[None, :]) * db).ravel()
-            sub_parts.append((k, _grid_rays(jobs[k][0], box, a, b, jobs[k][1])))
-    traced = _trace_to_planes(lens, [r for _, (r, _) in sub_parts], [jobs[k][2] for k, _ in sub_parts],
-                              stop_radius_mm, device)
-    for (k, (_, sw)), (sp, sd, sok) in zip(sub_parts, traced):
-        sok = sok & (sd[:, 2] > 0)
-        pos[k].append(sp[sok])
-        dirs[k].append(sd[sok])
-        wts[k].append(sw[sok] / sub ** 2)
-    out = []
-    for k, (_, wl, z0) in enumerate(jobs):
-        p, d, wt = np.concatenate(pos[k]), np.concatenate(dirs[k]), np.concatenate(wts[k])
-        if len(p) < 16:
-            raise LensrtError("too few real rays reach the image to find the best focus")
-        t = d[:, :2] / d[:, 2:3]
-        wt = wt / wt.sum()
-        out.append(FocusMoments(float(wl), z0, wt @ p, wt @ t, float(wt @ np.sum(p * p, axis=1)),
-                                float(wt @ np.sum(p * t, axis=1)), float(wt @ np.sum(t * t, axis=1)), int(len(p))))
-    return out
 
 
 def focus_moments_many(lens: Lens, wavelengths_nm: Sequence[float], *, fp: FieldPoint | None = None,

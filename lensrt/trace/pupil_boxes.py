@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 from typing import Sequence
@@ -174,7 +173,7 @@ def _grid_pass_device(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.n
                       device: str | None):
     """:func:`_grid_pass` in one launch (:mod:`lensrt.trace.kernels.boxes`); same returns. The rays are
     those of the host pass, made on the device; bounds agree with the host pass to rounding."""
-    from ..core.telemetry import download, launch, upload
+    from ..core.telemetry import download, launch_slices, upload
     from ..device import warp
     from .kernels.boxes import BOX_FIELD_COLS, box_grid_pass_symmetric
     from .kernels.surfaces import SymmetricLens
@@ -200,15 +199,7 @@ def _grid_pass_device(lens: Lens, fps: list[FieldPoint], c: np.ndarray, e1: np.n
             SymmetricLens()]
     outs = [(upload(init, wp.float64, dev), upload(init, wp.float64, dev)) for _ in range(workers)]
 
-    def run(w: int) -> None:
-        launch(box_grid_pass_symmetric, dim=cuts[w + 1] - cuts[w], device=dev, inputs=args + [cuts[w]] + list(outs[w]),
-               slice_of=cuts[w])
-
-    if workers == 1:
-        run(0)
-    else:
-        with ThreadPoolExecutor(workers) as pool:
-            list(pool.map(run, range(workers)))
+    launch_slices(box_grid_pass_symmetric, cuts, dev, lambda w, start: args + [start] + list(outs[w]))
     got = [(download(bo), download(fo)) for bo, fo in outs]
     b = np.stack([g[0] for g in got])
     f = np.stack([g[1] for g in got])

@@ -57,3 +57,18 @@ def test_a_launch_sliced_over_cpu_cores_counts_once():
     with measure() as rec:
         trace(lens, _rays(5000), "float64", "cpu")
     assert (rec.launches, rec.copies) == (1, 4)
+
+
+def test_launch_slices_runs_every_thread_once_and_counts_one_launch():
+    """A logical launch cut into slices (empty ones skipped) runs each thread id once, in its slice, and counts as
+    one launch (the slice that starts at thread 0)."""
+    import warp as wp
+    from lensrt.core.telemetry import launch_slices
+    from telemetry_kernels import count_threads
+    hits = wp.zeros(10, dtype=wp.int32, device="cpu")
+    owner = wp.zeros(10, dtype=wp.int32, device="cpu")
+    with measure() as rec:
+        launch_slices(count_threads, [0, 3, 3, 10], "cpu", lambda w, start: [start, w, hits, owner])
+    assert rec.launches == 1
+    assert hits.numpy().tolist() == [1] * 10  # every thread id once
+    assert owner.numpy().tolist() == [0] * 3 + [2] * 7  # threads 0-2 in slice 0, 3-9 in slice 2 (slice 1 empty)

@@ -234,22 +234,11 @@ class BestFocus:
                 "rays": self.rays, "definition": self.definition}
 
 
-#: focus moments already traced, per (lens, wavelength, object value, plane, device): a comparison asks
-#: for each several times (at most _MOMENTS_KEPT kept)
-_MOMENTS: dict = {}
-_MOMENTS_KEPT = 64
-
-
 def _moments(lens: Lens, wavelengths_nm: Sequence[float], object_value: float, z0_mm: float, device: str | None):
-    """The focus moments of each wavelength on the plane ``z0_mm``, those not traced yet traced together."""
-    keys = [(lens, float(w), object_value, z0_mm, device) for w in wavelengths_nm]
-    missing = sorted({k[1] for k in keys if k not in _MOMENTS})
-    if missing:
-        got = focus_moments_many(lens, missing, fp=object_field_point(lens, object_value), z0_mm=z0_mm, device=device)
-        if len(_MOMENTS) + len(got) > _MOMENTS_KEPT:
-            _MOMENTS.clear()
-        _MOMENTS.update({(lens, w, object_value, z0_mm, device): m for w, m in zip(missing, got)})
-    return [_MOMENTS[k] for k in keys]
+    """The focus moments of each wavelength on the plane ``z0_mm``, traced together (those found before in this
+    process -- a comparison asks for each several times -- are kept by :func:`focus_moments_fields`)."""
+    return focus_moments_many(lens, [float(w) for w in wavelengths_nm], fp=object_field_point(lens, object_value),
+                              z0_mm=z0_mm, device=device)
 
 
 def best_focus(lens: Lens, wavelengths_nm: Sequence[float] | None = None, weights: Sequence[float] | None = None,

@@ -30,7 +30,9 @@ import), :mod:`.surfaces` and :mod:`.sampling` (generic ``@wp.func`` s),
 :mod:`.stream_body` (the stream kernels' per-ray body, shared with the specialised
 kernels), :mod:`.generic` (the kernels), :mod:`.boxes` (the pupil-box grid pass in one launch:
 rays made, traced and reduced to per-field bounds on the device; and the bokeh sources' chief-ray
-object-height search, one thread per source; its own module, float64).
+object-height search, one thread per source; its own module, float64), :mod:`.focus_grid` (the
+best-focus search's grids: rays made, traced and reduced to per-job moment sums on the device, no
+atomics; its own module, float64).
 
 Stream accumulation is deterministic: histogram bins are int64 fixed point
 (weight * 2^:data:`FIXED_POINT_BITS`) added with integer atomics, whose sum does not

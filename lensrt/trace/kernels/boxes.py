@@ -28,13 +28,34 @@ import warp as wp
 from ..status import OK
 from .surfaces import SymmetricLens, trace_ray
 
-__all__ = ["box_grid_pass", "box_grid_pass_symmetric", "BOX_FIELD_COLS", "chief_heights", "chief_heights_symmetric",
-           "CHIEF_CONVERGED", "CHIEF_NO_PROBE"]
+__all__ = ["box_grid_pass", "box_grid_pass_symmetric", "aim_point_ray", "BOX_FIELD_COLS", "chief_heights",
+           "chief_heights_symmetric", "CHIEF_CONVERGED", "CHIEF_NO_PROBE"]
 
 wp.set_module_options({"enable_backward": False})
 
 #: per field point: infinite flag, direction (3) or object point (3), e1 (3), e2 (3), box a0 a1 b0 b1
 BOX_FIELD_COLS = 14
+
+
+@wp.func
+def aim_point_ray(infinite: wp.float64, fx: wp.float64, fy: wp.float64, fz: wp.float64, px: wp.float64,
+                  py: wp.float64, pz: wp.float64, r0: wp.float64):
+    """The ray of a field point through the aim-plane point p, as :func:`lensrt.trace.aiming.ray_through_point`
+    makes it: (origin, direction, distance object -> p). ``infinite`` != 0: a collimated beam along f, started
+    at the foot of p on the plane through 0 normal to it (distance 0); else from the object point f (|f| =
+    ``r0``) through p, started on the sphere |x - f| = |f| without cancellation."""
+    if infinite != wp.float64(0.0):
+        s = px * fx + py * fy + pz * fz
+        return px - s * fx, py - s * fy, pz - s * fz, fx, fy, fz, wp.float64(0.0)
+    vx = px - fx
+    vy = py - fy
+    vz = pz - fz
+    dist = wp.sqrt(vx * vx + vy * vy + vz * vz)
+    dx = vx / dist
+    dy = vy / dist
+    dz = vz / dist
+    back = ((px * px + py * py + pz * pz) - wp.float64(2.0) * (px * fx + py * fy + pz * fz)) / (dist + r0)
+    return px - back * dx, py - back * dy, pz - back * dz, dx, dy, dz, dist
 
 
 @wp.kernel
@@ -57,36 +78,9 @@ def box_grid_pass(surf: wp.array2d(dtype=wp.float64), media: wp.array2d(dtype=wp
     px = cx + a * fields[k, 4] + b * fields[k, 7]
     py = cy + a * fields[k, 5] + b * fields[k, 8]
     pz = cz + a * fields[k, 6] + b * fields[k, 9]
-    ox = wp.float64(0.0)
-    oy = wp.float64(0.0)
-    oz = wp.float64(0.0)
-    dx = wp.float64(0.0)
-    dy = wp.float64(0.0)
-    dz = wp.float64(0.0)
-    if fields[k, 0] != wp.float64(0.0):  # collimated beam: the ray through p along the beam
-        dx = fields[k, 1]
-        dy = fields[k, 2]
-        dz = fields[k, 3]
-        s = px * dx + py * dy + pz * dz
-        ox = px - s * dx
-        oy = py - s * dy
-        oz = pz - s * dz
-    else:  # from the object point through p, started at the object's distance from the origin
-        qx = fields[k, 1]
-        qy = fields[k, 2]
-        qz = fields[k, 3]
-        vx = px - qx
-        vy = py - qy
-        vz = pz - qz
-        dist = wp.sqrt(vx * vx + vy * vy + vz * vz)
-        dx = vx / dist
-        dy = vy / dist
-        dz = vz / dist
-        r0 = wp.sqrt(qx * qx + qy * qy + qz * qz)
-        back = ((px * px + py * py + pz * pz) - wp.float64(2.0) * (px * qx + py * qy + pz * qz)) / (dist + r0)
-        ox = px - back * dx
-        oy = py - back * dy
-        oz = pz - back * dz
+    r0 = wp.sqrt(fields[k, 1] * fields[k, 1] + fields[k, 2] * fields[k, 2] + fields[k, 3] * fields[k, 3])
+    ox, oy, oz, dx, dy, dz, dist = aim_point_ray(fields[k, 0], fields[k, 1], fields[k, 2], fields[k, 3], px, py, pz,
+                                                 r0)
     st, where, x, y, z, L, M, N, opl, min_cos = trace_ray(
         surf, media, iris, n_surfaces, ox, oy, oz, dx, dy, dz, w2s[wl], table, -1, n_surfaces, 1, plane_dz,
         0, rec, 0, variant)
