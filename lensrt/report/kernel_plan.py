@@ -51,6 +51,7 @@ def report_needs(options: ReportOptions, skip: Sequence[str] = (), symmetric: bo
         needs.append(KernelNeed("store", "float64", 1, why="aiming, layout, compare"))
         if symmetric:
             needs.append(KernelNeed("boxes", why="pupil boxes"))
+            needs.append(KernelNeed("focus_grid", why="best-focus grids"))
         # compare: relative illumination and spot diagrams, a dozen field points / runs (far below the size
         # that takes the specialised kernel on a GPU in every preset)
         needs.append(KernelNeed("stream", "float64", 12 * q.compare_rays, table=True, why="compare: illumination"))

@@ -25,17 +25,18 @@ from .sampling import sampler_code
 
 __all__ = ["KernelNeed", "PlannedModule", "plan_modules", "preload", "host_packed"]
 
-KINDS = ("store", "stream", "boxes")
+KINDS = ("store", "stream", "boxes", "focus_grid")
 
 
 @dataclass(frozen=True)
 class KernelNeed:
     """One kind of trace call a job will make.
 
-    kind : {'store', 'stream', 'boxes'}
+    kind : {'store', 'stream', 'boxes', 'focus_grid'}
         :func:`lensrt.trace.trace` (every ray's end state), :func:`lensrt.trace.stream.stream`
-        (histograms), or the pupil-box grid pass on the device (:mod:`lensrt.trace.kernels.boxes`,
-        rotationally symmetric lenses).
+        (histograms), the pupil-box grid pass on the device (:mod:`lensrt.trace.kernels.boxes`) or the
+        best-focus grids on the device (:mod:`lensrt.trace.kernels.focus_grid`; both for rotationally
+        symmetric lenses).
     precision : str
         'float64' or 'float32' (the boxes pass is float64).
     rays : int
@@ -86,6 +87,9 @@ def _modules_of(lens: Lens, device: str, need: KernelNeed) -> list[tuple[Any, An
     if need.kind == "boxes":
         from .kernels.boxes import box_grid_pass_symmetric
         return [(box_grid_pass_symmetric.module, None)]
+    if need.kind == "focus_grid":
+        from .kernels.focus_grid import focus_grid_pass_symmetric
+        return [(focus_grid_pass_symmetric.module, None)]
     gpu = device.startswith("cuda")
     packed = host_packed(lens, need.precision)  # shape and variant do not depend on the device
     shape, _ = shape_and_constants(packed, need.clip)
