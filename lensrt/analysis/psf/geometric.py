@@ -150,9 +150,9 @@ def psf_windows(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None 
     # the farthest landing point of each field from its reference, over its rays at every wavelength, in one
     # pass over (wavelengths, fields, rays) (maxima are exact: the same numbers as wavelength by wavelength)
     ref = np.array([g.reference_mm for g in geoms], dtype=np.float64)
-    pos = r.position_mm[:, :2].reshape(len(wls), len(geoms), m, 2)
-    dev = np.abs(pos - ref[None, :, None, :]).max(axis=3)
-    half = np.where(r.ok.reshape(dev.shape), dev, 0.0).max(axis=(0, 2))
+    pos = r.position_mm.reshape(len(wls), len(geoms), m, 3)
+    dev = np.maximum(np.abs(pos[..., 0] - ref[:, 0, None]), np.abs(pos[..., 1] - ref[:, 1, None]))
+    half = dev.max(axis=(0, 2), where=r.ok.reshape(dev.shape), initial=0.0)
     return [_window(setup, float(h)) for h in half]
 
 
