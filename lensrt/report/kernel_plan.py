@@ -69,15 +69,17 @@ def report_needs(options: ReportOptions, skip: Sequence[str] = (), symmetric: bo
     return needs
 
 
-def report_plan(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = ()) -> list[PlannedModule]:
+def report_plan(lens: Any, options: ReportOptions, device: str, skip: Sequence[str] = (),
+                workers: int | None = None) -> list[PlannedModule]:
     """The Warp modules a report on ``lens`` with ``options`` launches on ``device``, in the order they are
-    to be compiled (:func:`compile_order`)."""
+    to be compiled by ``workers`` threads (default :func:`~lensrt.core.compile_ahead.default_workers`;
+    :func:`compile_order`)."""
     symmetric = not host_packed(lens).general
     plan = plan_modules(lens, device, report_needs(options, skip, symmetric))
     from ..analysis.psf.bulk import analysis_on_device
     if "psf" not in skip and analysis_on_device(device):
         plan.extend(_psf_device_sums(device))
-    return compile_order(plan)
+    return compile_order(plan, default_workers() if workers is None else workers)
 
 
 #: modules the report's first sections launch within a second of its start (the lens section's aiming and
@@ -104,13 +106,16 @@ def expected_compile_s(name: str) -> float:
     return next((v for k, v in _EXPECTED_COMPILE_S if name.startswith(k)), 1.0)
 
 
-def compile_order(plan: Sequence[PlannedModule]) -> list[PlannedModule]:
-    """``plan`` in the order to compile it: the modules the first sections launch (:data:`_FIRST`) first, so
-    that they never wait behind a long compile, then the others longest first, so that the last compile to
-    end -- and the launch waiting for it -- ends as early as it can. With as many compiling threads as
-    modules every load starts at once and the order is the order in which Warp's serialised code generation
-    lets them through; with fewer, a module still queued when a launch needs it is loaded by that launch
-    (:func:`lensrt.core.compile_ahead.wait_for`), not after the modules queued before it."""
+def compile_order(plan: Sequence[PlannedModule], workers: int) -> list[PlannedModule]:
+    """``plan`` (in the order the sections first launch its modules) in the order for ``workers`` threads to
+    compile it. With a thread per module every load starts at once and the order is the order in which
+    Warp's serialised code generation lets them through: the modules the first sections launch
+    (:data:`_FIRST`) first, so that they never wait behind a long compile, then the others longest first, so
+    that the last compile to end -- and the launch waiting for it -- ends as early as it can. With fewer
+    threads the loads queue, and the plan keeps the order the sections need them in (a module still queued
+    when a launch needs it is loaded by that launch: :func:`lensrt.core.compile_ahead.wait_for`)."""
+    if workers < len(plan):
+        return list(plan)
     first = [p for name in _FIRST for p in plan if p.name == name]
     rest = [p for p in plan if p.name not in _FIRST]
     return first + sorted(rest, key=lambda p: -expected_compile_s(p.name))
@@ -144,7 +149,7 @@ def start_preload(lens: Any, options: ReportOptions, device: str, skip: Sequence
         return [], None
     workers = default_workers()  # a bad LENSRT_COMPILE_WORKERS is the user's error: LensrtError, said once
     try:
-        plan = report_plan(lens, options, device, skip)
+        plan = report_plan(lens, options, device, skip, workers)
         return plan, preload(plan, device, workers)
     except Exception:  # noqa: BLE001 - a plan is an optimisation: any failure means compile-on-use
         return [], None

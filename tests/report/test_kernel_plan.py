@@ -166,18 +166,19 @@ def test_the_psf_maps_device_analysis_is_planned_where_it_runs(dg, monkeypatch):
     assert passes <= set(names("cpu"))
 
 
-def test_the_plan_compiles_what_the_first_sections_launch_first_then_the_longest_first(dg):
+def test_with_a_thread_per_module_the_plan_compiles_the_first_sections_modules_then_the_longest_first(dg):
     from lensrt.report.kernel_plan import expected_compile_s
-    from lensrt.report.kernel_plan import report_needs as needs_of
     for dev in ("cuda:0", "cpu"):
         opts = ReportOptions(device="cuda" if dev != "cpu" else "cpu")
-        plan = report_plan(dg, opts, dev)
-        names = [p.name for p in plan]
-        unordered = plan_modules(dg, dev, needs_of(opts))
-        assert set(names) >= {p.name for p in unordered} and len(names) == len(set(names))  # the same modules
+        in_need_order = [p.name for p in report_plan(dg, opts, dev, workers=1)]  # fewer threads than modules
+        names = [p.name for p in report_plan(dg, opts, dev, workers=len(in_need_order))]
+        assert sorted(names) == sorted(in_need_order) and len(names) == len(set(names))  # the same modules
+        # the plan's own order is the sections' (report_needs'), the PSF map's device analysis last
+        traced = [p.name for p in plan_modules(dg, dev, report_needs(opts))]
+        assert in_need_order[:len(traced)] == traced
         # the lens section's store kernel, then the first-order section's pupil boxes
         assert names[:2] == ["lensrt.trace.kernels.generic.store_float64", "lensrt.trace.kernels.boxes"]
         costs = [expected_compile_s(n) for n in names[2:]]
         assert costs == sorted(costs, reverse=True)
-    gpu = [p.name for p in report_plan(dg, ReportOptions(device="cuda"), "cuda:0")]
+    gpu = [p.name for p in report_plan(dg, ReportOptions(device="cuda"), "cuda:0", workers=12)]
     assert gpu[2] == "lensrt.analysis.psf.device_sums.second_pass"  # the longest compile of the GPU plan
