@@ -13,9 +13,11 @@ a thread pool too (``max_workers``), but blocks until every module is loaded.
 :func:`wait_for` -- called by :func:`lensrt.core.telemetry.launch` before every launch -- makes a
 launch whose module is still loading wait for that load instead of compiling the module a second
 time on its own thread; without a preload, the first launch of a module loads it under a lock, so
-that the slices of one launch on several CPU threads compile it once, not once per thread. A load that fails is recorded (:attr:`ModuleLoad.error`) and otherwise
-forgotten: the kernel then compiles on its first launch exactly as without preloading, and raises
-there whatever it raises. Preloading a module that is loaded, or already being loaded, is a no-op.
+that the slices of one launch on several CPU threads compile it once, not once per thread. A module
+still queued in the pool when a launch needs it (fewer threads than modules) is loaded by that launch at
+once, not after the modules queued before it. A load that fails is recorded (:attr:`ModuleLoad.error`)
+and otherwise forgotten: the kernel then compiles on its first launch exactly as without preloading, and
+raises there whatever it raises. Preloading a module that is loaded, or already being loaded, is a no-op.
 """
 from __future__ import annotations
 
@@ -26,11 +28,14 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-__all__ = ["ModuleLoad", "Preload", "start", "wait_for", "pending", "default_workers"]
+__all__ = ["ModuleLoad", "Preload", "start", "wait_for", "pending", "default_workers", "MAX_WORKERS"]
 
+#: most compiling threads by default: a default report's plan on a GPU is 9 modules, so on a 16-core host
+#: (the H100's) every one starts at once, leaving cores to the report's thread and its figure workers
+MAX_WORKERS = 12
 _LOCK = threading.RLock()
-#: loads not finished yet: (id of the Warp module, device alias) -> (future, its ModuleLoad)
-_PENDING: dict[tuple[int, str], tuple[Future, "ModuleLoad"]] = {}
+#: loads not finished yet: (id of the Warp module, device alias) -> (future, its ModuleLoad, its loader or None)
+_PENDING: dict[tuple[int, str], tuple[Future, "ModuleLoad", Any]] = {}
 #: one lock per (module, device) for the first load on use (wait_for)
 _FIRST_LOAD: dict[tuple[int, str], threading.Lock] = {}
 
@@ -101,8 +106,9 @@ class Preload:
 
 def default_workers() -> int:
     """Worker threads of a preload: ``LENSRT_COMPILE_WORKERS``, else the cores this process may use less one
-    (the caller's own thread goes on), at least 1, at most 8. Each compiling thread builds Warp's precompiled
-    header for itself (a per-thread folder), so threads beyond the idle cores only add work."""
+    (the caller's own thread goes on), at least 1, at most :data:`MAX_WORKERS`. Each compiling thread builds
+    Warp's precompiled header for itself (a per-thread folder), so threads beyond the idle cores only add
+    work."""
     raw = os.environ.get("LENSRT_COMPILE_WORKERS", "")
     if raw.strip():
         try:
@@ -115,7 +121,7 @@ def default_workers() -> int:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
         cores = os.cpu_count() or 1
-    return max(1, min(8, cores - 1))
+    return max(1, min(MAX_WORKERS, cores - 1))
 
 
 def _device_key(wp: Any, device: Any) -> str:
@@ -162,8 +168,9 @@ def start(modules: Sequence[Any], device: Any, workers: int | None = None,
                 rec.skipped = True
                 futures.append(None)
                 continue
-            fut = pool.submit(_load, wp, m, dev, rec, (loaders or {}).get(m))
-            _PENDING[key] = (fut, rec)
+            loader = (loaders or {}).get(m)
+            fut = pool.submit(_load, wp, m, dev, rec, loader)
+            _PENDING[key] = (fut, rec, loader)
             fut.add_done_callback(lambda f, key=key: _forget(key))
             futures.append(fut)
     pool.shutdown(wait=False)
@@ -178,7 +185,7 @@ def _forget(key: tuple[int, str]) -> None:
 def pending() -> list[str]:
     """Names of the modules being loaded now (``name@device``)."""
     with _LOCK:
-        return [f"{rec.name}@{rec.device}" for _, rec in _PENDING.values()]
+        return [f"{rec.name}@{rec.device}" for _, rec, _ in _PENDING.values()]
 
 
 def _loaded(module: Any, context: Any) -> bool:
@@ -188,11 +195,13 @@ def _loaded(module: Any, context: Any) -> bool:
 def wait_for(kernel: Any, device: Any = None, block_dim: int | None = None) -> None:
     """Make sure ``kernel``'s module is loaded on ``device`` before a launch, compiling it once.
 
-    If a preload is loading the module, wait for it. Otherwise the first caller loads it (Warp's
-    ``force_load``, as the launch would) while other threads launching kernels of the same module wait,
-    so that the slices of one launch on several CPU threads do not each compile it. A load that fails
-    is left to the launch, which compiles (and raises) as it would have. Loaded modules cost a look-up.
-    A launch with its own ``block_dim`` (a module variant of its own) only waits for a preload.
+    If a preload is loading the module, wait for it; if the preload has it still queued behind other modules
+    (fewer compiling threads than modules), take it over: load it here, now (with the preload's loader).
+    Otherwise the first caller loads it (Warp's ``force_load``, as the launch would) while other threads
+    launching kernels of the same module wait, so that the slices of one launch on several CPU threads do
+    not each compile it. A load that fails is left to the launch, which compiles (and raises) as it would
+    have. Loaded modules cost a look-up. A launch with its own ``block_dim`` (a module variant of its own)
+    only waits for a preload.
     """
     module = getattr(kernel, "module", None)
     if module is None:
@@ -204,14 +213,23 @@ def wait_for(kernel: Any, device: Any = None, block_dim: int | None = None) -> N
     key = (id(module), dev.alias)
     with _LOCK:
         hit = _PENDING.get(key)
-        lock = _FIRST_LOAD.setdefault(key, threading.Lock()) if hit is None else None
+        lock = _FIRST_LOAD.setdefault(key, threading.Lock())
+        # a load still queued behind others (fewer threads than modules) is taken over by this launch
+        mine = hit is not None and hit[0].cancel()
+        if mine:
+            _PENDING.pop(key, None)
     if hit is not None:
-        fut, rec = hit
+        fut, rec, loader = hit
         t0 = time.perf_counter()
-        try:
-            fut.result()
-        except BaseException:  # noqa: BLE001 - cancelled: the launch compiles the module itself
-            pass
+        if mine:
+            with lock:  # as a first load on use: other threads launching this module wait for it
+                if loader is not None or not _loaded(module, dev.context):
+                    _load(wp, module, dev.alias, rec, loader)
+        else:
+            try:
+                fut.result()
+            except BaseException:  # noqa: BLE001 - cancelled: the launch compiles the module itself
+                pass
         dt = time.perf_counter() - t0
         with _LOCK:
             rec.waited_s += dt

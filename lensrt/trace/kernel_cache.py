@@ -40,7 +40,11 @@ __all__ = ["WARP_VERSIONS", "enabled", "source_digest", "folder_for", "load_modu
 #: Warp versions whose Module.load / ModuleHasher this shortcut was written and tested against
 WARP_VERSIONS = ("1.19.0",)
 _LAYOUT = "lensrt-kernel-cache-1"
+#: guards _LOCKS
 _LOCK = threading.Lock()
+#: one lock per (module, device): two different modules load side by side (their native compiles overlap; Warp
+#: serialises only its code generation), two threads asking for the same one load it once
+_LOCKS: dict[tuple[str, str], threading.Lock] = {}
 _DONE: dict[tuple[str, str], str] = {}
 
 
@@ -85,14 +89,17 @@ def load_module(module_name: str, kernel_key: str, device: str) -> str:
     ``kernel_key`` is the repr of everything the module was generated from. Returns how: ``"cached"``
     (found, no code generation), ``"compiled"`` (built into the folder) or ``"warp"`` (Warp's own path).
     """
-    done = _DONE.get((module_name, device))
+    key = (module_name, device)
+    done = _DONE.get(key)
     if done is not None:
         return done
     with _LOCK:
-        done = _DONE.get((module_name, device))
+        lock = _LOCKS.setdefault(key, threading.Lock())
+    with lock:
+        done = _DONE.get(key)
         if done is None:
             done = _load(module_name, kernel_key, device)
-            _DONE[(module_name, device)] = done
+            _DONE[key] = done
         return done
 
 

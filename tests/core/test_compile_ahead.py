@@ -110,7 +110,7 @@ def test_the_worker_count_can_be_set_and_is_checked(monkeypatch):
     with pytest.raises(LensrtError, match="LENSRT_COMPILE_WORKERS"):
         compile_ahead.default_workers()
     monkeypatch.delenv("LENSRT_COMPILE_WORKERS")
-    assert 1 <= compile_ahead.default_workers() <= 8
+    assert 1 <= compile_ahead.default_workers() <= compile_ahead.MAX_WORKERS
 
 
 def test_slices_launched_on_several_threads_compile_their_module_once(monkeypatch):
@@ -141,3 +141,34 @@ def test_slices_launched_on_several_threads_compile_their_module_once(monkeypatc
         t.join()
     assert loads == ["load"]
     np.testing.assert_array_equal(out.numpy(), 11.0 * np.arange(8))
+
+
+def test_a_module_still_queued_is_loaded_by_its_launch_not_after_the_modules_queued_before_it(monkeypatch):
+    """One compiling thread, two modules: while the first is loading, a launch of the second (still queued in
+    the pool) takes its load over on the launching thread instead of waiting for the first."""
+    wp = warp()
+    long_k, needed_k = _fresh_kernel(13.0), _fresh_kernel(17.0)  # scales of no other test: new modules
+    real_force_load = wp.force_load
+    started, release = threading.Event(), threading.Event()
+    loaded_by: dict[str, str] = {}
+
+    def force_load(*args, modules=(), **kwargs):
+        if modules[0] is long_k.module:
+            started.set()
+            release.wait(20)  # the long compile: not over before the launch below has run
+        loaded_by[modules[0].name] = threading.current_thread().name
+        real_force_load(*args, modules=modules, **kwargs)
+
+    monkeypatch.setattr(wp, "force_load", force_load)
+    job = compile_ahead.start([long_k.module, needed_k.module], "cpu", workers=1)
+    assert started.wait(30)
+    values = _run(needed_k)
+    long_done = bool(loaded_by.get(long_k.module.name)) and not release.is_set()
+    release.set()
+    loads = job.wait()
+    assert loaded_by[needed_k.module.name] == threading.current_thread().name  # taken over by the launch
+    assert not long_done  # ... while the first module was still loading
+    assert [(ld.name, ld.error) for ld in loads] == [(long_k.module.name, None), (needed_k.module.name, None)]
+    assert compile_ahead.pending() == []
+    np.testing.assert_array_equal(values, 17.0 * np.arange(5))
+    np.testing.assert_array_equal(_run(long_k), 13.0 * np.arange(5))

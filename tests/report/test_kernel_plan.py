@@ -153,10 +153,32 @@ def test_a_planned_specialised_module_is_the_one_the_stream_call_launches(dg, mo
 
 
 def test_the_psf_maps_device_analysis_is_planned_where_it_runs(dg, monkeypatch):
+    from lensrt.analysis.psf import device_sums
     opts = ReportOptions(device="cpu", ray_fraction=1 / 64)
     names = lambda dev: [p.name for p in report_plan(dg, opts, dev)]  # noqa: E731
-    assert "lensrt.analysis.psf.device_sums" in names("cuda:0")  # on a GPU the map's passes run there
-    assert "lensrt.analysis.psf.device_sums" not in names("cpu")  # on the CPU NumPy's do (the default)
-    assert "lensrt.analysis.psf.device_sums" not in [p.name for p in report_plan(dg, opts, "cuda:0", skip=["psf"])]
+    # its two launches' kernels, each a module of its own (so they compile side by side, each once)
+    passes = {device_sums._first_pass.module.name, device_sums._second_pass.module.name}
+    assert len(passes) == 2
+    assert passes <= set(names("cuda:0"))  # on a GPU the map's passes run there
+    assert not passes & set(names("cpu"))  # on the CPU NumPy's do (the default)
+    assert not passes & {p.name for p in report_plan(dg, opts, "cuda:0", skip=["psf"])}
     monkeypatch.setenv("LENSRT_PSF_ANALYSIS", "device")
-    assert "lensrt.analysis.psf.device_sums" in names("cpu")
+    assert passes <= set(names("cpu"))
+
+
+def test_with_a_thread_per_module_the_plan_compiles_the_first_sections_modules_then_the_longest_first(dg):
+    from lensrt.report.kernel_plan import expected_compile_s
+    for dev in ("cuda:0", "cpu"):
+        opts = ReportOptions(device="cuda" if dev != "cpu" else "cpu")
+        in_need_order = [p.name for p in report_plan(dg, opts, dev, workers=1)]  # fewer threads than modules
+        names = [p.name for p in report_plan(dg, opts, dev, workers=len(in_need_order))]
+        assert sorted(names) == sorted(in_need_order) and len(names) == len(set(names))  # the same modules
+        # the plan's own order is the sections' (report_needs'), the PSF map's device analysis last
+        traced = [p.name for p in plan_modules(dg, dev, report_needs(opts))]
+        assert in_need_order[:len(traced)] == traced
+        # the lens section's store kernel, then the first-order section's pupil boxes
+        assert names[:2] == ["lensrt.trace.kernels.generic.store_float64", "lensrt.trace.kernels.boxes"]
+        costs = [expected_compile_s(n) for n in names[2:]]
+        assert costs == sorted(costs, reverse=True)
+    gpu = [p.name for p in report_plan(dg, ReportOptions(device="cuda"), "cuda:0", workers=12)]
+    assert gpu[2] == "lensrt.analysis.psf.device_sums.second_pass"  # the longest compile of the GPU plan

@@ -115,3 +115,34 @@ def test_the_source_digest_reads_every_lensrt_module(tmp_path, monkeypatch):
 def test_switched_off_by_the_environment(monkeypatch):
     monkeypatch.setenv("LENSRT_KERNEL_CACHE", "0")
     assert not kernel_cache.enabled(warp())
+
+
+def test_two_modules_load_side_by_side_and_one_module_loads_once(monkeypatch):
+    """The lock is per (module, device): the loads of two modules overlap (each sees the other start while it
+    is inside its own), and four threads asking for one module load it once."""
+    import threading
+    monkeypatch.setattr(kernel_cache, "_DONE", {})
+    monkeypatch.setattr(kernel_cache, "_LOCKS", {})
+    entered = {"mod_a": threading.Event(), "mod_b": threading.Event()}
+    overlapped: dict[str, bool] = {}
+    calls: list[str] = []
+
+    def fake_load(name, key, device):
+        calls.append(name)
+        if name in entered:
+            entered[name].set()
+            other = "mod_b" if name == "mod_a" else "mod_a"
+            overlapped[name] = entered[other].wait(10)  # a global lock would keep the other one out
+        return "compiled"
+
+    monkeypatch.setattr(kernel_cache, "_load", fake_load)
+    threads = [threading.Thread(target=kernel_cache.load_module, args=(n, "k", "cpu"))
+               for n in ("mod_a", "mod_b") + ("mod_c",) * 4]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(30)
+    assert overlapped == {"mod_a": True, "mod_b": True}
+    assert sorted(calls) == ["mod_a", "mod_b", "mod_c"]
+    assert kernel_cache.load_module("mod_c", "k", "cpu") == "compiled"  # remembered: no second load
+    assert calls.count("mod_c") == 1

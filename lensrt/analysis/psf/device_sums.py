@@ -44,9 +44,19 @@ from ...core.telemetry import download, launch, upload
 from ...errors import LensrtError
 from ..grid import ImageGrid
 
-__all__ = ["device_field_sums", "DeviceHistograms"]
+__all__ = ["device_field_sums", "DeviceHistograms", "FIRST_PASS_MODULE", "SECOND_PASS_MODULE", "SECOND_PASS_BLOCK"]
 
-wp.set_module_options({"enable_backward": False})
+#: the Warp module of each launch (a module is Warp's unit of compilation and caching): one per kernel, so that
+#: each compiles only its own kernel, at its own block size, and the two compile side by side. In one module, a
+#: GPU compiled both kernels twice -- once per block size of the two launches (NVRTC for sm_90 on the 2-core
+#: build machine: 7.2 s at 256 lanes + 6.3 s at 128; 8.3 s of a cold report on an H100, docs/guide/report-speed.md)
+FIRST_PASS_MODULE = __name__ + ".first_pass"
+SECOND_PASS_MODULE = __name__ + ".second_pass"
+#: lanes of a block of the second pass on a GPU (one block per field and encircled energy, or field and batch)
+SECOND_PASS_BLOCK = 128
+
+for _name in (__name__, FIRST_PASS_MODULE, SECOND_PASS_MODULE):
+    wp.set_module_options({"enable_backward": False}, module=_name)
 
 
 @wp.func
@@ -126,7 +136,7 @@ def _batch_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), 
     otf[f, b, k, 1] = acc_im
 
 
-@wp.kernel
+@wp.kernel(module=FIRST_PASS_MODULE)
 def _first_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, nb: int, ny: int,
                 nx: int, unit: wp.float64, H: wp.array2d(dtype=wp.float64), lit: wp.array2d(dtype=wp.int32),
                 ss: wp.array2d(dtype=wp.float64), xs: wp.array2d(dtype=wp.float64), ys: wp.array2d(dtype=wp.float64),
@@ -365,7 +375,7 @@ def _ee_block(hist: wp.array(dtype=wp.int64), i0: int, stride: int, nb: int, ny:
             e_b[f, j, b] = acc
 
 
-@wp.kernel
+@wp.kernel(module=SECOND_PASS_MODULE)
 def _second_pass(hist: wp.array(dtype=wp.int64), base: wp.array(dtype=wp.int32), stride: int, nb: int, ny: int,
                  unit: wp.float64, H: wp.array2d(dtype=wp.float64), xs: wp.array2d(dtype=wp.float64),
                  ys: wp.array2d(dtype=wp.float64), half: wp.array(dtype=wp.float64),
@@ -526,7 +536,7 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
     e_d = wp.zeros((n, nj, nb), dtype=wp.float64, device=dev)
     loo_d = wp.zeros((n, nb), dtype=wp.float64, device=dev)
     full_d = wp.zeros(n, dtype=wp.float64, device=dev)
-    block = _BLOCK if str(dev).startswith("cuda") else 1  # Warp's CPU runs blocks of one lane
+    block = SECOND_PASS_BLOCK if str(dev).startswith("cuda") else 1  # Warp's CPU runs blocks of one lane
     launch(_second_pass, dim=(n, nj + nb, block), block_dim=block, device=dev,
            inputs=[dh.array, base, dh.stride, nb, ny, unit, H_d, xs, ys, _up(half, wp.float64, dev),
                    _up(offs, wp.float64, dev), _up(ee_in, wp.float64, dev), _up(centres, wp.float64, dev), lit_d,
@@ -552,8 +562,6 @@ def device_field_sums(dh: DeviceHistograms, sources: Sequence[int], off_grid: np
     return out
 
 
-#: lanes of a block of the second pass (one block per field and encircled energy, or field and batch)
-_BLOCK = 128
 #: sub-pixels per side where a circle cuts a pixel (``Rings``' supersample of the jackknife's radii)
 _SUPERSAMPLE = 4
 
