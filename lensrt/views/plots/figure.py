@@ -33,7 +33,7 @@ from typing import Any, Callable, Iterator, TypeVar
 
 from ...errors import LensrtError
 from ...io.paths import output_file
-from .figure_worker import execute, job_bytes, read_message, savefig, write_bytes
+from .figure_worker import execute, exr_threads, job_bytes, read_message, savefig, write_bytes
 
 __all__ = ["new_figure", "save_figure", "defer", "drawn_by_workers", "deferred_figures", "figure_workers",
            "FigureRenderer"]
@@ -285,8 +285,7 @@ class FigureRenderer:
         if self._outcomes is not None:
             return self._outcomes
         t0 = self._wait_began = time.perf_counter()
-        for k in self._steal_files():
-            self._run_here(self.jobs[k], "stolen")
+        self._take_back_files()
         self._end_queue()
         for w in self.workers:
             w.close()
@@ -306,21 +305,39 @@ class FigureRenderer:
         self._outcomes = [(j.owner, j.path, None if j.done else RuntimeError(j.error)) for j in self.jobs]
         return self._outcomes
 
-    def _steal_files(self) -> list[int]:
-        """The file jobs still queued, taken off the queue (figure jobs stay: they would make this process
-        import Matplotlib's figure code), in submission order. While it writes them the workers finish the
-        figures: the caller would otherwise sit idle at the end."""
+    def _steal_file(self) -> int | None:
+        """The first file job still queued, taken off the queue (None when none is left; figure jobs stay: they
+        would make this process import Matplotlib's figure code). While the caller writes it the workers finish
+        the figures -- the caller would otherwise sit idle at the end -- and a worker that becomes free takes
+        the next file itself: one file at a time."""
         import queue
-        stolen, back = [], []
-        while True:
+        taken, back = None, []
+        while taken is None:
             try:
                 rank, k = self.todo.get_nowait()
             except queue.Empty:
                 break
-            (stolen if self.jobs[k].kind == "file" else back).append((rank, k))
+            if self.jobs[k].kind == "file":
+                taken = k
+            else:
+                back.append((rank, k))
         for entry in back:
             self.todo.put(entry)
-        return sorted(k for _, k in stolen)
+        return taken
+
+    def _take_back_files(self) -> None:
+        """Write the file jobs still queued here, one at a time (:meth:`_steal_file`); EXRs compressed with
+        the threads a worker uses (:func:`~lensrt.views.plots.figure_worker.exr_threads`, restored after)."""
+        previous = None
+        try:
+            while (k := self._steal_file()) is not None:
+                if previous is None and self.jobs[k].path.suffix == ".exr":
+                    previous = exr_threads()
+                self._run_here(self.jobs[k], "stolen")
+        finally:
+            if previous is not None:
+                import OpenEXR
+                OpenEXR.set_global_thread_count(previous)
 
     def _end_queue(self) -> None:
         """One end entry per worker, after every job: each feeding thread ends on one."""
