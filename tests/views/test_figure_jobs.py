@@ -279,6 +279,11 @@ def test_the_psf_mosaic_draws_each_tile_in_its_box(tmp_path):
         assert 0 < l and l + w < 1 and 0 < b and b + h < 1
         for (l2, b2, w2, h2) in boxes[i + 1:]:
             assert l + w <= l2 or l2 + w2 <= l or b + h <= b2 or b2 + h2 <= b  # no two overlap
+    for lines in (1, 2, 3):  # a longer title: the tiles and their labels stay below it, inside the figure
+        h_in = 1.6 * 7 + 0.6
+        more = F_psf.mosaic_axes_boxes(7, 7, lines)
+        assert min(b for _, b, _, _ in more) > 0
+        assert max(b + h for _, b, _, h in more) * h_in + 0.17 <= h_in - 0.19 * lines
     tiles = _tiles(7)
     path = draw_psf_mosaic(tmp_path / "m.png", tiles, 3, False, "seven tiles")
     img = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)

@@ -183,21 +183,24 @@ def plot_psf_mosaic(path: str | Path, results: Sequence["PsfResult"], ncols: int
                            title or f"PSF map ({results[0].kind}, tiles peak-normalised)")
 
 
-#: the PSF mosaic's geometry (inches): a square cell per field, margins, the band above each tile for its title
-_CELL_IN, _SIDE_IN, _TOP_IN, _BOTTOM_IN, _TITLE_IN, _GAP_IN = 1.6, 0.2, 0.4, 0.2, 0.17, 0.05
+#: the PSF mosaic's geometry (inches): a cell per field, the side margin, the band above each tile for its
+#: title and the gap under it, the bottom margin, and the height of one line of the figure's title
+_CELL_IN, _SIDE_IN, _TITLE_IN, _GAP_IN, _BOTTOM_IN, _LINE_IN = 1.6, 0.2, 0.17, 0.05, 0.05, 0.19
 
 
-def mosaic_axes_boxes(nrows: int, ncols: int) -> list[tuple[float, float, float, float]]:
+def mosaic_axes_boxes(nrows: int, ncols: int, title_lines: int = 1) -> list[tuple[float, float, float, float]]:
     """The PSF mosaic's tile boxes (left, bottom, width, height as fractions of the figure), row by row from the
-    top: fixed positions on a figure of ``1.6 * ncols + 0.4`` by ``1.6 * nrows + 0.6`` inches, each tile a square
-    under a band for its title. Placing the 49 axes of a 7 x 7 map here instead of by Matplotlib's constrained
-    layout makes the figure several times cheaper to draw (that layout measures every title and tick again and
-    again)."""
-    w_in, h_in = _CELL_IN * ncols + 2 * _SIDE_IN, _CELL_IN * nrows + _TOP_IN + _BOTTOM_IN
-    side = _CELL_IN - _TITLE_IN - _GAP_IN
+    top: fixed positions on a figure of ``1.6 * ncols + 0.4`` by ``1.6 * nrows + 0.6`` inches under a title of
+    ``title_lines`` lines, each tile a square under a band for its label (smaller where a long title leaves
+    less room). Placing the tiles here instead of by Matplotlib's constrained layout makes the 7 x 7 map
+    about three times cheaper to draw (that layout measures every label and tick again and again)."""
+    w_in, h_in = _CELL_IN * ncols + 2 * _SIDE_IN, _CELL_IN * nrows + 0.6
+    top_in = 0.1 + _LINE_IN * max(title_lines, 1)
+    cell_h = (h_in - top_in - _BOTTOM_IN) / nrows
+    side = min(_CELL_IN, cell_h) - _TITLE_IN - _GAP_IN
     boxes = []
     for i in range(nrows):
-        top = h_in - _TOP_IN - i * _CELL_IN - _TITLE_IN  # the tile's top edge, under its title
+        top = h_in - top_in - i * cell_h - _TITLE_IN  # the tile's top edge, under its label
         for j in range(ncols):
             left = _SIDE_IN + j * _CELL_IN + (_CELL_IN - side) / 2
             boxes.append((left / w_in, (top - side) / h_in, side / w_in, side / h_in))
@@ -237,15 +240,15 @@ def draw_psf_mosaic(path: str | Path, tiles: Sequence[PsfTile], ncols: int | Non
     n = len(tiles)
     ncols = ncols or int(math.ceil(math.sqrt(n)))
     nrows = int(math.ceil(n / ncols))
-    w_in, h_in = _CELL_IN * ncols + 2 * _SIDE_IN, _CELL_IN * nrows + _TOP_IN + _BOTTOM_IN
+    w_in, h_in = _CELL_IN * ncols + 2 * _SIDE_IN, _CELL_IN * nrows + 0.6
     fig = Figure(figsize=(w_in, h_in), dpi=120)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
-    for (l, b, w, h), tile in zip(mosaic_axes_boxes(nrows, ncols), tiles):
+    for (l, b, w, h), tile in zip(mosaic_axes_boxes(nrows, ncols, title.count("\n") + 1), tiles):
         _mosaic_tile(ax, (l * w_in, b * h_in, w * w_in, h * h_in), tile, log)
     ax.set(xlim=(0.0, w_in), ylim=(0.0, h_in), aspect="auto")
     ax.set_axis_off()
-    fig.suptitle(title, fontsize=10, y=1 - 0.12 / h_in, va="top")
+    fig.suptitle(title, fontsize=10, y=1 - 0.08 / h_in, va="top")
     return save_figure(fig, path)
 
 
