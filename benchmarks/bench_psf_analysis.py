@@ -24,6 +24,7 @@ standard errors) and the PSFs' per-pixel errors.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -63,10 +64,19 @@ def main(argv: list[str] | None = None) -> int:
         kept.append((grid, geom.reference_mm, tot))
         return finish(setup_, f, seed, geom, grid, half, tot, *rest, **kw)
     geometric.finish_geometric = keep
+    # the host path of the map, whatever LENSRT_PSF_ANALYSIS says: the per-batch histograms must come down
+    # to the host for the reference and bulk ways (the device path keeps them on the device and hands
+    # finish_geometric zero stand-ins, which the reference cannot analyse)
+    mode = os.environ.get("LENSRT_PSF_ANALYSIS")
+    os.environ["LENSRT_PSF_ANALYSIS"] = "host"
     try:
         groups.geometric_psfs(setup, fields, field_seeds(len(fields), 0), dev)
     finally:
         geometric.finish_geometric = finish
+        if mode is None:
+            del os.environ["LENSRT_PSF_ANALYSIS"]
+        else:
+            os.environ["LENSRT_PSF_ANALYSIS"] = mode
     stack = np.stack([t.hist for _, _, t in kept])
     offs = np.stack([t.off_grid for _, _, t in kept])
 

@@ -48,7 +48,8 @@ print(json.dumps({"how": hows, "built": built, "kernel": r.kernel, "bits": bits.
 
 
 def _run(cache_dir: str, enabled: bool) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT), LENSRT_KERNEL_CACHE="1" if enabled else "0")
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)  # keep where warp is
+    env = dict(os.environ, PYTHONPATH=path, LENSRT_KERNEL_CACHE="1" if enabled else "0")
     out = subprocess.run([sys.executable, "-c", SCRIPT, cache_dir], env=env, capture_output=True, text=True,
                          check=True, timeout=600)
     return json.loads(out.stdout.strip().splitlines()[-1])

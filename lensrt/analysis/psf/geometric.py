@@ -57,7 +57,7 @@ if TYPE_CHECKING:
 
 __all__ = ["StreamTotals", "geometric_psf_at", "finish_geometric", "prepare_field", "prepare_fields", "FieldGeometry",
            "round_seed",
-           "psf_window", "psf_windows", "add_mtf_estimates", "psf_from_stream"]
+           "psf_window", "psf_windows", "pilot_rays", "add_mtf_estimates", "psf_from_stream"]
 
 #: smallest automatic half-width of a geometric PSF grid (mm): 2 um
 _MIN_HALF_MM = 2e-3
@@ -140,23 +140,54 @@ def psf_windows(setup: PsfSetup, geoms: list[FieldGeometry], device: str | None 
     the pilot grids of all fields at all wavelengths traced together (one launch)."""
     from ...trace import RayBatch, trace
     spec = setup.spectrum
-    sets = [pupil_grid_rays(g.fp, g.box, n_side) for g in geoms]
-    o = np.concatenate([r.origin_mm for r in sets])
-    d = np.concatenate([r.direction for r in sets])
+    o, d = pilot_rays(geoms, n_side)
     m = n_side * n_side
-    ref = np.repeat(np.array([g.reference_mm for g in geoms], dtype=np.float64), m, axis=0)
-    half = np.zeros(len(geoms))
     wls = sorted({spec.min_nm, spec.primary_nm, spec.max_nm})
     n = len(o)
     r = trace(setup.lens, RayBatch(np.tile(o, (len(wls), 1)), np.tile(d, (len(wls), 1)),
                                    np.repeat(np.asarray(wls, dtype=np.float64), n)), "float64", device,
               plane_z_mm=setup.plane_z_mm)
-    for j in range(len(wls)):
-        pos, ok = r.position_mm[j * n:(j + 1) * n], r.ok[j * n:(j + 1) * n]
-        dev = np.max(np.abs(pos[:, :2] - ref), axis=1)
-        dev = np.where(ok, dev, 0.0).reshape(len(geoms), m)
-        half = np.maximum(half, dev.max(axis=1))
+    # the farthest landing point of each field from its reference, over its rays at every wavelength, in one
+    # pass over (wavelengths, fields, rays) (maxima are exact: the same numbers as wavelength by wavelength)
+    ref = np.array([g.reference_mm for g in geoms], dtype=np.float64)
+    pos = r.position_mm.reshape(len(wls), len(geoms), m, 3)
+    dev = np.maximum(np.abs(pos[..., 0] - ref[:, 0, None]), np.abs(pos[..., 1] - ref[:, 1, None]))
+    half = dev.max(axis=(0, 2), where=r.ok.reshape(dev.shape), initial=0.0)
     return [_window(setup, float(h)) for h in half]
+
+
+def pilot_rays(geoms: list[FieldGeometry], n_side: int = 48) -> tuple[np.ndarray, np.ndarray]:
+    """Origins and directions (fields * n_side^2, 3) of every field's pilot grid, field after field: the rays
+    of :func:`~lensrt.analysis.pupil_rays.pupil_grid_rays` bit for bit (they set each grid's pitch).
+
+    Fields at infinity are made all at once with the same element-wise operations in the same order (cell
+    centres, box points, the foot of each ray on the plane through the first vertex); object points at a
+    finite distance take ``pupil_grid_rays`` field by field."""
+    m, nf = int(n_side), len(geoms)
+    o = np.empty((nf, m * m, 3))
+    d = np.empty((nf, m * m, 3))
+    inf = [k for k, g in enumerate(geoms) if g.fp.infinite]
+    for k in (k for k, g in enumerate(geoms) if not g.fp.infinite):
+        r = pupil_grid_rays(geoms[k].fp, geoms[k].box, m)
+        o[k], d[k] = r.origin_mm, r.direction
+    if inf:
+        boxes = [geoms[k].box for k in inf]
+        if min(b.area_mm2 for b in boxes) <= 0:  # pupil_grid_rays' error
+            pupil_grid_rays(geoms[inf[0]].fp, next(b for b in boxes if b.area_mm2 <= 0), m)
+        lim = np.array([(b.a0, b.a1, b.b0, b.b1) for b in boxes], dtype=np.float64)
+        c, e1, e2 = (np.array([getattr(b, name) for b in boxes], dtype=np.float64)[:, None, :]
+                     for name in ("centre", "e1", "e2"))
+        cells = np.arange(m) + 0.5
+        a = lim[:, 0:1] + cells * (lim[:, 1] - lim[:, 0])[:, None] / m  # (F, m), as pupil_grid_rays' a and b
+        b = lim[:, 2:3] + cells * (lim[:, 3] - lim[:, 2])[:, None] / m
+        A = np.repeat(a, m, axis=1)[:, :, None]  # meshgrid(a, b, indexing="ij"), raveled
+        B = np.tile(b, (1, m))[:, :, None]
+        pts = c + A * e1 + B * e2  # PupilBox.points
+        di = np.broadcast_to(np.array([geoms[k].fp.direction for k in inf], dtype=np.float64)[:, None, :],
+                             pts.shape)
+        o[inf] = pts - np.sum(pts * di, axis=2, keepdims=True) * di  # ray_through_point at infinity
+        d[inf] = di
+    return o.reshape(-1, 3), d.reshape(-1, 3)
 
 
 def psf_window(setup: PsfSetup, geom: FieldGeometry, device: str | None = None, n_side: int = 48
