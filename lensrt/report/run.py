@@ -159,7 +159,8 @@ def _module_loads(plan, loading) -> list[dict[str, Any]]:
 def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str], stream, quiet: bool) -> Report:
     """Run the sections (each one measured) and gather the report; :func:`build_report` writes it.
     The figure worker processes start first, so that they have loaded Matplotlib by the first figure;
-    the report then waits only for the figures and files they have not finished."""
+    after the last section the report gathers what needs no figure (kernel modules, key numbers) while the
+    workers finish, and then waits only for the figures and files they have not."""
     from ..device import describe_device, resolve_device
     t0 = time.perf_counter()
     with deferred_figures() as renderer:
@@ -174,28 +175,35 @@ def _run(lens, out_dir: str | Path, options: ReportOptions, skip: Sequence[str],
         if family is not None:
             ctx.cache["configurations"] = family
         sections = _sections(ctx, skip, stream, quiet, renderer)
+        report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
+                        0.0, {}, notes, _lens_summary(analysed))
+        report.kernel_modules = _module_loads(plan, loading)
+        _key_numbers(report, ctx)
         if renderer is not None:  # figures and files made by worker processes: they exist from here on
-            _figure_errors(renderer.wait(), sections)
+            outcomes = renderer.wait()
+            _figure_errors(outcomes, sections)
             _worker_trouble(renderer, sections, stream, quiet)
-    modules = _module_loads(plan, loading)
-    env = _environment(options.command_line)
-    report = Report(lens.name or str(lens.path), options, sections, out, device, describe_device(device),
-                    0.0, env, notes, _lens_summary(analysed))
-    if renderer is not None:
-        report.summary["figure_telemetry"] = renderer.stats()
-    try:
-        from .key_numbers import key_numbers
-        report.key_numbers = key_numbers(ctx, sections)
-    except Exception as err:  # noqa: BLE001 - the headline numbers are a convenience, never a failure
-        report.summary["key_numbers_error"] = f"{type(err).__name__}: {err}"
+            report.summary["figure_telemetry"] = renderer.stats()
+            if any(err is not None for _, _, err in outcomes):
+                _key_numbers(report, ctx)  # a section that failed by its figure shows no headline number
+    report.environment = _environment(options.command_line)  # after the wait: the modules the report loaded
     report.summary["path"] = str(lens.path) if lens.path else None
     report.summary["lens_file"] = _lens_file_text(lens.path)
     report.summary["source"] = lens.source
     report.seconds = time.perf_counter() - t0
-    report.kernel_modules = modules
     report.json_path = out / "report.json"
     report.html_path = out / "index.html"
     return report
+
+
+def _key_numbers(report: Report, ctx: ReportContext) -> None:
+    """The report's headline numbers (a failure here is noted in its summary, never the report's)."""
+    report.summary.pop("key_numbers_error", None)
+    try:
+        from .key_numbers import key_numbers
+        report.key_numbers = key_numbers(ctx, report.sections)
+    except Exception as err:  # noqa: BLE001 - the headline numbers are a convenience, never a failure
+        report.summary["key_numbers_error"] = f"{type(err).__name__}: {err}"
 
 
 def _sections(ctx: ReportContext, skip: Sequence[str], stream, quiet: bool, renderer) -> list[Section]:

@@ -18,6 +18,7 @@ from lensrt.io.exr import read_exr, write_exr
 from lensrt.io.table import write_json
 from lensrt.views.plots import figure as F
 from lensrt.views.plots.figure import deferred_figures, defer
+from lensrt.views.plots import psf as F_psf
 from lensrt.views.plots.psf import PsfTile, draw_psf_mosaic, plot_mtf_curves
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,7 +39,7 @@ def _tiles(n: int = 6) -> list[PsfTile]:
 
 def _let_workers_take_their_jobs(renderer) -> None:
     """Until every job is in a worker's hands: then :meth:`FigureRenderer.wait` has nothing left to take back."""
-    while any(w.todo.qsize() for w in renderer.workers):
+    while renderer.todo.qsize():
         time.sleep(0.01)
 
 
@@ -204,3 +205,101 @@ def test_the_message_says_why_a_worker_stopped(tmp_path, monkeypatch):
     assert "it said: ModuleNotFoundError: No module named matplotlib" in renderer.message
     assert renderer.message.startswith("a figure worker process stopped")
     assert all(p.stat().st_size > 0 for p in paths.values())
+
+
+def _held_until(flag: Path) -> bytes:
+    """A job that keeps its worker busy until ``flag`` exists (a shell loop: no test code in the worker)."""
+    from lensrt.views.plots.figure_worker import job_bytes
+    return job_bytes(subprocess.run, (["sh", "-c", f'while [ ! -e "{flag}" ]; do sleep 0.02; done'],),
+                     {"check": True, "timeout": 120})
+
+
+def _until(condition, what: str) -> None:
+    deadline = time.monotonic() + 120
+    while not condition():
+        assert time.monotonic() < deadline, f"never happened: {what}"
+        time.sleep(0.01)
+
+
+def test_a_free_worker_takes_the_next_job(tmp_path):
+    """Jobs wait in one queue: a figure submitted while one worker is held goes to the other worker once that is
+    free, not in line behind the held one."""
+    from lensrt.views.plots.figure_worker import job_bytes
+    flag = tmp_path / "go"
+    with deferred_figures(2) as renderer:
+        renderer.submit(_held_until(flag), tmp_path / "held")
+        renderer.submit(job_bytes(time.sleep, (0.05,), {}), tmp_path / "short")
+        _until(lambda: renderer.todo.qsize() == 0, "both workers took a job")
+        mosaic = draw_psf_mosaic(tmp_path / "mosaic.png", _tiles(), 3, False, "six tiles")
+        figure = renderer.jobs[-1]
+        _until(lambda: figure.done or figure.error is not None, "the figure was drawn")
+        assert not renderer.jobs[0].done  # drawn while the held worker is still held
+        flag.touch()
+        outcomes = renderer.wait()
+    assert [e for _, _, e in outcomes] == [None] * 3 and renderer.message is None
+    assert mosaic.stat().st_size > 0 and figure.where == "worker"
+
+
+def test_figures_go_to_the_workers_before_files(tmp_path):
+    """Queued figures (which only a worker draws) are taken before queued files (which the caller takes back at
+    the end), each kind in submission order."""
+    flag = tmp_path / "go"
+    with deferred_figures(1) as renderer:
+        renderer.submit(_held_until(flag), tmp_path / "held")
+        _until(lambda: renderer.todo.qsize() == 0, "the worker took the held job")
+        paths = _make_all(tmp_path / "out")  # mosaic, mtf (figures), then exr, json (files)
+        order = [j.path.name for j in renderer.jobs[1:]]
+        flag.touch()
+        _until(lambda: all(j.done for j in renderer.jobs), "every job done")
+        renderer.wait()
+    assert order == ["mosaic.png", "mtf.png", "map.exr", "data.json"]
+    started = sorted(renderer.jobs[1:], key=lambda j: j.started)
+    assert [j.path.name for j in started] == ["mosaic.png", "mtf.png", "map.exr", "data.json"]
+    assert all(j.where == "worker" for j in renderer.jobs) and all(p.stat().st_size > 0 for p in paths.values())
+
+
+@pytest.mark.parametrize("cores, workers", [(1, 0), (2, 0), (3, 0), (4, 2), (11, 2), (12, 3), (16, 3), (32, 4),
+                                            (128, 4)])
+def test_the_worker_count_follows_the_cores(cores, workers, monkeypatch):
+    monkeypatch.delenv("LENSRT_FIGURE_WORKERS", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    assert F.figure_workers() == workers == F.default_figure_workers(cores)
+    monkeypatch.setenv("LENSRT_FIGURE_WORKERS", "5")
+    assert F.figure_workers() == 5
+
+
+def test_the_psf_mosaic_draws_each_tile_in_its_box(tmp_path):
+    """The fixed-position mosaic: tiles inside the figure, apart, each with room for its title; every tile's PSF
+    (a Gaussian peaked on its reference point, drawn peak-normalised) is brightest at its box's centre, and the
+    cells without a tile stay blank."""
+    from PIL import Image
+    boxes = F_psf.mosaic_axes_boxes(3, 3)
+    assert len(boxes) == 9
+    for i, (l, b, w, h) in enumerate(boxes):
+        assert 0 < l and l + w < 1 and 0 < b and b + h < 1
+        for (l2, b2, w2, h2) in boxes[i + 1:]:
+            assert l + w <= l2 or l2 + w2 <= l or b + h <= b2 or b2 + h2 <= b  # no two overlap
+    for lines in (1, 2, 3):  # a longer title: the tiles and their labels stay below it, inside the figure
+        h_in = 1.6 * 7 + 0.6
+        more = F_psf.mosaic_axes_boxes(7, 7, lines)
+        assert min(b for _, b, _, _ in more) > 0
+        assert max(b + h for _, b, _, h in more) * h_in + 0.17 <= h_in - 0.19 * lines
+    tiles = _tiles(7)
+    path = draw_psf_mosaic(tmp_path / "m.png", tiles, 3, False, "seven tiles")
+    img = np.asarray(Image.open(path).convert("RGB"), dtype=np.float64)
+    rows, cols = img.shape[:2]
+    assert (cols, rows) == (round((1.6 * 3 + 0.4) * 120), round((1.6 * 3 + 0.6) * 120))
+    for k, (l, b, w, h) in enumerate(boxes):
+        # the box in pixels (rows from the top), its central half (away from the scale bar and the frame)
+        r0, r1 = round((1 - b - h) * rows), round((1 - b) * rows)
+        c0, c1 = round(l * cols), round((l + w) * cols)
+        inner = img[r0 + (r1 - r0) // 4:r1 - (r1 - r0) // 4, c0 + (c1 - c0) // 4:c1 - (c1 - c0) // 4]
+        if k < len(tiles):
+            lum = inner.sum(axis=2)
+            r, c = np.nonzero(lum >= lum.max() - 1)  # the peak's pixels (the PSF's brightest cells)
+            centre = (inner.shape[0] - 1) / 2, (inner.shape[1] - 1) / 2
+            assert abs(r.mean() - centre[0]) <= 1.5 and abs(c.mean() - centre[1]) <= 1.5, (k, r, c, centre)
+            corner = img[r0 + 5:r0 + 10, c1 - 10:c1 - 5].sum(axis=2)  # top right, inside the frame
+            assert corner.max() < lum.max() / 2  # the PSF's dim surround
+        else:
+            assert np.all(img[r0:r1, c0:c1] == 255)  # no axes drawn in an empty cell

@@ -33,12 +33,15 @@ from typing import Any, Callable, Iterator, TypeVar
 
 from ...errors import LensrtError
 from ...io.paths import output_file
-from .figure_worker import execute, job_bytes, read_message, savefig, write_bytes
+from .figure_worker import execute, exr_threads, job_bytes, read_message, savefig, write_bytes
 
 __all__ = ["new_figure", "save_figure", "defer", "drawn_by_workers", "deferred_figures", "figure_workers",
            "FigureRenderer"]
 
 _active: "FigureRenderer | None" = None
+#: the order in which queued jobs go to the workers: figures (only a worker may draw them) before files
+#: (which the caller takes back at the end), then the end entries
+_RANK, _RANK_END = {"figure": 0, "file": 1}, 2
 _lock = threading.Lock()
 _here = threading.local()  # .now is True while this thread runs a job itself (a worker's job run again)
 
@@ -105,11 +108,19 @@ def drawn_by_workers(plot: F) -> F:
     return deferred_plot  # type: ignore[return-value]
 
 
+def default_figure_workers(cores: int) -> int:
+    """Worker processes for a machine of ``cores`` CPU cores: 0 below 4 (on 2 cores the kernels already use
+    both), 2 up to 11, 3 from 12 (a 16-core GPU host: the report's process, three workers and OpenEXR's
+    threads), 4 from 32."""
+    return 0 if cores < 4 else 2 if cores < 12 else 3 if cores < 32 else 4
+
+
 def figure_workers() -> int:
-    """Worker processes for deferred figures: ``LENSRT_FIGURE_WORKERS``, else 2 on >= 4 cores, else 0."""
+    """Worker processes for deferred figures: ``LENSRT_FIGURE_WORKERS``, else
+    :func:`default_figure_workers` of the machine's cores."""
     raw = os.environ.get("LENSRT_FIGURE_WORKERS")
     if raw is None:
-        return 2 if (os.cpu_count() or 1) >= 4 else 0
+        return default_figure_workers(os.cpu_count() or 1)
     try:
         n = int(raw)
     except ValueError:
@@ -131,14 +142,16 @@ class _Job:
     kind: str = "figure"  # "figure" (needs Matplotlib) or "file" (a writer of data)
     seconds: float = 0.0
     where: str = "worker"  # where it ran: "worker", "caller", or "stolen" (by the caller, at the end)
+    started: float = 0.0  # time.perf_counter() when a worker's feeding thread took it
     finished: float = 0.0  # time.perf_counter() when a worker finished it
 
 
 class _Worker:
-    """One worker process and the thread that feeds it jobs one at a time and reads its answers."""
+    """One worker process and the thread that feeds it jobs one at a time and reads its answers: the thread
+    takes the next job from the renderer's shared queue only when its worker is free, so a job never waits
+    behind a slow one while another worker idles."""
 
-    def __init__(self, jobs: list[_Job]) -> None:
-        import queue
+    def __init__(self, jobs: list[_Job], todo: "queue.PriorityQueue[tuple[int, int]]") -> None:
         import subprocess
         import sys
         import tempfile
@@ -151,33 +164,29 @@ class _Worker:
         except BaseException:
             self.stderr.close()
             raise
-        self.todo: "queue.SimpleQueue[int | None]" = queue.SimpleQueue()
+        self.todo = todo
         self.jobs = jobs
         self.alive = True
         self.why = ""
-        self.sent = 0  # jobs given to this worker (counted by the submitting thread)
-        self.answered = 0  # jobs it has finished or failed (counted by the feeding thread)
         self.thread = threading.Thread(target=self._feed, name="lensrt-figures", daemon=True)
         self.thread.start()
 
     def _feed(self) -> None:
         while True:
-            k = self.todo.get()
-            if k is None:
+            _, k = self.todo.get()
+            if k < 0:  # the end: one such entry per worker, queued after every job
                 return
             job = self.jobs[k]
-            if not self.alive:  # the process stopped: the caller runs the job at the end
-                self.answered += 1
-                continue
+            job.started = time.perf_counter()
             try:
                 write_bytes(self.proc.stdin, job.data)
                 error, seconds = read_message(self.proc.stdout)
             except Exception as err:  # noqa: BLE001 - a broken pipe, an end of file, a garbled answer
+                # the process stopped: this job is run by the caller at the end, the queue's others by the
+                # workers left (or by the caller, when none is)
                 self.alive, self.why = False, f"{type(err).__name__}: {err}".rstrip(": ") + self._last_words()
-                self.answered += 1
-                continue
+                return
             job.seconds, job.finished = seconds, time.perf_counter()
-            self.answered += 1
             if error is None:
                 job.done, job.data = True, None
             else:
@@ -195,11 +204,11 @@ class _Worker:
         return f"; it said: {lines[-1].strip()[:200]}" if lines else ""
 
     def close(self, kill: bool = False) -> None:
-        """Stop the worker: after its queue is done (or at once with ``kill``); the process is reaped."""
+        """Stop the worker once its feeding thread has ended (after the queue's end entry, or at once with
+        ``kill``); the process is reaped."""
         import subprocess
         if kill:
             self.proc.kill()
-        self.todo.put(None)
         self.thread.join()
         try:
             self.proc.stdin.close()
@@ -218,13 +227,16 @@ class FigureRenderer:
     """Worker processes that run figure and file jobs; ``owner`` tags the jobs submitted from now on.
 
     Each worker is a fresh interpreter that imports Matplotlib and lensrt's plot modules (no copy of
-    Warp's or CUDA's state, no re-run of the caller's main module); a job goes to the worker with
-    the fewest waiting. When no worker process is running (none could start, or all stopped) jobs
-    run in the caller at once.
+    Warp's or CUDA's state, no re-run of the caller's main module). Jobs wait in one queue that the
+    workers take from as each becomes free: figures first, in submission order, then files (the files
+    still queued at the end the caller takes back and writes itself, while the workers draw). When no
+    worker process is running (none could start, or all stopped) jobs run in the caller at once.
     """
 
     def __init__(self, workers: int) -> None:
+        import queue
         self.jobs: list[_Job] = []
+        self.todo: "queue.PriorityQueue[tuple[int, int]]" = queue.PriorityQueue()  # (rank, job index)
         self.owner = ""
         self.workers: list[_Worker] = []
         self._start_error = ""
@@ -235,7 +247,7 @@ class FigureRenderer:
         self._wait_began = 0.0
         for _ in range(workers):
             try:
-                self.workers.append(_Worker(self.jobs))
+                self.workers.append(_Worker(self.jobs, self.todo))
             except OSError as err:
                 self._start_error = f"{type(err).__name__}: {err}"
                 break
@@ -251,11 +263,8 @@ class FigureRenderer:
         with self._lock:  # jobs may come from several threads
             k = len(self.jobs)
             self.jobs.append(_Job(self.owner, Path(path), job, kind=kind))
-            live = [w for w in self.workers if w.alive]
-            if live:  # to the worker with the fewest jobs queued or in hand
-                w = min(live, key=lambda w: w.sent - w.answered)
-                w.sent += 1
-                w.todo.put(k)
+            if any(w.alive for w in self.workers):
+                self.todo.put((_RANK[kind], k))
                 return
         self._run_here(self.jobs[k])
 
@@ -276,8 +285,8 @@ class FigureRenderer:
         if self._outcomes is not None:
             return self._outcomes
         t0 = self._wait_began = time.perf_counter()
-        for k in self._steal_files():
-            self._run_here(self.jobs[k], "stolen")
+        self._take_back_files()
+        self._end_queue()
         for w in self.workers:
             w.close()
         stopped = [w.why for w in self.workers if not w.alive]
@@ -296,33 +305,56 @@ class FigureRenderer:
         self._outcomes = [(j.owner, j.path, None if j.done else RuntimeError(j.error)) for j in self.jobs]
         return self._outcomes
 
-    def _steal_files(self) -> list[int]:
-        """The file jobs still queued for a worker, taken off its queue (figure jobs stay: they would make this
-        process import Matplotlib's figure code), in submission order. While it writes them the workers finish
-        the jobs in their hands: the caller would otherwise sit idle at the end."""
+    def _steal_file(self) -> int | None:
+        """The first file job still queued, taken off the queue (None when none is left; figure jobs stay: they
+        would make this process import Matplotlib's figure code). While the caller writes it the workers finish
+        the figures -- the caller would otherwise sit idle at the end -- and a worker that becomes free takes
+        the next file itself: one file at a time."""
         import queue
-        stolen = []
-        for w in self.workers:
-            back = []
-            while True:
-                try:
-                    k = w.todo.get_nowait()
-                except queue.Empty:
-                    break
-                (stolen if self.jobs[k].kind == "file" else back).append(k)
-            for k in back:
-                w.todo.put(k)
-        return sorted(stolen)
+        taken, back = None, []
+        while taken is None:
+            try:
+                rank, k = self.todo.get_nowait()
+            except queue.Empty:
+                break
+            if self.jobs[k].kind == "file":
+                taken = k
+            else:
+                back.append((rank, k))
+        for entry in back:
+            self.todo.put(entry)
+        return taken
+
+    def _take_back_files(self) -> None:
+        """Write the file jobs still queued here, one at a time (:meth:`_steal_file`); EXRs compressed with
+        the threads a worker uses (:func:`~lensrt.views.plots.figure_worker.exr_threads`, restored after)."""
+        previous = None
+        try:
+            while (k := self._steal_file()) is not None:
+                if previous is None and self.jobs[k].path.suffix == ".exr":
+                    previous = exr_threads()
+                self._run_here(self.jobs[k], "stolen")
+        finally:
+            if previous is not None:
+                import OpenEXR
+                OpenEXR.set_global_thread_count(previous)
+
+    def _end_queue(self) -> None:
+        """One end entry per worker, after every job: each feeding thread ends on one."""
+        for _ in self.workers:
+            self.todo.put((_RANK_END, -1))
 
     def abort(self) -> None:
         """Stop the workers at once, jobs unfinished (the caller is failing anyway)."""
+        self._end_queue()
         for w in self.workers:
             w.close(kill=True)
 
     def stats(self) -> dict[str, Any]:
         """Jobs, where they ran and their seconds (the five slowest by name), how long :meth:`wait` took and
-        the jobs it waited for (finished by a worker after it began, or taken off a worker's queue and run
-        here then: ``stolen``)."""
+        the jobs it waited for (finished by a worker after it began, or taken off the queue and run here then:
+        ``stolen``) and, in ``waited_for_s``, how long after the wait began each of the former was finished
+        (the last of them is what the end waited for)."""
         in_workers = [j for j in self.jobs if j.done and j.where == "worker"]
         here = [j for j in self.jobs if j.where in ("caller", "stolen")]
         late = [j.path.name for j in self.jobs if j.where == "stolen" or (j.done and j.where == "worker"
@@ -332,6 +364,8 @@ class FigureRenderer:
                 "caller_s": sum(j.seconds for j in here), "stolen": sum(j.where == "stolen" for j in here),
                 "wait_s": self.wait_s,
                 "waited_for": late,
+                "waited_for_s": [[j.path.name, j.finished - self._wait_began] for j in self.jobs
+                                 if j.done and j.where == "worker" and j.finished > self._wait_began > 0],
                 "slowest": [[j.path.name, j.where, j.seconds] for j in sorted(self.jobs, key=lambda j: -j.seconds)[:5]]}
 
 

@@ -20,7 +20,7 @@ from importlib import import_module
 from typing import Any, BinaryIO, Callable
 
 __all__ = ["read_message", "write_message", "read_bytes", "write_bytes", "job_bytes", "execute", "savefig",
-           "warm_up", "serve"]
+           "exr_threads", "warm_up", "serve"]
 
 
 def read_bytes(stream: BinaryIO) -> bytes:
@@ -72,17 +72,25 @@ def savefig(fig, path: str) -> None:
     fig.savefig(path)
 
 
-def warm_up() -> None:
-    """Import Matplotlib's figure and Agg canvas and draw a small figure with text into memory: the
-    font files, the glyph cache and the text layout code are loaded before the first real figure.
-    OpenEXR compresses with up to 4 threads where the machine has 16 or more cores (the same bytes:
-    each block of scan lines is compressed on its own and written in order)."""
-    import io
+def exr_threads() -> int:
+    """OpenEXR compresses with 4 threads where the machine has 16 or more cores (the same bytes: each block
+    of scan lines is compressed on its own and written in order); returns the count it had before."""
     import os
 
     import OpenEXR
+    before = OpenEXR.global_thread_count()
     if (os.cpu_count() or 1) >= 16:
         OpenEXR.set_global_thread_count(4)
+    return before
+
+
+def warm_up() -> None:
+    """Import Matplotlib's figure and Agg canvas and draw a small figure with text into memory: the
+    font files, the glyph cache and the text layout code are loaded before the first real figure.
+    OpenEXR threads: :func:`exr_threads`."""
+    import io
+
+    exr_threads()
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
