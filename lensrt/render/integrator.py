@@ -209,8 +209,12 @@ def _executor_slots(executor) -> int:
 def _render_tiles(setup: RenderSetup, executor, t_loop: float, planned: int, progress) -> tuple[PassSum, int]:
     """All ``planned`` passes as one Job of row-band tiles (:func:`lensrt.render.jobs.render_tiles_job`): the
     reduced :class:`PassSum` (spectral sums, moments, per-pass hits and region means) and the tile count."""
+    from ..parallel.local import LocalExecutor
     from .jobs import render_tiles_job
-    job = render_tiles_job(setup, planned, TILES_PER_SLOT * _executor_slots(executor))
+    # in-place tile writes pay off where results cross a process boundary; in one process (device threads) the
+    # returned sums are faster (4 x H200, benchmarks/results/bench_multigpu_render_h200x4_stop30.txt)
+    job = render_tiles_job(setup, planned, TILES_PER_SLOT * _executor_slots(executor),
+                           in_place=not isinstance(executor, LocalExecutor))
     n = len(job.items)
 
     def tiles_done(done: int, total: int) -> None:

@@ -184,7 +184,7 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     from ..device import warp
     from ..parallel.shm import attach_shared
     from .passes import RecordedPasses
-    from .pupil_table import record_sliced, replay_sliced
+    from .pupil_table import launch_sliced
     from .tile_kernels import tile_pass_sums
     wp = warp()
     t0 = time.perf_counter()
@@ -207,14 +207,13 @@ def run_tile_item(item, prep, device: str) -> TileResult:
     # both launches of a pass recorded once (arguments packed once), replayed with the pass's seed and slot
     camera = RecordedPasses(prep, (p0, p1))
     buf = camera.out
-    sums = record_sliced(tile_pass_sums, max(n_spec, n, n_cells),
-                         lambda base: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0, p1, ra,
-                                       cols, cuts, n_segs, n_cells, 0, seg_y, seg_hits], device)
     for index in range(passes):
         camera.run(index)
-        for _, cmd in sums:
-            cmd.set_param_by_name("slot", index)
-        replay_sliced(sums)
+        # launched, not replayed: a recorded launch of this kernel crashed the process now and then on the CPU
+        # (segmentation fault in Warp's invoke, 2026-11-26, cause not found)
+        launch_sliced(tile_pass_sums, max(n_spec, n, n_cells),
+                      lambda base, index=index: [int(base), buf.spec, spec_sum, n_spec, buf.xyz, s1, s2, buf.hits, p0,
+                                                 p1, ra, cols, cuts, n_segs, n_cells, index, seg_y, seg_hits], device)
     pass_hits = seg_hits.numpy().sum(axis=(1, 2))
     region_y = region_sums_from_segments(seg_y.numpy(), ra, s.shape, cuts_h)
     image = attach_shared(token, image_layout(s.n_pixels, s.n_bands))
