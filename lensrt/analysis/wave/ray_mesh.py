@@ -132,6 +132,8 @@ class GridLinear:
     x, y : arrays (k,)
         The rays' positions (e.g. normalised pupil coordinates); rays with a non-finite position are left out.
 
+    Notes
+    -----
     :meth:`interp` takes values on the k rays and, optionally, the subset of rays to interpolate between
     (``use``): the answer is that of ``GridLinear`` built on those rays alone (module docstring), from one
     point location. Near-degenerate triangles (area below 1e-6 of the median) are left out, as
